@@ -1,0 +1,183 @@
+"""Problem files: TOML, validated with pydantic; every mistake becomes one clear line.
+
+A problem file holds the vehicle, the fixed HIS parameters (their values are the baseline
+design), the design variables with bounds, the road, the frequency band, comfort settings,
+objectives, constraints and optimiser settings. See ``problems/roll_plane_his.toml``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from hisopt.errors import ConfigError, ProblemFileNotFoundError
+from hisopt.hydraulics.roll_plane import RollPlaneHIS
+from hisopt.vehicle import VehicleParams
+
+OBJECTIVE_NAMES = (
+    "sigma_aw",
+    "max_roll_psd",
+    "max_stroke_psd",
+    "max_tire_load_psd",
+    "rms_roll",
+    "rms_stroke",
+    "rms_tire_load",
+    "roll_gradient",
+)
+"""Names of every objective/constraint quantity (DESIGN section 5)."""
+
+ROAD_CLASSES = ("A", "B", "C", "D", "E", "F", "G", "H")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Variable(_Strict):
+    """A design variable: a HIS parameter with its bounds [SI units]."""
+
+    lower: float
+    upper: float
+    unit: str = ""
+    description: str = ""
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Variable":
+        if not self.lower < self.upper:
+            raise ValueError(f"expected lower < upper, got lower={self.lower}, upper={self.upper}")
+        return self
+
+
+class Road(_Strict):
+    """ISO 8608 road at constant speed (DESIGN section 3)."""
+
+    road_class: Literal["A", "B", "C", "D", "E", "F", "G", "H"] = Field("C", alias="class")
+    speed: float = Field(10.0, gt=0, description="[m/s] vehicle speed")
+    coherence: Literal["independent", "isotropic"] = "independent"
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class Band(_Strict):
+    """Frequency band of every response integral and maximum [Hz]."""
+
+    f_min_hz: float = Field(0.5, gt=0)
+    f_max_hz: float = Field(80.0, gt=0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Band":
+        if not self.f_min_hz < self.f_max_hz:
+            raise ValueError(f"expected f_min_hz < f_max_hz, got {self.f_min_hz} and {self.f_max_hz}")
+        return self
+
+
+class Comfort(_Strict):
+    """ISO 2631-1 comfort evaluation (DESIGN section 4)."""
+
+    k_x: float = Field(1.0, ge=0)
+    k_y: float = Field(1.0, ge=0)
+    k_z: float = Field(1.0, ge=0)
+    method: Literal["filter", "band"] = "filter"
+
+
+class Constraint(_Strict):
+    """``value <= limit``, normalised for optimisers as ``value / limit - 1 <= 0``."""
+
+    name: str
+    limit: float = Field(gt=0)
+
+    @field_validator("name")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        if v not in OBJECTIVE_NAMES:
+            raise ValueError(f"unknown constraint {v!r}; expected one of {', '.join(OBJECTIVE_NAMES)}")
+        return v
+
+
+class Optimizer(_Strict):
+    """Evolutionary search settings (overridable on the command line)."""
+
+    algorithm: Literal["auto", "nsga2", "nsga3"] = "auto"
+    pop_size: int = Field(100, ge=4)
+    generations: int = Field(200, ge=1)
+    seed: int = Field(1, ge=0)
+
+
+class ProblemSpec(_Strict):
+    """The whole problem file."""
+
+    name: str = "problem"
+    description: str = ""
+    vehicle: VehicleParams = Field(default_factory=VehicleParams)
+    his: RollPlaneHIS = Field(default_factory=RollPlaneHIS)
+    variables: dict[str, Variable] = Field(default_factory=dict)
+    road: Road = Field(default_factory=Road)
+    band: Band = Field(default_factory=Band)
+    comfort: Comfort = Field(default_factory=Comfort)
+    objectives: list[str] = Field(
+        default_factory=lambda: ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]
+    )
+    constraints: list[Constraint] = Field(default_factory=list)
+    optimizer: Optimizer = Field(default_factory=Optimizer)
+
+    @field_validator("objectives")
+    @classmethod
+    def _known_objectives(cls, v: list[str]) -> list[str]:
+        unknown = [o for o in v if o not in OBJECTIVE_NAMES]
+        if unknown:
+            raise ValueError(f"unknown objective {unknown[0]!r}; expected names from {', '.join(OBJECTIVE_NAMES)}")
+        if not v:
+            raise ValueError("expected at least one objective")
+        return v
+
+    @model_validator(mode="after")
+    def _variables_are_his_fields(self) -> "ProblemSpec":
+        scalar = {k for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)}
+        for name, var in self.variables.items():
+            if name not in scalar:
+                raise ValueError(
+                    f"variables.{name}: not a numeric [his] parameter; expected one of {', '.join(sorted(scalar))}"
+                )
+            if name in ("lam", "lam_rear") and not (0 < var.lower and var.upper < 1):
+                raise ValueError(f"variables.{name}: bounds must lie inside (0, 1), got [{var.lower}, {var.upper}]")
+            if name in ("dA", "dA_rear", "V0") and var.lower <= 0:
+                raise ValueError(f"variables.{name}: lower bound must be > 0, got {var.lower}")
+            if name in ("p0", "Rv", "Rv_rear") and var.lower < 0:
+                raise ValueError(f"variables.{name}: lower bound must be >= 0, got {var.lower}")
+        return self
+
+
+def _format_error(err: dict[str, Any]) -> tuple[str, str]:
+    key = ".".join(str(p) for p in err["loc"] if not str(p).startswith("function-"))
+    msg = err["msg"].removeprefix("Value error, ")
+    if err["type"] == "extra_forbidden":
+        msg = "unknown key (check the spelling; see problems/roll_plane_his.toml)"
+    elif "input" in err and err["type"] not in ("missing",) and not isinstance(err["input"], dict):
+        msg = f"{msg}, got {err['input']!r}"
+    return key, msg
+
+
+def parse_problem(data: dict[str, Any], source: str = "<problem>") -> ProblemSpec:
+    """Validate a problem dictionary; raise :class:`ConfigError` naming the key on failure."""
+    try:
+        return ProblemSpec.model_validate(data)
+    except ValidationError as exc:
+        key, msg = _format_error(exc.errors()[0])
+        raise ConfigError(msg, file=source, key=key or None) from None
+
+
+def read_problem_file(path: str | Path) -> tuple[ProblemSpec, str]:
+    """Read and validate a TOML problem file; returns the spec and the file's SHA-256."""
+    path = Path(path)
+    if not path.is_file():
+        raise ProblemFileNotFoundError(f"{path}: problem file not found (expected a TOML file)")
+    raw = path.read_bytes()
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"invalid TOML: {exc}", file=str(path)) from None
+    return parse_problem(data, str(path)), hashlib.sha256(raw).hexdigest()

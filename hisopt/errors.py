@@ -1,0 +1,32 @@
+"""Typed errors: every user mistake maps to one of these (all subclass builtins)."""
+
+from __future__ import annotations
+
+
+class HisoptError(Exception):
+    """Base class of every error hisopt raises on purpose."""
+
+
+class ConfigError(HisoptError, ValueError):
+    """A problem file or parameter set is invalid.
+
+    The message names the file (when there is one), the offending key and what was expected.
+    """
+
+    def __init__(self, message: str, *, file: str | None = None, key: str | None = None):
+        self.file = file
+        self.key = key
+        where = ": ".join(part for part in (file, key) if part)
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+class ProblemFileNotFoundError(HisoptError, FileNotFoundError):
+    """A problem file (or run directory) does not exist."""
+
+
+class ModelError(HisoptError, ValueError):
+    """The model cannot be built or solved for the given parameters (e.g. a singular circuit)."""
+
+
+class RunError(HisoptError, ValueError):
+    """A run directory is unusable (missing checkpoint, changed problem file, unwritable)."""

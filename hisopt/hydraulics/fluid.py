@@ -1,0 +1,15 @@
+"""Hydraulic fluid properties (DESIGN section 2 defaults)."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class Fluid(BaseModel):
+    """Incompressible-with-compliance oil used by pipes and chamber compliances."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    rho: float = Field(870.0, gt=0, description="[kg/m^3] density")
+    mu: float = Field(0.03, gt=0, description="[Pa s] dynamic viscosity")
+    beta: float = Field(1.5e9, gt=0, description="[Pa] effective bulk modulus")

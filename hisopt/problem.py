@@ -1,0 +1,128 @@
+"""``Problem``: a validated problem file plus the mapping from design vectors to models."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.config import ProblemSpec, parse_problem, read_problem_file
+from hisopt.errors import ConfigError
+from hisopt.hydraulics.roll_plane import roll_plane_system
+from hisopt.model import CoupledModel
+
+
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A design problem: vehicle, HIS, variables with bounds, road, band and objectives."""
+
+    spec: ProblemSpec
+    path: Path | None = None
+    sha256: str | None = None
+    _cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    # --- variables -------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def variable_names(self) -> tuple[str, ...]:
+        return tuple(self.spec.variables)
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([v.lower for v in self.spec.variables.values()])
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([v.upper for v in self.spec.variables.values()])
+
+    @property
+    def baseline(self) -> np.ndarray:
+        """The fixed ``[his]`` values of the design variables (the baseline design)."""
+        return np.array([getattr(self.spec.his, n) for n in self.variable_names], dtype=float)
+
+    @property
+    def objective_names(self) -> tuple[str, ...]:
+        return tuple(self.spec.objectives)
+
+    @property
+    def constraint_names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.spec.constraints)
+
+    def design_matrix(self, designs: Any) -> np.ndarray:
+        """Designs as an ``(n, n_var)`` float array.
+
+        Accepts an array (columns in variable order), a DataFrame or a dict with the
+        variable names (missing names take the baseline value), or a single design.
+        """
+        names = self.variable_names
+        if isinstance(designs, pd.DataFrame):
+            missing = [n for n in names if n not in designs.columns]
+            if missing:
+                raise ConfigError(f"designs lack the column(s) {', '.join(missing)}", key=missing[0])
+            return designs[list(names)].to_numpy(dtype=float)
+        if isinstance(designs, Mapping):
+            unknown = [k for k in designs if k not in names]
+            if unknown:
+                raise ConfigError(f"unknown design variable {unknown[0]!r}; expected {', '.join(names)}", key=unknown[0])
+            cols = [np.atleast_1d(np.asarray(designs.get(n, b), dtype=float)) for n, b in zip(names, self.baseline)]
+            return np.stack(np.broadcast_arrays(*cols), axis=-1)
+        x = np.asarray(designs, dtype=float)
+        if x.ndim == 1:
+            x = x[None, :]
+        if x.ndim != 2 or x.shape[1] != len(names):
+            raise ConfigError(f"expected designs of shape (n, {len(names)}) in the order {', '.join(names)}, got {x.shape}")
+        return x
+
+    def with_values(self, **values: float) -> "Problem":
+        """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``)."""
+        data = self.spec.model_dump(by_alias=True)
+        for key, value in values.items():
+            if key not in data["his"]:
+                raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(data['his'])}", key=key)
+            data["his"][key] = value
+        return Problem(parse_problem(data, str(self.path or "<problem>")), self.path, self.sha256)
+
+    # --- models ----------------------------------------------------------------------
+    def his_parameters(self, designs: Any) -> dict[str, np.ndarray]:
+        """Design matrix as a dict of per-design arrays, shape ``(n,)`` each."""
+        x = self.design_matrix(designs)
+        return {n: x[:, i] for i, n in enumerate(self.variable_names)}
+
+    def model(self, designs: Any = None, his: bool = True) -> CoupledModel:
+        """The coupled model for a batch of designs (batch shape ``(n,)``).
+
+        ``designs=None`` is the baseline design; ``his=False`` the reference vehicle.
+        """
+        if not his:
+            return CoupledModel(self.spec.vehicle, None)
+        params = self.his_parameters(self.baseline if designs is None else designs)
+        system = roll_plane_system(params, self.spec.his)
+        return CoupledModel(self.spec.vehicle, system, self.spec.his.pipe_model)
+
+    def evaluate(self, designs: Any) -> pd.DataFrame:
+        """Objectives and constraints of many designs (DESIGN section 6)."""
+        from hisopt.evaluate import evaluate_problem
+
+        return evaluate_problem(self, designs)
+
+
+def load_problem(path: str | Path) -> Problem:
+    """Load and validate a problem file (``ConfigError`` names the file and key on failure)."""
+    spec, digest = read_problem_file(path)
+    return Problem(spec, Path(path), digest)
+
+
+def problem_from_dict(data: dict[str, Any], source: str = "<problem>") -> Problem:
+    """Build a problem from a dictionary with the problem file's structure."""
+    return Problem(parse_problem(data, source))
+
+

@@ -1,0 +1,5 @@
+"""Standards, one module per standard named with its number and year.
+
+- :mod:`hisopt.standards.iso_2631_1_1997`: whole-body vibration frequency weightings.
+- :mod:`hisopt.standards.iso_8608_2016`: road-profile displacement spectra and classes.
+"""

@@ -1,0 +1,23 @@
+"""7-DOF full car: validated parameters and its M, C, K, stroke and road-input matrices."""
+
+from hisopt.vehicle.full_car import (
+    body_to_corners,
+    damping_matrix,
+    mass_matrix,
+    road_damping_input,
+    road_stiffness_input,
+    stiffness_matrix,
+    stroke_matrix,
+)
+from hisopt.vehicle.parameters import VehicleParams
+
+__all__ = [
+    "VehicleParams",
+    "body_to_corners",
+    "damping_matrix",
+    "mass_matrix",
+    "road_damping_input",
+    "road_stiffness_input",
+    "stiffness_matrix",
+    "stroke_matrix",
+]

@@ -1,0 +1,31 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hisopt
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_PROBLEM = ROOT / "problems" / "roll_plane_his.toml"
+
+
+@pytest.fixture(scope="session")
+def problem() -> hisopt.Problem:
+    return hisopt.load_problem(DEFAULT_PROBLEM)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20261121)
+
+
+def random_designs(problem: hisopt.Problem, n: int, rng: np.random.Generator, corners: bool = True) -> np.ndarray:
+    """Uniform designs in the box, plus every corner of it when ``corners``."""
+    lo, hi = problem.lower, problem.upper
+    x = lo + (hi - lo) * rng.random((n, lo.size))
+    if corners:
+        grid = np.array(np.meshgrid(*[[0, 1]] * lo.size, indexing="ij")).reshape(lo.size, -1).T
+        x = np.vstack([x, lo + (hi - lo) * grid])
+    return x

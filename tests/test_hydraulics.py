@@ -1,0 +1,110 @@
+"""Hydraulic elements and circuits: reciprocity, passivity, shorts, lumped vs distributed."""
+
+import numpy as np
+import pytest
+
+from hisopt.constants import P_ATM_PA
+from hisopt.hydraulics import twoport
+from hisopt.hydraulics.circuit import Circuit, Port, port_impedance
+from hisopt.hydraulics.coupling import stroke_impedance
+from hisopt.hydraulics.elements import Accumulator, Pipe, Valve
+from hisopt.hydraulics.roll_plane import PipeLayout, RollPlaneHIS, cylinder_areas, roll_plane_system
+
+F_HZ = np.geomspace(0.05, 200, 120)
+S = 2j * np.pi * F_HZ
+
+
+def _random_his(rng, n=6):
+    return {
+        "p0": rng.uniform(0, 4e6, n),
+        "dA": rng.uniform(1e-4, 25e-4, n),
+        "lam": rng.uniform(0.1, 0.8, n),
+        "Rv": np.r_[0.0, rng.uniform(0, 16e5, n - 1)],
+    }
+
+
+def test_two_ports_are_reciprocal(rng):
+    s = rng.normal(size=20) + 1j * rng.uniform(0.1, 500, 20)
+    pipe = Pipe("a", "b", 2.5, 0.01)
+    for t in (
+        twoport.series_impedance(rng.uniform(0, 1e6, 20) + s * 1e5),
+        twoport.shunt_admittance(s * 1e-9),
+        pipe.transfer_matrix(s),
+    ):
+        np.testing.assert_allclose(np.linalg.det(t), 1.0, rtol=1e-9)
+    chain = twoport.cascade(twoport.series_impedance(1e5 + 0 * s), pipe.transfer_matrix(s), twoport.shunt_admittance(1e-9 * s))
+    np.testing.assert_allclose(np.linalg.det(chain), 1.0, rtol=1e-9)
+
+
+def test_two_port_impedance_of_a_cascade_matches_nodal_assembly():
+    """Paper Eq. 11 from a transfer-matrix cascade equals the nodal (MNA) assembly."""
+    acc = Accumulator("n", 1e-3, 2e6)
+    pipe = Pipe("p1", "n", 1.0, 0.01)
+    valve = Valve("p2", "n", 8e5)
+    # Cascade p1 -> pipe -> n (shunt accumulator) -> valve (reversed) -> p2.
+    t = twoport.cascade(
+        pipe.transfer_matrix(S)[...],
+        twoport.shunt_admittance(S * acc.compliance),
+        twoport.series_impedance(8e5 + 0 * S),
+    )
+    z_cascade = twoport.port_impedance_matrix(t)
+    circuit = Circuit("c", (acc, pipe, valve), (Port("p1", 0, "top"), Port("p2", 1, "bottom")))
+    z_mna = port_impedance(circuit, S, "distributed")
+    np.testing.assert_allclose(z_mna, z_cascade, rtol=1e-9)
+
+
+@pytest.mark.parametrize("model", ["lumped", "distributed"])
+def test_port_impedance_reciprocal_and_passive(model, rng):
+    base = RollPlaneHIS(pipes=PipeLayout(), chamber_volume=2e-4) if model == "distributed" else RollPlaneHIS()
+    system = roll_plane_system(_random_his(rng), base)
+    for circuit in system.circuits:
+        z = port_impedance(circuit, S, model)
+        np.testing.assert_allclose(z, np.swapaxes(z, -1, -2), rtol=1e-9, atol=1e-12 * np.abs(z).max())
+        herm = 0.5 * (z + np.conj(np.swapaxes(z, -1, -2)))
+        eig = np.linalg.eigvalsh(herm)
+        assert eig.min() >= -1e-9 * np.abs(z).max(axis=(-1, -2)).max()
+
+
+def test_zero_valve_resistance_is_an_exact_short():
+    acc = Accumulator("n", 1e-3, 0.0)  # p0 = 0 gauge also works
+    shorted = Circuit("c", (acc, Valve("p", "n", 0.0)), (Port("p", 0, "bottom"),))
+    direct = Circuit("c", (acc,), (Port("n", 0, "bottom"),))
+    np.testing.assert_allclose(port_impedance(shorted, S), port_impedance(direct, S), rtol=1e-12)
+    np.testing.assert_allclose(port_impedance(direct, S)[..., 0, 0], 1.4 * P_ATM_PA / 1e-3 / S, rtol=1e-12)
+
+
+def test_lumped_and_distributed_pipe_agree_below_5_hz():
+    """DESIGN example pipe (10 mm, 2.5 m) between a chamber and an accumulator."""
+    f = np.linspace(0.1, 5.0, 60)
+    circuit = Circuit("c", (Accumulator("n", 1e-3, 2e6), Pipe("p", "n", 2.5, 0.01)), (Port("p", 0, "top"),))
+    zl = port_impedance(circuit, 2j * np.pi * f, "lumped")[..., 0, 0]
+    zd = port_impedance(circuit, 2j * np.pi * f, "distributed")[..., 0, 0]
+    assert np.max(np.abs(zl / zd - 1)) < 0.01
+
+
+def test_his_static_stiffness_matches_design_section_2(rng):
+    params = _random_his(rng)
+    base = RollPlaneHIS()
+    system = roll_plane_system(params, base)
+    k_his = stroke_impedance(system, np.array([1e-7j]))[..., 0, :, :].real  # D(s -> 0)
+    k_acc = base.gamma * (params["p0"] + P_ATM_PA) / base.V0
+    a_t, a_b = cylinder_areas(params["dA"], params["lam"])
+    pitch, warp = np.array([1, 1, -1, -1.0]), np.array([1, -1, -1, 1.0])
+    bounce, roll = np.ones(4), np.array([1, -1, 1, -1.0])
+    quad = lambda v: np.einsum("i,...ij,j->...", v, k_his, v)  # noqa: E731
+    scale = np.abs(k_his).max()
+    np.testing.assert_allclose(k_his @ pitch, 0, atol=1e-12 * scale)
+    np.testing.assert_allclose(k_his @ warp, 0, atol=1e-12 * scale)
+    # 2 dA per unit bounce stroke into each of two accumulators; 2 (A_t + A_b) in roll.
+    np.testing.assert_allclose(quad(bounce), 2 * k_acc * (2 * params["dA"]) ** 2, rtol=1e-9)
+    np.testing.assert_allclose(quad(roll), 2 * k_acc * (2 * (a_t + a_b)) ** 2, rtol=1e-9)
+
+
+def test_valve_damping_matches_design_section_2(rng):
+    params = _random_his(rng)
+    system = roll_plane_system(params)
+    w = 2 * np.pi * 3.0
+    d = stroke_impedance(system, np.array([1j * w]))[..., 0, :, :]
+    _, a_b = cylinder_areas(params["dA"], params["lam"])
+    c_his = d.imag / w
+    np.testing.assert_allclose(np.diagonal(c_his, axis1=-2, axis2=-1), (params["Rv"] * a_b**2)[:, None] * np.ones(4), rtol=1e-9, atol=1e-9)
