@@ -57,12 +57,12 @@ def random_profile(
     Each track is ``x(t) = sum_k A_k cos(2 pi f_k t + phi_k)`` on the grid ``f_k = k / T`` in
     ``[f_min_hz, f_max_hz]``, ``A_k = sqrt(2 G(f_k) df)`` with ``G`` the ISO 8608 temporal PSD
     and uniform random phases, so the one-sided PSD is ``G`` in the band and zero outside, and
-    the variance is ``sum_k G(f_k) df``, i.e. :func:`~hisopt.standards.iso_8608_2016.
-    temporal_variance`. The period ``T`` exceeds the record plus ``tau``, so the rear wheels see
-    exactly the front track delayed by ``tau`` (Fourier shift: band-limited interpolation of the
-    same realisation). With ``coherence="isotropic"`` the right track is
-    ``g L + sqrt(1 - g^2) R'`` per harmonic, ``g`` from
-    :func:`~hisopt.road.spectra.isotropic_coherence` and ``R'`` independent.
+    the variance is ``sum_k G(f_k) df``, close to
+    :func:`~hisopt.standards.iso_8608_2016.temporal_variance`. The period ``T`` exceeds the
+    record plus ``tau``, so the rear wheels see exactly the front track delayed by ``tau``
+    (Fourier shift: band-limited interpolation of the same realisation). With
+    ``coherence="isotropic"`` the right track is ``g L + sqrt(1 - g^2) R'`` per harmonic, ``g``
+    from :func:`~hisopt.road.spectra.isotropic_coherence` and ``R'`` independent.
 
     Parameters
     ----------
