@@ -16,18 +16,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
+from hisopt.metrics import METRICS
 from hisopt.vehicle import VehicleParams
 
-OBJECTIVE_NAMES = (
-    "sigma_aw",
-    "max_roll_psd",
-    "max_stroke_psd",
-    "max_tire_load_psd",
-    "rms_roll",
-    "rms_stroke",
-    "rms_tire_load",
-    "roll_gradient",
-)
+OBJECTIVE_NAMES = tuple(METRICS)
 """Names of every objective/constraint quantity (DESIGN section 5)."""
 
 ROAD_CLASSES = ("A", "B", "C", "D", "E", "F", "G", "H")

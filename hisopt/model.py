@@ -162,16 +162,34 @@ class CoupledModel:
         e_d = e[..., dyn]
         if np.any(e_d <= 0):
             raise ModelError("a hydraulic storage element has zero compliance or inertance")
-        labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES) + tuple(
-            l for l, d in zip(h.labels, h.dynamic) if d
-        )
+        a_ss = a_dd / e_d[..., :, None]
+        b0_ss, b1_ss = bb0[dyn] / e_d[..., :, None], bb1[dyn] / e_d[..., :, None]
+        labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES) + tuple(l for l, d in zip(h.labels, h.dynamic) if d)
         is_flow = np.array([False] * 14 + [lab.split(":", 1)[1].startswith("q[") for lab in h.labels])
         weights = np.where(is_flow, e, 0.0)
         weights[..., 7:14] = m_diag
+        weights = weights[..., dyn]
+
+        # Each closed circuit conserves fluid volume: sum_i C_i p_i = 1^T N_c G X. Eliminating
+        # one pressure per circuit removes that conserved (zero-eigenvalue) mode, giving a
+        # minimal realisation with a well-conditioned eigenvector basis.
+        circuit = np.concatenate([np.full(14, -1), h.circuit])[dyn]
+        is_pressure = np.concatenate([np.zeros(14, dtype=bool), ~is_flow[14:]])[dyn]
+        size_d = dyn.sum()
+        t = np.broadcast_to(np.eye(size_d), batch + (size_d, size_d)).copy()
+        keep = np.ones(size_d, dtype=bool)
+        for c in range(len(self.his.circuits)):
+            nodes = np.flatnonzero(is_pressure & (circuit == c))
+            r = nodes[0]
+            volume_per_x = np.sum(h.n[..., h.port_circuit == c, :], axis=-2) @ g  # B + (7,)
+            t[..., r, :] = 0.0
+            t[..., r, :7] = volume_per_x / e_d[..., r, None]
+            t[..., r, nodes[1:]] = -e_d[..., nodes[1:]] / e_d[..., r, None]
+            keep[r] = False
         return StateSpace(
-            a_dd / e_d[..., :, None],
-            bb0[dyn] / e_d[..., :, None],
-            bb1[dyn] / e_d[..., :, None],
-            labels,
-            weights[..., dyn],
+            a_ss[..., keep, :] @ t[..., :, keep],
+            b0_ss[..., keep, :],
+            b1_ss[..., keep, :],
+            tuple(l for l, k in zip(labels, keep) if k),
+            weights[..., keep],
         )

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -14,6 +14,9 @@ from hisopt.config import ProblemSpec, parse_problem, read_problem_file
 from hisopt.errors import ConfigError
 from hisopt.hydraulics.roll_plane import roll_plane_system
 from hisopt.model import CoupledModel
+
+if TYPE_CHECKING:
+    from hisopt.evaluate import Evaluator
 
 
 
@@ -107,6 +110,14 @@ class Problem:
         params = self.his_parameters(self.baseline if designs is None else designs)
         system = roll_plane_system(params, self.spec.his)
         return CoupledModel(self.spec.vehicle, system, self.spec.his.pipe_model)
+
+    def evaluator(self) -> "Evaluator":
+        """The (cached) batched evaluator of this problem's objectives and constraints."""
+        if "evaluator" not in self._cache:
+            from hisopt.evaluate import Evaluator
+
+            self._cache["evaluator"] = Evaluator(self)
+        return self._cache["evaluator"]
 
     def evaluate(self, designs: Any) -> pd.DataFrame:
         """Objectives and constraints of many designs (DESIGN section 6)."""

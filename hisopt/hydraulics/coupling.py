@@ -43,7 +43,8 @@ class HydraulicDescriptor:
     """All circuits' lumped descriptors stacked block-diagonally (see ``lumped_descriptor``).
 
     ``port_map`` (``n_h x n_ports``) picks port pressures from ``h``; ``n`` is the port
-    incidence ``B + (n_ports, 4)``.
+    incidence ``B + (n_ports, 4)``; ``circuit`` gives each state's circuit index and
+    ``port_circuit`` each port's.
     """
 
     e: np.ndarray
@@ -52,6 +53,8 @@ class HydraulicDescriptor:
     dynamic: np.ndarray
     labels: tuple[str, ...]
     n: np.ndarray
+    circuit: np.ndarray
+    port_circuit: np.ndarray
 
 
 def hydraulic_descriptor(system: HydraulicSystem) -> HydraulicDescriptor:
@@ -74,4 +77,6 @@ def hydraulic_descriptor(system: HydraulicSystem) -> HydraulicDescriptor:
         f"{c.name}:{label}" for c, part in zip(system.circuits, parts) for label in part.labels
     )
     dynamic = np.concatenate([p.dynamic for p in parts])
-    return HydraulicDescriptor(e, a, port_map, dynamic, labels, system.incidence())
+    circuit = np.concatenate([np.full(p.e.shape[-1], i) for i, p in enumerate(parts)])
+    port_circuit = np.concatenate([np.full(p.p.shape[1], i) for i, p in enumerate(parts)])
+    return HydraulicDescriptor(e, a, port_map, dynamic, labels, system.incidence(), circuit, port_circuit)

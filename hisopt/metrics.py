@@ -1,0 +1,37 @@
+"""Registry of objective and constraint quantities (DESIGN section 5)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+Kind = Literal["comfort", "max", "rms", "static"]
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A scalar performance quantity of a design, in physical units (smaller is better)."""
+
+    name: str
+    kind: Kind
+    output: str | None
+    unit: str
+    description: str
+
+
+METRICS: dict[str, Metric] = {
+    m.name: m
+    for m in (
+        Metric("sigma_aw", "comfort", None, "m/s^2", "ISO 2631-1 total weighted RMS acceleration at the CG"),
+        Metric("max_roll_psd", "max", "roll", "rad^2/Hz", "maximum over the band of the roll-angle PSD"),
+        Metric("max_stroke_psd", "max", "stroke_fl", "m^2/Hz", "maximum over the band of the FL stroke PSD"),
+        Metric("max_tire_load_psd", "max", "tire_load_fl", "N^2/Hz", "maximum over the band of the FL dynamic tyre load PSD"),
+        Metric("rms_roll", "rms", "roll", "rad", "RMS roll angle over the band"),
+        Metric("rms_stroke", "rms", "stroke_fl", "m", "RMS FL suspension stroke over the band"),
+        Metric("rms_tire_load", "rms", "tire_load_fl", "N", "RMS FL dynamic tyre load over the band"),
+        Metric("roll_gradient", "static", None, "rad/g", "static roll angle per 1 g lateral acceleration"),
+    )
+}
+
+COMFORT_OUTPUTS = {"x": "acc_x", "y": "acc_y", "z": "acc_z"}
+"""Translational accelerations entering sigma_aw, by axis (paper Eq. 26)."""
