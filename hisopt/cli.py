@@ -82,6 +82,152 @@ def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
     Console(width=120).print(table)
 
 
+@app.command()
+def droptest(
+    problem: ProblemArg,
+    out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
+    p0: Annotated[str, typer.Option("--p0", help="accumulator precharges [Pa, gauge], comma-separated")] = "1e6,2e6,3e6",
+    height: Annotated[float, typer.Option("--height", help="drop height [m] (wheels roll off blocks this high)")] = 0.05,
+    measured: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--measured",
+            help="measured drop record, CSV: time [s] and body_fl, body_fr, body_rl, body_rr "
+            "[m/s^2, z up] (optional wheel_fl, wheel_fr, wheel_rl, wheel_rr); see docs/droptest.md",
+        ),
+    ] = None,
+    case: Annotated[
+        Optional[str], typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")
+    ] = None,
+    measured_p0: Annotated[
+        Optional[float], typer.Option("--measured-p0", help="precharge [Pa] of the measured test (default: the problem's p0)")
+    ] = None,
+    mode: Annotated[str, typer.Option("--mode", help="simulation model: linear or nonlinear (gas law, tyre lift-off)")] = "linear",
+    set_: SetOpt = None,
+) -> None:
+    """Drop tests (paper Section VI, Table 3, Fig. 13): simulated, optionally with a measured record.
+
+    Writes OUT/droptest.csv (case, p0, mode, frequency_time_hz, frequency_model_hz, error_pct,
+    damping) and OUT/droptest.html (response spectra). A measured test replaces the simulated
+    row of the same case and p0.
+    """
+    from rich.console import Console
+    from rich.table import Table
+
+    from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, run_drop_tests, spectra_figure
+    from hisopt.errors import ConfigError
+
+    try:
+        p0_values = [float(v) for v in p0.split(",") if v.strip()]
+    except ValueError:
+        raise ConfigError(f"expected comma-separated numbers in Pa, e.g. 1e6,2e6,3e6; got {p0!r}", key="--p0") from None
+    if not p0_values or min(p0_values) < 0:
+        raise ConfigError(f"expected one or more precharges >= 0 Pa, got {p0!r}", key="--p0")
+    if not height > 0:
+        raise ConfigError(f"expected a drop height > 0 m, got {height!r}", key="--height")
+    if mode not in ("linear", "nonlinear"):
+        raise ConfigError(f"expected linear or nonlinear, got {mode!r}", key="--mode")
+    if (measured is None) != (case is None):
+        raise ConfigError("--measured and --case go together: name the file and which drop test it records", key="--case")
+    if case is not None and case not in DROP_CASES:
+        raise ConfigError(f"expected one of {', '.join(DROP_CASES)}, got {case!r}", key="--case")
+
+    prob = load(problem, set_)
+    tests = run_drop_tests(prob, p0_values, height, mode=mode)  # type: ignore[arg-type]
+    if measured is not None:
+        p0_meas = prob.spec.his.p0 if measured_p0 is None else measured_p0
+        tests.append(measured_drop_test(prob, measured, case, p0_meas))  # type: ignore[arg-type]
+    frame = drop_table(tests)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        frame.to_csv(out / "droptest.csv", index=False)
+        spectra_figure(tests).write_html(out / "droptest.html", include_plotlyjs=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot write the results ({exc.strerror}); expected a writable directory", key="--out") from exc
+
+    sources = {(t.case, t.p0_pa): t.source for t in tests}
+    table = Table(title=f"Drop tests of {prob.name}, {height * 1000:g} mm (paper Table 3; damped frequencies)")
+    for col in ("case", "p0 [MPa]", "mode", "source", "f time [Hz]", "f model [Hz]", "error [%]", "damping"):
+        table.add_column(col, justify="left" if col in ("case", "mode", "source") else "right")
+    for row in frame.itertuples():
+        table.add_row(
+            row.case,
+            f"{row.p0 / 1e6:g}",
+            row.mode,
+            sources[(row.case, row.p0)],
+            f"{row.frequency_time_hz:.3f}",
+            f"{row.frequency_model_hz:.3f}",
+            f"{row.error_pct:+.2f}",
+            f"{row.damping:.3f}",
+        )
+    Console(width=120).print(table)
+    typer.echo(f"wrote {out / 'droptest.csv'} and {out / 'droptest.html'}")
+
+
+@app.command()
+def evaluate(
+    problem: ProblemArg,
+    set_: SetOpt = None,
+    designs: Annotated[Optional[Path], typer.Option(help="CSV with one column per design variable")] = None,
+    out: Annotated[Optional[Path], typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
+) -> None:
+    """Objectives and constraints of the baseline design, or of every row of --designs."""
+    import pandas as pd
+    from rich.console import Console
+    from rich.table import Table
+
+    from hisopt.errors import ConfigError
+    from hisopt.io import write_csv
+
+    p = load(problem, set_)
+    if designs is not None:
+        if not designs.is_file():
+            raise ConfigError(f"designs file not found (expected a CSV with columns {', '.join(p.variable_names)})", file=str(designs))
+        try:
+            frame = pd.read_csv(designs)
+        except (ValueError, pd.errors.ParserError) as exc:
+            raise ConfigError(f"unreadable CSV ({exc})", file=str(designs)) from None
+        missing = [n for n in p.variable_names if n not in frame.columns]
+        if missing:
+            raise ConfigError(f"missing column {missing[0]!r}; expected columns {', '.join(p.variable_names)}", file=str(designs))
+        try:
+            x = frame[list(p.variable_names)].to_numpy(dtype=float)
+        except ValueError:
+            raise ConfigError("design columns must be numeric", file=str(designs)) from None
+        result = p.evaluate(x)
+    else:
+        result = p.evaluate(p.baseline)
+    if out is not None:
+        write_csv(result, out)
+        typer.echo(f"wrote {len(result)} designs to {out}")
+    if designs is None or out is None:
+        table = Table(title=f"{p.name}: {len(result)} design(s)")
+        for col in result.columns:
+            table.add_column(col, justify="right")
+        for row in result.head(20).itertuples(index=False):
+            table.add_row(*[f"{v:.5g}" if isinstance(v, float) else str(v) for v in row])
+        Console(width=160).print(table)
+
+
+@app.command()
+def response(
+    problem: ProblemArg,
+    out: Annotated[Path, typer.Option(help="output directory for response.csv and response.html")],
+    set_: SetOpt = None,
+) -> None:
+    """Response spectra with and without HIS (paper Fig. 4) as CSV and interactive HTML."""
+    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.report.theme import write_html
+    from hisopt.spectra import response_spectra
+
+    p = load(problem, set_)
+    ensure_writable_dir(out)
+    spectra = response_spectra(p)
+    write_csv(spectra.frame, out / "response.csv")
+    write_html(spectra.plot(), out / "response.html")
+    typer.echo(f"wrote {out / 'response.csv'} and {out / 'response.html'}")
+
+
 def main() -> None:
     """Entry point: map user errors to exit code 2 and internal errors to 1."""
     from hisopt.errors import HisoptError

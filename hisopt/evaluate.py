@@ -180,16 +180,17 @@ class Evaluator:
                 for axis, name in COMFORT_OUTPUTS.items():
                     k = getattr(comfort, f"k_{axis}")
                     weighting = self.outputs[name].weighting
-                    if comfort.method == "band":
-                        ms = iso2631.band_weighted_mean_square(f, w, spectra[name], weighting, self.f_lo, self.f_hi)
-                    else:
-                        if weighting not in gains:
-                            gains[weighting] = iso2631.weighting_gain_squared(f, weighting)
-                        ms = np.sum(w * gains[weighting] * spectra[name], axis=1)
+                    if weighting not in gains:
+                        gains[weighting] = (
+                            iso2631.band_gain_squared(f, weighting, self.f_lo, self.f_hi)
+                            if comfort.method == "band"
+                            else iso2631.weighting_gain_squared(f, weighting)
+                        )
+                    ms = _total(w * gains[weighting] * spectra[name])
                     total = total + k**2 * ms
                 values[m.name] = np.sqrt(total)
             elif m.kind == "rms":
-                values[m.name] = np.sqrt(np.sum(w * spectra[m.output], axis=1))
+                values[m.name] = np.sqrt(_total(w * spectra[m.output]))
             elif m.kind == "max":
                 values[m.name] = self._refined_max(m.output, f, spectra[m.output], frf)
             else:
@@ -261,7 +262,8 @@ class PoleResidueOutputs:
         if output is not None:
             rho = rho[:, :, 4 * output : 4 * output + 4]
             poly = poly[:, :, output : output + 1]
-        h = (1.0 / (s[..., None] - self.lam[:, None, :])) @ rho
+        # einsum (not a BLAS product) keeps each design's result independent of the batch.
+        h = np.einsum("nfk,nkc->nfc", 1.0 / (s[..., None] - self.lam[:, None, :]), rho)
         h = h.reshape(s.shape + poly.shape[2:])
         for m in range(poly.shape[1]):
             if np.any(poly[:, m]):
@@ -282,6 +284,12 @@ class DirectOutputs:
         outputs = list(self.outputs.values())
         chosen = outputs if output is None else [outputs[output]]
         return np.stack([o.frf(h_x, s) for o in chosen], axis=-2)
+
+
+def _total(terms: np.ndarray) -> np.ndarray:
+    """Row sums in sequential order, so zero-weight padding (which varies with the batch)
+    leaves every design's value bit-for-bit unchanged."""
+    return np.cumsum(terms, axis=1)[:, -1]
 
 
 def _mixed_frf(fast: FrfFn, slow: FrfFn, use_slow: np.ndarray) -> FrfFn:

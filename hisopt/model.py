@@ -181,7 +181,9 @@ class CoupledModel:
         for c in range(len(self.his.circuits)):
             nodes = np.flatnonzero(is_pressure & (circuit == c))
             r = nodes[0]
-            volume_per_x = np.sum(h.n[..., h.port_circuit == c, :], axis=-2) @ g  # B + (7,)
+            ports = h.port_circuit == c
+            # Stacked (not 2-D) products keep each design's numbers independent of the batch.
+            volume_per_x = (np.ones((1, ports.sum())) @ h.n[..., ports, :] @ g)[..., 0, :]  # B + (7,)
             t[..., r, :] = 0.0
             t[..., r, :7] = volume_per_x / e_d[..., r, None]
             t[..., r, nodes[1:]] = -e_d[..., nodes[1:]] / e_d[..., r, None]

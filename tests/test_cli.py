@@ -30,3 +30,44 @@ def test_user_errors_exit_2_without_traceback(tmp_path):
     assert "missing.toml" in out.stderr and "Traceback" not in out.stderr
     out = run("modes", str(DEFAULT_PROBLEM), "--set", "nonsense")
     assert out.returncode == 2 and "KEY=VALUE" in out.stderr
+
+
+def test_evaluate_baseline_and_designs_file(tmp_path):
+    out = run("evaluate", str(DEFAULT_PROBLEM))
+    assert out.returncode == 0, out.stderr
+    assert "0.55334" in out.stdout  # DESIGN section 5 baseline sigma_aw (0.5534)
+    designs = tmp_path / "designs.csv"
+    designs.write_text("p0,dA,lam,Rv\n2e6,1e-3,0.5,8e5\n0,1e-4,0.1,0\n")
+    results = tmp_path / "results.csv"
+    out = run("evaluate", str(DEFAULT_PROBLEM), "--designs", str(designs), "--out", str(results))
+    assert out.returncode == 0, out.stderr
+    import pandas as pd
+
+    df = pd.read_csv(results)
+    assert list(df.columns) == ["p0", "dA", "lam", "Rv", "sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "feasible"]
+    assert abs(df.loc[1, "sigma_aw"] / 0.4599 - 1) < 5e-3
+
+
+def test_evaluate_bad_designs_file_is_a_user_error(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("p0,dA\n1,2\n")
+    out = run("evaluate", str(DEFAULT_PROBLEM), "--designs", str(bad))
+    assert out.returncode == 2
+    assert "bad.csv" in out.stderr and "'lam'" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_response_writes_csv_and_offline_html(tmp_path):
+    out = run("response", str(DEFAULT_PROBLEM), "--out", str(tmp_path / "resp"))
+    assert out.returncode == 0, out.stderr
+    import pandas as pd
+
+    df = pd.read_csv(tmp_path / "resp" / "response.csv")
+    for col in ("f_hz", "acc_z_his", "acc_z_ref", "acc_roll_his", "acc_pitch_ref", "tire_load_fl_his"):
+        assert col in df
+    # The HIS stiffens bounce: the body's vertical-acceleration peak moves up in frequency;
+    # at the lowest frequency the body follows the road with or without HIS.
+    body = df[df["f_hz"] < 5]
+    assert body.loc[body["acc_z_his"].idxmax(), "f_hz"] > body.loc[body["acc_z_ref"].idxmax(), "f_hz"]
+    assert abs(df.loc[0, "acc_z_his"] / df.loc[0, "acc_z_ref"] - 1) < 0.25
+    html = (tmp_path / "resp" / "response.html").read_text()
+    assert "plotly" in html and 'src="https://cdn.plot.ly' not in html and len(html) > 2_000_000  # JS embedded

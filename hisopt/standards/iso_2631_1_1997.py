@@ -323,13 +323,26 @@ def band_weighted_mean_square(
     ISO 2631-1:1997 clause 6 (summation of one-third-octave band values) and Tables 3
     and 4; paper Eq. (25)-(26).
     """
+    power = np.asarray(psd, dtype=float) * np.asarray(quad_weights_hz, dtype=float)
+    return np.sum(band_gain_squared(f_hz, name, f_lo_hz, f_hi_hz) * power, axis=-1)
+
+
+def band_gain_squared(f_hz: ArrayLike, name: WeightingName, f_lo_hz: float = 0.5, f_hi_hz: float = 80.0) -> NDArray[np.float64]:
+    """Piecewise-constant ``w_i^2`` of the band method at each frequency (0 outside the bands).
+
+    Parameters
+    ----------
+    f_hz
+        [Hz] Frequencies, any shape.
+    name
+        Weighting name, one of :data:`WeightingName`.
+    f_lo_hz, f_hi_hz
+        [Hz] Range of band centres, see :func:`third_octave_bands`.
+    """
     bands = third_octave_bands(f_lo_hz, f_hi_hz)
     w2 = weighting_gain_squared(bands.nominal_hz, name)
-    f = np.asarray(f_hz, dtype=float)
-    idx = _band_index(f, bands)
-    node_w2 = np.where(idx >= 0, w2[np.maximum(idx, 0)], 0.0)
-    power = np.asarray(psd, dtype=float) * np.asarray(quad_weights_hz, dtype=float)
-    return np.sum(node_w2 * power, axis=-1)
+    idx = _band_index(np.asarray(f_hz, dtype=float), bands)
+    return np.where(idx >= 0, w2[np.maximum(idx, 0)], 0.0)
 
 
 def weighted_mean_square(

@@ -1,0 +1,1 @@
+"""Figures and reports (plotly); imported lazily so the CLI starts fast."""

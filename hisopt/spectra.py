@@ -1,0 +1,83 @@
+"""Response spectra of one design with and without HIS (paper Fig. 4)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.evaluate import DirectOutputs, Evaluator
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+    from hisopt.problem import Problem
+
+FIG4_OUTPUTS = ("acc_z", "acc_roll", "acc_pitch", "tire_load_fl")
+"""Paper Fig. 4: CG vertical, roll and pitch accelerations and the FL tyre force."""
+
+
+@dataclass(frozen=True)
+class ResponseSpectra:
+    """PSDs on a frequency grid: column ``<output>_his`` and ``<output>_ref`` per output."""
+
+    frame: pd.DataFrame
+    outputs: tuple[str, ...]
+    units: dict[str, str]
+    design: dict[str, float]
+
+    def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
+        """Log-log PSDs with and without HIS, one panel per output (plotly)."""
+        from plotly.subplots import make_subplots
+
+        from hisopt.report.theme import use_theme
+
+        use_theme()
+        cols = 2
+        rows = (len(self.outputs) + 1) // cols
+        fig = fig or make_subplots(rows=rows, cols=cols, subplot_titles=[f"{o} [{self.units[o]}²/Hz]" for o in self.outputs])
+        f = self.frame["f_hz"]
+        for k, name in enumerate(self.outputs):
+            r, c = k // cols + 1, k % cols + 1
+            for suffix, label, dash in (("ref", "without HIS", "dash"), ("his", "with HIS", "solid")):
+                fig.add_scatter(
+                    x=f, y=self.frame[f"{name}_{suffix}"], name=label, legendgroup=label, showlegend=k == 0,
+                    line={"dash": dash}, row=r, col=c,
+                )
+            fig.update_xaxes(type="log", title_text="frequency [Hz]", row=r, col=c)
+            fig.update_yaxes(type="log", row=r, col=c)
+        design = ", ".join(f"{k}={v:.4g}" for k, v in self.design.items())
+        fig.update_layout(title=f"Response spectra with and without HIS ({design})")
+        return fig
+
+
+def frequency_grid(models: list[Any], f_lo_hz: float, f_hi_hz: float, n: int = 1500, per_mode: int = 60) -> np.ndarray:
+    """[Hz] log grid plus points clustered (tan spacing) around every mode of ``models``."""
+    parts = [np.geomspace(f_lo_hz, f_hi_hz, n)]
+    theta = np.linspace(-1.5, 1.5, per_mode)
+    for model in models:
+        a = model.state_space().a
+        lam = np.linalg.eigvals(a.reshape((-1,) + a.shape[-2:])[0])
+        for pole in lam[lam.imag > 0]:
+            parts.append(pole.imag / (2 * np.pi) - pole.real / (2 * np.pi) * np.tan(theta))
+    f = np.concatenate(parts)
+    return np.unique(f[(f >= f_lo_hz) & (f <= f_hi_hz)])
+
+
+def response_spectra(problem: "Problem", design: Any = None, outputs: tuple[str, ...] = FIG4_OUTPUTS) -> ResponseSpectra:
+    """Road-induced PSDs of ``outputs`` for ``design`` (baseline if None) and the car without HIS."""
+    x = problem.design_matrix(problem.baseline if design is None else design)[:1]
+    ev = Evaluator(problem)
+    chosen = {name: ev.all_outputs[name] for name in outputs}
+    models = {"his": problem.model(x), "ref": problem.model(his=False)}
+    band = problem.spec.band
+    f = frequency_grid(list(models.values()), band.f_min_hz, band.f_max_hz)[None, :]
+    frame = pd.DataFrame({"f_hz": f[0]})
+    for suffix, model in models.items():
+        psd = ev.spectra(f, DirectOutputs(model, chosen)(2j * np.pi * f))
+        for i, name in enumerate(outputs):
+            frame[f"{name}_{suffix}"] = psd[0, :, i]
+    units = {name: chosen[name].unit for name in outputs}
+    return ResponseSpectra(frame, tuple(outputs), units, dict(zip(problem.variable_names, x[0])))

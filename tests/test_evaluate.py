@@ -1,0 +1,165 @@
+"""Objectives: DESIGN section 5 references, converged accuracy over the box, exactness."""
+
+import tracemalloc
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import hisopt
+from hisopt.evaluate import DirectOutputs, Evaluator, PoleResidueOutputs, grid_quantities
+from hisopt.metrics import METRICS
+from hisopt.problem import problem_from_dict
+from tests.conftest import random_designs
+
+REFERENCE = {  # DESIGN section 5 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
+    (2.0e6, 10e-4, 0.5, 8e5): (0.5534, 8.4675e-05, 4.3444e-05, 4.7222e04),
+    (0.0, 1e-4, 0.1, 0.0): (0.4599, 9.7622e-05, 4.0773e-05, 4.2293e04),
+}
+
+
+@pytest.fixture(scope="module")
+def all_metrics_problem(problem):
+    data = problem.spec.model_dump(by_alias=True)
+    data["objectives"] = list(METRICS)
+    return problem_from_dict(data, "all-metrics")
+
+
+def test_design_section_5_reference_values(problem):
+    df = problem.evaluate(np.array(list(REFERENCE)))
+    for row, expected in zip(df.itertuples(), REFERENCE.values()):
+        got = (row.sigma_aw, row.max_roll_psd, row.max_stroke_psd, row.max_tire_load_psd)
+        np.testing.assert_allclose(got, expected, rtol=5e-3)
+        # The table's 4-5 significant figures are matched far inside 0.5 %.
+        np.testing.assert_allclose(got, expected, rtol=1.5e-4)
+
+
+def test_evaluate_returns_contract_dataframe(problem):
+    x = pd.DataFrame({"p0": [1e6, 3e6], "dA": [5e-4, 2e-3], "lam": [0.3, 0.7], "Rv": [0.0, 1e6]})
+    df = problem.evaluate(x)
+    assert list(df.columns[:8]) == ["p0", "dA", "lam", "Rv", "sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]
+    assert df["feasible"].all()
+    pd.testing.assert_frame_equal(df, problem.evaluate(x.to_numpy()))
+
+
+def _converged_grid(problem, x):
+    """Fine log grid plus tan-clustered points around every mode (Lorentzians become flat)."""
+    lam = np.linalg.eigvals(problem.model(x[None]).state_space().a[0])
+    parts = [np.geomspace(0.5, 80.0, 40_001)]
+    theta = np.linspace(-np.pi / 2, np.pi / 2, 4001)[1:-1]
+    for pole in lam[lam.imag > 1e-6]:
+        f_d, b = pole.imag / (2 * np.pi), -pole.real / (2 * np.pi)
+        parts.append(f_d + b * np.tan(theta))
+    f = np.concatenate(parts)
+    return np.unique(f[(f >= 0.5) & (f <= 80.0)])
+
+
+def test_within_half_percent_of_converged_reference_including_corners(all_metrics_problem, rng):
+    p = all_metrics_problem
+    x = random_designs(p, 3, rng)  # 3 random designs and all 16 corners of the box
+    fast = p.evaluator()(x)
+    zeta_roll = []
+    for i, xi in enumerate(x):
+        ref = grid_quantities(p, xi[None], _converged_grid(p, xi))
+        for name in METRICS:
+            assert fast[name][i] == pytest.approx(ref[name][0], rel=5e-3), (name, xi)
+        zeta_roll.append(hisopt.modal_analysis(p, xi).set_index("mode").loc["roll", "damping_ratio"])
+    assert min(zeta_roll) < 1e-3  # the box corners really contain nearly undamped roll
+
+
+def test_peaks_are_continuous_maxima_not_grid_samples(problem):
+    """At a corner (roll damping ~1e-4) a 1000-point grid misses the roll peak by far."""
+    corner = np.array([[4e6, 25e-4, 0.8, 0.0]])
+    fast = problem.evaluator()(corner)["max_roll_psd"][0]
+    plain = grid_quantities(problem, corner, np.geomspace(0.5, 80, 1000))["max_roll_psd"][0]
+    fine = grid_quantities(problem, corner, _converged_grid(problem, corner[0]))["max_roll_psd"][0]
+    assert fast == pytest.approx(fine, rel=1e-3)
+    assert plain < 0.5 * fine
+
+
+def test_pole_residue_path_equals_direct_solve(problem, rng):
+    ev = problem.evaluator()
+    x = random_designs(problem, 20, rng)
+    model = problem.model(x)
+    ss = model.state_space()
+    lam, vec = np.linalg.eig(ss.a)
+    fast = PoleResidueOutputs(ss, lam, vec, ev.all_outputs)
+    direct = DirectOutputs(model, ev.all_outputs)
+    s = 2j * np.pi * np.broadcast_to(np.geomspace(0.3, 120, 50), (len(x), 50))
+    h_fast, h_direct = fast(s), direct(s)
+    scale = np.abs(h_direct).max(axis=(1, 3), keepdims=True)  # per design and output
+    assert np.max(np.abs(h_fast - h_direct) / scale) < 1e-9
+
+
+def test_nan_free_over_whole_box_without_warnings(all_metrics_problem, rng):
+    p = all_metrics_problem
+    lo, hi = p.lower, p.upper
+    x = random_designs(p, 300, rng)
+    edges = x[:100].copy()
+    edges[:50, 0] = 0.0  # p0 = 0 gauge
+    edges[50:, 3] = 0.0  # Rv = 0 (valves shorted)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        q = p.evaluator()(np.vstack([x, edges, lo, hi]))
+    assert q["valid"].all()
+    for name in METRICS:
+        assert np.all(np.isfinite(q[name])) and np.all(q[name] > 0), name
+
+
+def test_singular_designs_give_nan_and_never_raise(problem):
+    x = np.array([[2e6, 10e-4, 0.5, 8e5], [2e6, 10e-4, 1.0, 8e5], [np.nan, 1e-3, 0.5, 8e5], [2e6, 10e-4, 0.5, 8e5]])
+    df = problem.evaluate(x)
+    assert df.loc[[1, 2], "sigma_aw"].isna().all()
+    assert not df.loc[[1, 2], "feasible"].any()
+    assert df.loc[[0, 3], "feasible"].all()
+    assert df.loc[0, "sigma_aw"] == pytest.approx(0.5534, rel=1e-3)
+
+
+def test_each_design_is_independent_of_its_batch(problem, rng):
+    x = random_designs(problem, 40, rng)
+    together = problem.evaluator()(x)
+    alone = [problem.evaluator()(xi[None]) for xi in x[[0, 7, 39]]]
+    for name in problem.objective_names:
+        assert np.array_equal(together[name][[0, 7, 39]], [a[name][0] for a in alone])
+
+
+def test_memory_bounded_by_chunking(problem, rng):
+    ev = Evaluator(problem, chunk_size=256)
+    peaks = []
+    for n in (512, 2048):
+        x = random_designs(problem, n, rng, corners=False)
+        tracemalloc.start()
+        ev(x)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    assert peaks[1] < 1.6 * peaks[0]  # 4x the designs, about the same peak memory
+
+
+def test_band_method_agrees_with_filter_method(problem, rng):
+    """The paper's 1/3-octave method vs the analytic filters agree within a few %.
+
+    Measured (seeded designs): inside the box 0.2-1.6 %, under 3 %; at the box corners, where
+    a nearly undamped roll peak sits off a band centre, up to 6 % (the band method holds
+    the weighting constant across each band, 23 % wide)."""
+    data = problem.spec.model_dump(by_alias=True)
+    data["comfort"]["method"] = "band"
+    band = problem_from_dict(data)
+    x = random_designs(problem, 10, rng)  # 10 inside, then the 16 corners
+    diff = np.abs(band.evaluator()(x)["sigma_aw"] / problem.evaluator()(x)["sigma_aw"] - 1)
+    assert diff[:10].max() < 0.03, diff
+    assert diff.max() < 0.08, diff
+
+
+def test_roll_gradient_closed_form_without_his(all_metrics_problem):
+    """Reference car: roll moment on springs in series with tyres, exact; HIS reduces it."""
+    p = all_metrics_problem
+    v = p.spec.vehicle
+    from hisopt.evaluate import roll_gradient
+
+    k_s = 2 * v.k_sf * v.t_f**2 + 2 * v.k_sr * v.t_r**2
+    k_t = 2 * v.k_tf * v.t_f**2 + 2 * v.k_tr * v.t_r**2
+    expected = v.m_s * 9.81 * v.h_0s * (1 / k_s + 1 / k_t)
+    assert roll_gradient(p.model(his=False))[0] == pytest.approx(expected, rel=1e-9)
+    with_his = p.evaluator()(p.baseline[None])["roll_gradient"][0]
+    assert with_his < 0.6 * expected
