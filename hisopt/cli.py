@@ -15,6 +15,12 @@ import typer
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Design optimiser for roll-plane HIS vehicles.")
 
 ProblemArg = Annotated[Path, typer.Argument(help="problem file (TOML), e.g. problems/roll_plane_his.toml")]
+WorkersOpt = Annotated[
+    Optional[int], typer.Option("--workers", help="start a local Dask cluster with N worker processes")
+]
+SchedulerOpt = Annotated[
+    Optional[str], typer.Option("--scheduler", help="address of an existing Dask scheduler, e.g. tcp://host:8786")
+]
 SetOpt = Annotated[
     Optional[list[str]], typer.Option("--set", help="override a [his] value, e.g. --set p0=3e6 (repeatable)")
 ]
@@ -86,35 +92,34 @@ def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
 def droptest(
     problem: ProblemArg,
     out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
-    p0: Annotated[str, typer.Option("--p0", help="accumulator precharges [Pa, gauge], comma-separated")] = "1e6,2e6,3e6",
-    height: Annotated[float, typer.Option("--height", help="drop height [m] (wheels roll off blocks this high)")] = 0.05,
+    p0: Annotated[str, typer.Option("--p0", help="accumulator precharges in Pa (gauge), comma-separated")] = "1e6,2e6,3e6",
+    height: Annotated[float, typer.Option("--height", help="drop height in m (the wheels roll off blocks this high)")] = 0.05,
     measured: Annotated[
         Optional[Path],
         typer.Option(
             "--measured",
-            help="measured drop record, CSV: time [s] and body_fl, body_fr, body_rl, body_rr "
-            "[m/s^2, z up] (optional wheel_fl, wheel_fr, wheel_rl, wheel_rr); see docs/droptest.md",
+            help="measured drop record, CSV with columns time (s) and body_fl, body_fr, body_rl, body_rr "
+            "(vertical acceleration in m/s^2, z up; optional wheel_fl, wheel_fr, wheel_rl, wheel_rr), "
+            "uniformly sampled above 40 Hz; see docs/droptest.md",
         ),
     ] = None,
     case: Annotated[
         Optional[str], typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")
     ] = None,
     measured_p0: Annotated[
-        Optional[float], typer.Option("--measured-p0", help="precharge [Pa] of the measured test (default: the problem's p0)")
+        Optional[float], typer.Option("--measured-p0", help="precharge in Pa (gauge) of the measured test (default: the problem's p0)")
     ] = None,
     mode: Annotated[str, typer.Option("--mode", help="simulation model: linear or nonlinear (gas law, tyre lift-off)")] = "linear",
     set_: SetOpt = None,
 ) -> None:
     """Drop tests (paper Section VI, Table 3, Fig. 13): simulated, optionally with a measured record.
 
-    Writes OUT/droptest.csv (case, p0, mode, frequency_time_hz, frequency_model_hz, error_pct,
-    damping) and OUT/droptest.html (response spectra). A measured test replaces the simulated
-    row of the same case and p0.
+    Writes OUT/droptest.csv (case, p0, mode, frequency_time_hz, frequency_model_hz, error_pct, damping; damped frequencies in Hz) and OUT/droptest.html (response spectra). A measured record replaces the simulated row of the same case and p0.
     """
     from rich.console import Console
     from rich.table import Table
 
-    from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, run_drop_tests, spectra_figure
+    from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure
     from hisopt.errors import ConfigError
 
     try:
@@ -132,6 +137,8 @@ def droptest(
     if case is not None and case not in DROP_CASES:
         raise ConfigError(f"expected one of {', '.join(DROP_CASES)}, got {case!r}", key="--case")
 
+    if measured is not None:
+        read_measured(measured)  # fail before the simulations if the file is unusable
     prob = load(problem, set_)
     tests = run_drop_tests(prob, p0_values, height, mode=mode)  # type: ignore[arg-type]
     if measured is not None:
@@ -170,6 +177,8 @@ def evaluate(
     set_: SetOpt = None,
     designs: Annotated[Optional[Path], typer.Option(help="CSV with one column per design variable")] = None,
     out: Annotated[Optional[Path], typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
 ) -> None:
     """Objectives and constraints of the baseline design, or of every row of --designs."""
     import pandas as pd
@@ -194,7 +203,10 @@ def evaluate(
             x = frame[list(p.variable_names)].to_numpy(dtype=float)
         except ValueError:
             raise ConfigError("design columns must be numeric", file=str(designs)) from None
-        result = p.evaluate(x)
+        from hisopt.parallel import evaluate_designs, open_backend
+
+        with open_backend(workers, scheduler) as backend:
+            result = p.results_frame(x, evaluate_designs(p, x, backend))
     else:
         result = p.evaluate(p.baseline)
     if out is not None:
@@ -226,6 +238,68 @@ def response(
     write_csv(spectra.frame, out / "response.csv")
     write_html(spectra.plot(), out / "response.html")
     typer.echo(f"wrote {out / 'response.csv'} and {out / 'response.html'}")
+
+
+@app.command("optimize")
+def optimize_cmd(
+    problem: ProblemArg,
+    out: Annotated[Optional[Path], typer.Option("--out", help="run directory (default runs/NAME-TIMESTAMP)")] = None,
+    seed: Annotated[Optional[int], typer.Option("--seed", help="random seed (default: problem file)")] = None,
+    pop: Annotated[Optional[int], typer.Option("--pop", help="population size (default: problem file, 100)")] = None,
+    gens: Annotated[Optional[int], typer.Option("--gens", help="generations (default: problem file, 200)")] = None,
+) -> None:
+    """Pareto-optimise PROBLEM (NSGA-II; NSGA-III from four objectives) in a resumable run directory."""
+    from datetime import datetime
+
+    from hisopt.optim.run import optimize, resolve_settings, run_with_console
+    from hisopt.optim.runio import prepare_run_directory
+    from hisopt.problem import load_problem
+
+    p = load_problem(problem)
+    settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed)
+    if out is None:
+        stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+        out = Path("runs") / f"{p.name}-{stamp}"
+        suffix = 1
+        while out.exists():
+            suffix += 1
+            out = Path("runs") / f"{p.name}-{stamp}-{suffix}"
+    prepare_run_directory(out, fresh=True)  # fail before any work
+    typer.echo(
+        f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
+        f"seed {settings.seed} -> {out}",
+        err=True,
+    )
+    code = run_with_console(
+        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, progress=update),
+        total=settings.generations,
+        done=0,
+        run_dir=out,
+    )
+    if code:
+        raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
+
+
+@app.command("resume")
+def resume_cmd(
+    run_dir: Annotated[Path, typer.Argument(help="run directory of an interrupted `hisopt optimize`")],
+) -> None:
+    """Continue an interrupted optimisation run from its last checkpoint (same final front)."""
+    import json
+
+    from hisopt.errors import RunError
+    from hisopt.optim.run import resume, run_with_console
+    from hisopt.optim.runio import RUN_JSON, checkpoint_generation
+
+    info_path = run_dir / RUN_JSON
+    if not info_path.is_file():
+        raise RunError(f"{run_dir}: not a run directory (no {RUN_JSON}); start a run with `hisopt optimize`")
+    total = int(json.loads(info_path.read_text(encoding="utf-8")).get("settings", {}).get("generations", 0))
+    done = checkpoint_generation(run_dir)
+    typer.echo(f"resuming {run_dir} at generation {done} of {total}", err=True)
+    code = run_with_console(lambda update: resume(run_dir, progress=update), total=total, done=done, run_dir=run_dir)
+    if code:
+        raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
 
 
 def main() -> None:

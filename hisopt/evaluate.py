@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.constants import G_MPS2
+from hisopt.linalg import bmm, cbmm, cmul, join, split
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
 from hisopt.quadrature import base_edges, panel_nodes, pole_edges
 from hisopt.response import Output, standard_outputs, track_frf, track_psd
@@ -52,7 +53,7 @@ class Evaluator:
     def __init__(
         self,
         problem: "Problem",
-        chunk_size: int = 512,
+        chunk_size: int = 256,
         order: int = 4,
         zoom_iterations: int = 5,
         base_panels: int = 12,
@@ -157,9 +158,11 @@ class Evaluator:
 
         Returns shape ``(n, F, n_out)`` (paper Eq. 24 with the track model of DESIGN sec. 3).
         """
-        s = 2j * np.pi * f_hz
-        delay = np.exp(-s * self.tau)[..., None, None]
-        tracks = h_out[..., 0:2] + delay * h_out[..., 2:4]
+        phase = 2 * np.pi * f_hz * self.tau
+        delay = (np.cos(phase)[..., None, None], -np.sin(phase)[..., None, None])
+        front, rear = split(h_out[..., 0:2]), split(h_out[..., 2:4])
+        rear = cmul(delay, rear)
+        tracks = join(front[0] + rear[0], front[1] + rear[1])
         coherence: np.ndarray | float = 0.0
         if self.problem.spec.road.coherence == "isotropic":
             v = self.problem.spec.vehicle
@@ -230,45 +233,69 @@ class PoleResidueOutputs:
     """
 
     def __init__(self, ss: Any, lam: np.ndarray, vec: np.ndarray, outputs: dict[str, Output]):
+        # Complex arithmetic is done on (real, imag) pairs with plain real operations, so each
+        # design's numbers are the same in any batch (see hisopt.linalg).
         self.names = tuple(outputs)
         self.lam = lam
-        bp = ss.b0 + ss.a @ ss.b1
+        lam_c = split(lam)
+        bp = ss.b0 + bmm(ss.a, ss.b1)
         w_inv = np.linalg.inv(vec)
-        wb = w_inv @ bp  # (n, ns, 4)
+        wb = cbmm(split(w_inv), (bp, np.zeros_like(bp)))  # (n, ns, 4)
         # Condition estimate of the eigenvector basis (columns of unit norm).
         self.conditioning = np.max(np.abs(w_inv), axis=(1, 2)) * np.sqrt(vec.shape[1])
         n_pow = max(o.c.shape[0] for o in outputs.values())
         powers = [bp]  # A^j B', for the Markov terms C A^j B'
         for _ in range(n_pow - 2):
-            powers.append(ss.a @ powers[-1])
+            powers.append(bmm(ss.a, powers[-1]))
         markov = [pw[:, :7, :] for pw in powers]
-        rho, poly = [], []
+        lam_pow = [(np.ones_like(lam_c[0]), np.zeros_like(lam_c[0]))]
+        for _ in range(n_pow - 1):
+            lam_pow.append(cmul(lam_pow[-1], lam_c))
+        vec7 = split(vec[:, :7, :])
+        rho_re, rho_im, poly = [], [], []
         for o in outputs.values():
-            cv = np.einsum("pr,nrk->npk", o.c, vec[:, :7, :])  # (n, P, ns)
-            weight = np.sum(cv * lam[:, None, :] ** np.arange(o.c.shape[0])[None, :, None], axis=1)
-            rho.append(weight[:, :, None] * wb)
-            d = np.zeros((len(lam), n_pow, 4), dtype=complex)
+            weight = (0.0, 0.0)
+            for p_ in range(o.c.shape[0]):
+                cv = (bmm(o.c[p_][None, :], vec7[0])[:, 0, :], bmm(o.c[p_][None, :], vec7[1])[:, 0, :])  # (n, ns)
+                term = cmul(cv, lam_pow[p_])
+                weight = (weight[0] + term[0], weight[1] + term[1])
+            r = cmul((weight[0][:, :, None], weight[1][:, :, None]), wb)
+            rho_re.append(r[0])
+            rho_im.append(r[1])
+            d = np.zeros((len(lam), n_pow, 4))
             d[:, : o.d.shape[0], :] += o.d
             for p_ in range(o.c.shape[0]):
                 for j in range(p_):
-                    d[:, p_ - 1 - j, :] += np.einsum("r,nrb->nb", o.c[p_], markov[j])
+                    d[:, p_ - 1 - j, :] += bmm(o.c[p_][None, :], markov[j])[:, 0, :]
             poly.append(d)
-        self.rho = np.concatenate(rho, axis=2)  # (n, ns, n_out * 4)
-        self.poly = np.stack(poly, axis=2)  # (n, n_pow, n_out, 4)
+        self.rho = (np.concatenate(rho_re, axis=2), np.concatenate(rho_im, axis=2))  # (n, ns, n_out*4)
+        self.poly = np.stack(poly, axis=2)  # (n, n_pow, n_out, 4), real
 
     def __call__(self, s: np.ndarray, output: int | None = None) -> np.ndarray:
-        """Output FRFs, ``s`` (n, F) -> (n, F, n_out, 4), or (n, F, 1, 4) for one ``output``."""
+        """Output FRFs at ``s = j omega`` (n, F) -> (n, F, n_out, 4), or (n, F, 1, 4) for one ``output``."""
         rho, poly = self.rho, self.poly
         if output is not None:
-            rho = rho[:, :, 4 * output : 4 * output + 4]
+            cols = slice(4 * output, 4 * output + 4)
+            rho = (rho[0][:, :, cols], rho[1][:, :, cols])
             poly = poly[:, :, output : output + 1]
-        # einsum (not a BLAS product) keeps each design's result independent of the batch.
-        h = np.einsum("nfk,nkc->nfc", 1.0 / (s[..., None] - self.lam[:, None, :]), rho)
-        h = h.reshape(s.shape + poly.shape[2:])
+        omega = np.asarray(s).imag
+        # 1 / (j omega - lam) in real arithmetic.
+        a = -self.lam.real[:, None, :]
+        b = omega[..., None] - self.lam.imag[:, None, :]
+        den = a * a + b * b
+        h = cbmm((a / den, -b / den), rho)
+        shape = omega.shape + poly.shape[2:]
+        h_re, h_im = h[0].reshape(shape), h[1].reshape(shape)
         for m in range(poly.shape[1]):
             if np.any(poly[:, m]):
-                h = h + (s**m)[..., None, None] * poly[:, None, m]
-        return h
+                # (j omega)^m is real for even m, imaginary for odd m.
+                w_m = (omega**m * (-1.0) ** (m // 2))[..., None, None]
+                term = w_m * poly[:, None, m]
+                if m % 2 == 0:
+                    h_re = h_re + term
+                else:
+                    h_im = h_im + term
+        return join(h_re, h_im)
 
 
 class DirectOutputs:
@@ -314,20 +341,24 @@ def roll_gradient(model: "CoupledModel") -> np.ndarray:
 
 
 def evaluate_problem(problem: "Problem", designs: Any) -> pd.DataFrame:
-    """DataFrame of designs with objective and constraint columns (DESIGN section 6).
+    """DataFrame of designs with objective and constraint columns (DESIGN section 6)."""
+    x = problem.design_matrix(designs)
+    return results_frame(problem, x, problem.evaluator()(x))
+
+
+def results_frame(problem: "Problem", designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
+    """Designs and their quantities as a DataFrame.
 
     Columns: the variable names, the objective names, the constraint names (physical units,
     each quantity once), ``feasible`` (all constraints met and the model valid).
     """
     x = problem.design_matrix(designs)
-    evaluator = problem.evaluator()
-    q = evaluator(x)
     df = pd.DataFrame(x, columns=list(problem.variable_names))
-    for name in evaluator.names:
-        df[name] = q[name]
-    feasible = q["valid"].copy()
+    for name in dict.fromkeys(problem.objective_names + problem.constraint_names):
+        df[name] = quantities[name]
+    feasible = quantities["valid"].copy()
     for c in problem.spec.constraints:
-        feasible &= q[c.name] <= c.limit
+        feasible &= quantities[c.name] <= c.limit
     df["feasible"] = feasible
     return df
 

@@ -17,6 +17,7 @@ from hisopt.errors import ModelError
 from hisopt.hydraulics.circuit import HydraulicSystem
 from hisopt.hydraulics.coupling import hydraulic_descriptor, stroke_impedance
 from hisopt.hydraulics.elements import PipeModel
+from hisopt.linalg import bmm, bsum
 from hisopt.vehicle import (
     VehicleParams,
     damping_matrix,
@@ -81,7 +82,7 @@ class CoupledModel:
         # circuits (resistances only add imaginary terms, inertances O(s^2)).
         g = stroke_matrix(self.vehicle)
         d0 = stroke_impedance(self.his, np.array([1e-6j]), "lumped")[..., 0, :, :].real
-        return k + g.T @ d0 @ g
+        return k + bmm(bmm(g.T, d0), g)
 
     def dynamic_stiffness(self, s: ArrayLike) -> np.ndarray:
         """``s^2 M + s C + K + G^T D(s) G``, shape ``B + (F, 7, 7)`` (paper Eq. 21)."""
@@ -90,7 +91,7 @@ class CoupledModel:
         kdyn = sb**2 * self.mass + sb * damping_matrix(self.vehicle) + stiffness_matrix(self.vehicle)
         if self.his is not None:
             g = stroke_matrix(self.vehicle)
-            kdyn = kdyn + g.T @ stroke_impedance(self.his, s, self.pipe_model) @ g
+            kdyn = kdyn + bmm(bmm(g.T, stroke_impedance(self.his, s, self.pipe_model)), g)
         return kdyn
 
     def road_input(self, s: ArrayLike) -> np.ndarray:
@@ -132,7 +133,7 @@ class CoupledModel:
         batch = np.broadcast_shapes(h.e.shape[:-1], h.n.shape[:-2])
         n_h = h.e.shape[-1]
         size = 14 + n_h
-        coupling = h.port_map @ h.n @ g  # h rows <- V: injected port flows, B + (n_h, 7)
+        coupling = bmm(bmm(h.port_map, h.n), g)  # h rows <- V: injected port flows, B + (n_h, 7)
         a = np.zeros(batch + (size, size))
         a[..., :7, 7:14] = np.eye(7)
         a[..., 7:14, :7] = -k
@@ -156,7 +157,7 @@ class CoupledModel:
             a_ad = a[..., alg, :][..., :, dyn]
             a_da = a[..., dyn, :][..., :, alg]
             try:
-                a_dd = a_dd - a_da @ np.linalg.solve(a_aa, a_ad)
+                a_dd = a_dd - bmm(a_da, np.linalg.solve(a_aa, a_ad))
             except np.linalg.LinAlgError as exc:
                 raise ModelError("the hydraulic network has an algebraic loop with no resistance") from exc
         e_d = e[..., dyn]
@@ -182,14 +183,13 @@ class CoupledModel:
             nodes = np.flatnonzero(is_pressure & (circuit == c))
             r = nodes[0]
             ports = h.port_circuit == c
-            # Stacked (not 2-D) products keep each design's numbers independent of the batch.
-            volume_per_x = (np.ones((1, ports.sum())) @ h.n[..., ports, :] @ g)[..., 0, :]  # B + (7,)
+            volume_per_x = bmm(bsum(h.n[..., ports, :], axis=-2)[..., None, :], g)[..., 0, :]  # B + (7,)
             t[..., r, :] = 0.0
             t[..., r, :7] = volume_per_x / e_d[..., r, None]
             t[..., r, nodes[1:]] = -e_d[..., nodes[1:]] / e_d[..., r, None]
             keep[r] = False
         return StateSpace(
-            a_ss[..., keep, :] @ t[..., :, keep],
+            bmm(a_ss[..., keep, :], t[..., :, keep]),
             b0_ss[..., keep, :],
             b1_ss[..., keep, :],
             tuple(l for l, k in zip(labels, keep) if k),

@@ -30,6 +30,10 @@ class Problem:
     sha256: str | None = None
     _cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
+    def __reduce__(self):
+        # Pickle (e.g. to Dask workers) without the cached evaluator; it is rebuilt there.
+        return (Problem, (self.spec, self.path, self.sha256))
+
     # --- variables -------------------------------------------------------------------
     @property
     def name(self) -> str:
@@ -118,6 +122,12 @@ class Problem:
 
             self._cache["evaluator"] = Evaluator(self)
         return self._cache["evaluator"]
+
+    def results_frame(self, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
+        """Designs plus evaluated quantities as the DESIGN section 6 DataFrame."""
+        from hisopt.evaluate import results_frame
+
+        return results_frame(self, designs, quantities)
 
     def evaluate(self, designs: Any) -> pd.DataFrame:
         """Objectives and constraints of many designs (DESIGN section 6)."""

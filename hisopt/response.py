@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hisopt.linalg import bmm
 from hisopt.vehicle import VehicleParams, stroke_matrix
 
 
@@ -35,7 +36,7 @@ class Output:
         """
         out = 0.0
         for p in range(self.c.shape[0]):
-            term = np.matmul(self.c[p].astype(complex), h_x) + self.d[p]
+            term = bmm(self.c[p][None, :], h_x)[..., 0, :] + self.d[p]
             out = out + s[..., None] ** p * term
         return out
 

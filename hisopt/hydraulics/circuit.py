@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from hisopt.errors import ModelError
+from hisopt.linalg import bmm
 from hisopt.hydraulics.elements import (
     Accumulator,
     ChamberCompliance,
@@ -186,7 +187,7 @@ def port_impedance(circuit: Circuit, s: ArrayLike, model: PipeModel = "lumped") 
             sol = np.linalg.solve(mna, np.broadcast_to(inject, shape + inject.shape))
         except np.linalg.LinAlgError:
             sol = _solve_or_nan(mna, inject, shape)
-    return inject.T @ sol
+    return bmm(inject.T, sol)
 
 
 def _solve_or_nan(mna: np.ndarray, rhs: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike
 
 from hisopt.hydraulics.circuit import HydraulicSystem, lumped_descriptor, port_impedance
 from hisopt.hydraulics.elements import PipeModel
+from hisopt.linalg import bmm
 
 
 def stroke_impedance(system: HydraulicSystem, s: ArrayLike, model: PipeModel = "lumped") -> np.ndarray:
@@ -34,7 +35,7 @@ def stroke_impedance(system: HydraulicSystem, s: ArrayLike, model: PipeModel = "
         n = n_all[..., start : start + len(circuit.ports), :][..., None, :, :]
         start += len(circuit.ports)
         z = port_impedance(circuit, s, model)
-        total = total + np.swapaxes(n, -1, -2) @ z @ n
+        total = total + bmm(bmm(np.swapaxes(n, -1, -2), z), n)
     return s[..., None, None] * total
 
 
