@@ -132,7 +132,7 @@ class ProblemSpec(_Strict):
         for name, var in self.variables.items():
             if name not in scalar:
                 raise ValueError(
-                    f"variables.{name}: not a numeric [his] parameter; expected one of {', '.join(sorted(scalar))}"
+                    f"variables.{name!r}: not a numeric [his] parameter; expected one of {', '.join(sorted(scalar))}"
                 )
             if name in ("lam", "lam_rear") and not (0 < var.lower and var.upper < 1):
                 raise ValueError(f"variables.{name}: bounds must lie inside (0, 1), got [{var.lower}, {var.upper}]")
@@ -143,13 +143,23 @@ class ProblemSpec(_Strict):
         return self
 
 
+def _key_part(part: Any) -> str:
+    text = str(part)
+    return text if text.isprintable() and text.strip() == text and text else repr(text)
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _format_error(err: dict[str, Any]) -> tuple[str, str]:
-    key = ".".join(str(p) for p in err["loc"] if not str(p).startswith("function-"))
-    msg = err["msg"].removeprefix("Value error, ")
+    key = ".".join(_key_part(p) for p in err["loc"] if not str(p).startswith("function-"))
+    msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     if err["type"] == "extra_forbidden":
         msg = "unknown key (check the spelling; see problems/roll_plane_his.toml)"
     elif "input" in err and err["type"] not in ("missing",) and not isinstance(err["input"], dict):
-        msg = f"{msg}, got {err['input']!r}"
+        msg = f"{msg}, got {_short(err['input'])}"
     return key, msg
 
 

@@ -1,6 +1,7 @@
 """Property-based checks: hand-edited problem files and designs anywhere in the box."""
 
 import copy
+import os
 import tomllib
 import warnings
 
@@ -55,7 +56,7 @@ def mutated(draw):
     return data
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=int(os.environ.get("HISOPT_HYPOTHESIS_EXAMPLES", 300)), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated())
 def test_mutated_problem_files_load_or_fail_with_one_clear_line(data):
     try:

@@ -1,0 +1,749 @@
+"""Full-vehicle drop tests and modal identification (paper Section VI, Figs. 11-13, Table 3).
+
+Three tests each excite one body mode mainly: a **front-axle drop** (pitch), a **left-side
+drop** (roll) and an **all-wheel drop** (bounce). A drop is simulated as the road support
+under the chosen wheels falling away by a step of ``-height`` (the wheels rolling off blocks
+of that height), the car starting at rest in its static equilibrium on the blocks.
+
+Processing, for simulated and measured records alike (paper Section VI):
+
+1. accelerations at eight sensor points: the body above each wheel (``T_z [z_s, phi,
+   theta]''``, paper Eq. 6) and the four wheels, low-passed at 20 Hz (4th-order Butterworth,
+   applied forward and backward, so with no phase shift);
+2. the four body corners projected on body coordinates with the pseudo-inverse of ``T_z``
+   and weighted by ``sqrt(m_s), sqrt(I_x), sqrt(I_y)`` (so squared amplitudes are kinetic
+   energies, as in :func:`hisopt.modal.modal_table`);
+3. the free decay, from the largest response of the test's body coordinate over
+   ``window_s``, fitted by the Eigensystem Realization Algorithm (ERA, Juang and Pappa 1985)
+   at several model orders. In each fit the **dominant mode** is the identified body-range
+   mode with the largest contribution to the test's coordinate (pitch, roll or bounce); the
+   reported frequency and damping are the medians over the orders (a stabilisation check).
+
+A free decay oscillates at the *damped* natural frequency ``Im(s) / 2 pi``, so the model
+column of Table 3 is :func:`hisopt.modal_analysis`'s ``damped_frequency_hz`` of the mode the
+test excites; the body modes are damped by 10-30 %, which puts the undamped frequency 1-4 %
+higher.
+
+References
+----------
+Paper Section VI, Figs. 11-13 and Table 3. J.-N. Juang and R. S. Pappa, "An eigensystem
+realization algorithm for modal parameter identification and model reduction", J. Guidance,
+Control, and Dynamics 8(5), 620-627, 1985.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+from scipy.signal import butter, filtfilt
+
+from hisopt.constants import WHEEL_NAMES
+from hisopt.errors import ConfigError, ModelError
+from hisopt.model import CoupledModel
+from hisopt.modal import modal_analysis
+from hisopt.road.profiles import step_profile
+from hisopt.timedomain import SimulationMode, TimeResponse, simulate
+from hisopt.vehicle import VehicleParams, body_to_corners
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+    from hisopt.problem import Problem
+
+DropCase = Literal["front_axle", "left_side", "all_wheels"]
+"""The paper's three drop tests (Fig. 11)."""
+
+BodyMode = Literal["bounce", "roll", "pitch"]
+
+
+@dataclass(frozen=True)
+class DropCaseSpec:
+    """Wheels that drop, the body mode the test excites and its body coordinate index."""
+
+    wheels: tuple[str, ...]
+    mode: BodyMode
+    coordinate: int
+
+
+DROP_CASES: dict[str, DropCaseSpec] = {
+    "front_axle": DropCaseSpec(("fl", "fr"), "pitch", 2),
+    "left_side": DropCaseSpec(("fl", "rl"), "roll", 1),
+    "all_wheels": DropCaseSpec(WHEEL_NAMES, "bounce", 0),
+}
+"""Paper Section VI: front axle -> pitch, left side -> roll, all wheels -> bounce."""
+
+BODY_SENSORS = tuple(f"body_{w}" for w in WHEEL_NAMES)
+WHEEL_SENSORS = tuple(f"wheel_{w}" for w in WHEEL_NAMES)
+SENSOR_NAMES = BODY_SENSORS + WHEEL_SENSORS
+"""The eight accelerometers [m/s^2]: body above each wheel, then each wheel (z up)."""
+
+BODY_COORDINATES = ("z_s", "phi", "theta")
+
+TABLE_COLUMNS = ("case", "p0", "mode", "frequency_time_hz", "frequency_model_hz", "error_pct", "damping")
+"""Columns of Table 3 as written by ``hisopt droptest``."""
+
+DEFAULT_HEIGHT_M = 0.05
+"""[m] Drop height: a common block (kerb-like ramp) height for vehicle drop tests. It gives
+corner accelerations of a few m/s^2, far above accelerometer noise. The dropped wheels leave
+the road for a moment and the accumulators swing by up to ~16 % of their gas volume in the
+first cycle, but the free decay the identification uses is milder: the nonlinear model (gas
+law, tyre lift-off) gives the same frequencies within 0.1 % (``tests/test_droptest.py``)."""
+
+LOWPASS_HZ = 20.0
+"""[Hz] Cut-off of the paper's low-pass filter (Section VI)."""
+
+SAMPLE_RATE_HZ = 200.0
+"""[Hz] Sampling rate of simulated drop records."""
+
+ERA_ORDERS = tuple(range(12, 31, 2))
+"""Model orders of the ERA stabilisation: from 12 states (the three body modes and the
+strongest wheel-hop modes; exact on noise-free records) to 30 (room for noise modes)."""
+
+BODY_BAND_HZ = (0.3, 6.0)
+"""[Hz] Band of body modes: below the wheel hop (~11 Hz) and above drift."""
+
+_ERA_RATE_HZ = 50.0
+"""[Hz] Records are decimated to at least this rate before ERA (2.5 x the 20 Hz cut-off),
+so the Hankel matrix spans the slow body decay with few rows."""
+
+
+# --- signal processing kernels -----------------------------------------------------------
+
+
+def lowpass(
+    signals: ArrayLike, sample_rate_hz: float, cutoff_hz: float = LOWPASS_HZ, order: int = 4
+) -> NDArray[np.float64]:
+    """Zero-phase Butterworth low-pass (``scipy.signal.butter`` + ``filtfilt``) along axis 0.
+
+    Parameters
+    ----------
+    signals
+        [any] Samples, shape ``(n_t, ...)``.
+    sample_rate_hz
+        [Hz] Sampling rate, ``> 2 cutoff_hz``.
+    cutoff_hz
+        [Hz] Cut-off (-3 dB of each pass), paper: 20 Hz.
+    order
+        [-] Filter order of each pass.
+
+    Returns
+    -------
+    ndarray
+        Filtered samples, shape of ``signals``.
+    """
+    if not sample_rate_hz > 2.0 * cutoff_hz:
+        raise ConfigError(
+            f"expected a sampling rate above {2 * cutoff_hz:g} Hz for the {cutoff_hz:g} Hz low-pass, "
+            f"got {sample_rate_hz:g} Hz"
+        )
+    b, a = butter(order, cutoff_hz, fs=sample_rate_hz)
+    return filtfilt(b, a, np.asarray(signals, dtype=float), axis=0)
+
+
+def body_motion(corner_acc: ArrayLike, vehicle: VehicleParams) -> NDArray[np.float64]:
+    """Body accelerations ``[z_s'', phi'', theta'']`` from the four corner accelerometers.
+
+    Least squares through the pseudo-inverse of ``T_z`` (exact for a rigid body).
+
+    Parameters
+    ----------
+    corner_acc
+        [m/s^2] Body accelerations above FL, FR, RL, RR, shape ``(n_t, 4)``.
+    vehicle
+        Geometry (half tracks, axle distances).
+
+    Returns
+    -------
+    ndarray, shape ``(n_t, 3)``
+        [m/s^2, rad/s^2, rad/s^2] Heave, roll and pitch accelerations.
+    """
+    return np.asarray(corner_acc, dtype=float) @ np.linalg.pinv(body_to_corners(vehicle)).T
+
+
+def modal_weights(vehicle: VehicleParams) -> NDArray[np.float64]:
+    """[kg^0.5, (kg m^2)^0.5] ``sqrt(m_s, I_x, I_y)``: body coordinates to kinetic scale, ``(3,)``."""
+    return np.sqrt([vehicle.m_s, vehicle.I_x, vehicle.I_y])
+
+
+@dataclass(frozen=True)
+class ModalFit:
+    """Modes of a free decay: poles ``s`` [rad/s] ``(n,)``, output shapes ``(m, n)`` and
+    initial modal amplitudes ``(n,)``; channel ``c`` of the record is
+    ``sum_k shapes[c, k] amplitudes[k] exp(s_k t)``."""
+
+    poles: NDArray[np.complex128]
+    shapes: NDArray[np.complex128]
+    amplitudes: NDArray[np.complex128]
+
+    @property
+    def frequency_hz(self) -> NDArray[np.float64]:
+        """[Hz] Damped frequencies ``Im(s) / 2 pi``."""
+        return self.poles.imag / (2 * np.pi)
+
+    @property
+    def damping_ratio(self) -> NDArray[np.float64]:
+        """[-] ``-Re(s) / |s|``."""
+        return -self.poles.real / np.abs(self.poles)
+
+    def contribution(self, channel: int) -> NDArray[np.float64]:
+        """[channel unit] Initial amplitude of each mode in ``channel``, ``(n,)``."""
+        return np.abs(self.shapes[channel] * self.amplitudes)
+
+
+def era(y: ArrayLike, dt_s: float, orders: Sequence[int], n_rows: int | None = None) -> list[ModalFit]:
+    """Eigensystem Realization Algorithm on a multichannel free decay, at several orders.
+
+    Block Hankel matrices ``H0 = [y_{i+j}]``, ``H1 = [y_{i+j+1}]``; with the SVD
+    ``H0 = U S V^T`` truncated to ``n`` states the realisation is
+    ``A = S^-1/2 U^T H1 V S^-1/2``, ``C = U_1 S^1/2``, ``x0 = S^1/2 V^T e_1`` and the poles are
+    ``ln(eig A) / dt``. One SVD serves every order.
+
+    Parameters
+    ----------
+    y
+        Free-decay samples, shape ``(n_t, m)`` (or ``(n_t,)``), uniformly spaced.
+    dt_s
+        [s] Sample spacing.
+    orders
+        [-] Numbers of states to keep (twice the number of oscillating modes).
+    n_rows
+        [-] Block rows of the Hankel matrix (default ``n_t / 3``).
+
+    Returns
+    -------
+    list of ModalFit
+        One per order, in the order given.
+
+    References
+    ----------
+    Juang and Pappa (1985), Eq. (9)-(17).
+    """
+    y = np.asarray(y, dtype=float)
+    if y.ndim == 1:
+        y = y[:, None]
+    n_t, m = y.shape
+    r = n_rows or n_t // 3
+    c = n_t - r - 1
+    if c < 1 or min(r * m, c) < max(orders) or min(orders) < 1:
+        raise ConfigError(f"a free decay of {n_t} samples is too short for ERA orders up to {max(orders)}")
+    h0 = np.concatenate([y[i : i + c].T for i in range(r)], axis=0)
+    h1 = np.concatenate([y[i + 1 : i + 1 + c].T for i in range(r)], axis=0)
+    u_all, sv_all, vt_all = np.linalg.svd(h0, full_matrices=False)
+    rank = int(np.sum(sv_all > 1e-14 * sv_all[0]))  # fewer modes than an order asks for
+    fits = []
+    for order in orders:
+        n = min(order, rank)
+        u, root, vt = u_all[:, :n], np.sqrt(sv_all[:n]), vt_all[:n]
+        a = (u.T @ h1 @ vt.T) / root[:, None] / root[None, :]
+        lam, psi = np.linalg.eig(a)
+        with np.errstate(divide="ignore"):
+            poles = np.log(lam.astype(complex)) / dt_s
+        fits.append(ModalFit(poles, (u[:m] * root) @ psi, np.linalg.solve(psi, root * vt[:, 0])))
+    return fits
+
+
+@dataclass(frozen=True)
+class IdentifiedMode:
+    """The dominant mode of a free decay (median over ERA orders).
+
+    ``frequency_hz`` [Hz] damped; ``damping_ratio`` [-]; ``spread_hz`` [Hz] range of the
+    frequency over the orders; ``t_start_s`` [s] start of the analysed decay.
+    """
+
+    frequency_hz: float
+    damping_ratio: float
+    spread_hz: float
+    t_start_s: float
+    orders: int
+
+
+def identify_mode(
+    t_s: ArrayLike,
+    body_acc: ArrayLike,
+    vehicle: VehicleParams,
+    mode: BodyMode,
+    window_s: float = 4.0,
+    orders: Sequence[int] = ERA_ORDERS,
+    band_hz: tuple[float, float] = BODY_BAND_HZ,
+) -> IdentifiedMode:
+    """Frequency and damping of the dominant body mode of a drop-test record.
+
+    Parameters
+    ----------
+    t_s
+        [s] Uniform sample times, shape ``(n_t,)``.
+    body_acc
+        [m/s^2, rad/s^2] Filtered body accelerations ``[z_s'', phi'', theta'']``, ``(n_t, 3)``
+        (see :func:`body_motion`).
+    vehicle
+        Masses and inertias for the kinetic weighting.
+    mode
+        Body mode the test excites: ``"bounce"``, ``"roll"`` or ``"pitch"``.
+    window_s
+        [s] Length of the analysed free decay after the largest response.
+    orders
+        ERA model orders to fit (the median over them is reported).
+    band_hz
+        [Hz] Frequencies a body mode may have.
+
+    Returns
+    -------
+    IdentifiedMode
+    """
+    t = np.asarray(t_s, dtype=float)
+    coord = BODY_COORDINATES.index({"bounce": "z_s", "roll": "phi", "pitch": "theta"}[mode])
+    y = np.asarray(body_acc, dtype=float) * modal_weights(vehicle)
+    dt = float(t[1] - t[0])
+    step = max(1, int(np.floor(1.0 / (dt * _ERA_RATE_HZ))))
+    start = int(np.argmax(np.abs(y[:, coord])))
+    seg = y[start : start + int(round(window_s / dt)) + 1 : step]
+    found: list[tuple[float, float]] = []
+    for fit in era(seg, dt * step, orders):
+        f, zeta = fit.frequency_hz, fit.damping_ratio
+        ok = np.isfinite(f) & (f >= band_hz[0]) & (f <= band_hz[1]) & (zeta > 0.0) & (zeta < 1.0)
+        if ok.any():
+            k = np.flatnonzero(ok)[np.argmax(fit.contribution(coord)[ok])]
+            found.append((float(f[k]), float(zeta[k])))
+    if not found:
+        raise ModelError(f"no {mode} mode found in {band_hz[0]:g}-{band_hz[1]:g} Hz; is the record a free decay?")
+    freqs, zetas = np.array(found).T
+    return IdentifiedMode(
+        frequency_hz=float(np.median(freqs)),
+        damping_ratio=float(np.median(zetas)),
+        spread_hz=float(freqs.max() - freqs.min()),
+        t_start_s=float(t[start]),
+        orders=len(found),
+    )
+
+
+def amplitude_spectrum(
+    t_s: ArrayLike, signal: ArrayLike, n_fft: int = 8192
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Amplitude spectrum ``|Y(f)| dt`` of a transient (zero-padded FFT), paper Fig. 13.
+
+    Parameters
+    ----------
+    t_s
+        [s] Uniform sample times, shape ``(n_t,)``.
+    signal
+        [unit] Samples, shape ``(n_t,)``.
+    n_fft
+        [-] FFT length (at least ``n_t``).
+
+    Returns
+    -------
+    f_hz, magnitude
+        [Hz] and [unit s], shape ``(n_fft // 2 + 1,)`` each.
+    """
+    t = np.asarray(t_s, dtype=float)
+    dt = float(t[1] - t[0])
+    n = max(n_fft, t.size)
+    return np.fft.rfftfreq(n, dt), np.abs(np.fft.rfft(np.asarray(signal, dtype=float), n)) * dt
+
+
+# --- drop tests ----------------------------------------------------------------------------
+
+
+def drop_profile(
+    t_s: ArrayLike, case: DropCase, height_m: float = DEFAULT_HEIGHT_M, t_drop_s: float = 0.5
+) -> NDArray[np.float64]:
+    """Road under the four wheels of a drop test: a step of ``-height_m`` under the case's wheels.
+
+    Parameters
+    ----------
+    t_s
+        [s] Increasing times, shape ``(n_t,)``.
+    case
+        ``"front_axle"``, ``"left_side"`` or ``"all_wheels"``.
+    height_m
+        [m] Drop height ``> 0``.
+    t_drop_s
+        [s] Time of the drop.
+
+    Returns
+    -------
+    ndarray, shape ``(n_t, 4)``
+        [m] Road displacement at FL, FR, RL, RR.
+    """
+    spec = _case(case)
+    if not height_m > 0.0:
+        raise ConfigError(f"expected a drop height > 0 [m], got {height_m!r}", key="height")
+    return step_profile(t_s, -height_m, t_drop_s, spec.wheels)  # type: ignore[arg-type]
+
+
+def simulate_drop(
+    model: CoupledModel,
+    case: DropCase,
+    height_m: float = DEFAULT_HEIGHT_M,
+    duration_s: float = 6.0,
+    t_drop_s: float = 0.5,
+    sample_rate_hz: float = SAMPLE_RATE_HZ,
+    mode: SimulationMode = "linear",
+) -> TimeResponse:
+    """Time response of one drop test (see the module docstring).
+
+    Parameters
+    ----------
+    model
+        Single-design lumped model.
+    case
+        Drop test.
+    height_m
+        [m] Drop height.
+    duration_s
+        [s] Record length, the drop at ``t_drop_s``.
+    t_drop_s
+        [s] Time of the drop (a quiet lead-in, as in a measured record).
+    sample_rate_hz
+        [Hz] Sampling rate of the record.
+    mode
+        ``"linear"``, or ``"nonlinear"``: gas law in the accumulators and tyres that lift off.
+
+    Returns
+    -------
+    TimeResponse
+    """
+    t = np.arange(int(round(duration_s * sample_rate_hz)) + 1) / sample_rate_hz
+    road = drop_profile(t, case, height_m, t_drop_s)
+    if mode == "nonlinear":
+        return simulate(model, t, road, "nonlinear", tyre_liftoff=True)
+    return simulate(model, t, road, mode)
+
+
+def sensor_frame(t_s: ArrayLike, corner_acc: ArrayLike, wheel_acc: ArrayLike | None = None) -> pd.DataFrame:
+    """Accelerometer record in the measured-file layout: ``time`` plus :data:`SENSOR_NAMES`.
+
+    Parameters
+    ----------
+    t_s
+        [s] Sample times, shape ``(n_t,)``.
+    corner_acc
+        [m/s^2] Body above FL, FR, RL, RR, shape ``(n_t, 4)``.
+    wheel_acc
+        [m/s^2] Wheels FL, FR, RL, RR, shape ``(n_t, 4)``; omitted columns are left out.
+    """
+    cols: dict[str, Any] = {"time": np.asarray(t_s, dtype=float)}
+    cols |= dict(zip(BODY_SENSORS, np.asarray(corner_acc, dtype=float).T))
+    if wheel_acc is not None:
+        cols |= dict(zip(WHEEL_SENSORS, np.asarray(wheel_acc, dtype=float).T))
+    return pd.DataFrame(cols)
+
+
+def response_sensors(response: TimeResponse) -> pd.DataFrame:
+    """The eight sensor signals of a simulated drop (unfiltered), measured-file layout."""
+    return sensor_frame(response.t_s, response.corner_acceleration, response.acceleration[:, 3:])
+
+
+@dataclass(frozen=True)
+class DropTest:
+    """One processed drop test: filtered sensors, body accelerations and the identified mode.
+
+    ``signals``: filtered accelerations (``time`` + sensors); ``body`` ``(n_t, 3)``;
+    ``model_frequency_hz`` damped frequency of the same mode from modal analysis.
+    """
+
+    case: DropCase
+    p0_pa: float
+    source: Literal["simulated", "measured"]
+    signals: pd.DataFrame
+    body: NDArray[np.float64] = field(repr=False)
+    identified: IdentifiedMode
+    model_frequency_hz: float
+    window_s: float
+
+    @property
+    def mode(self) -> BodyMode:
+        return DROP_CASES[self.case].mode
+
+    def row(self) -> dict[str, Any]:
+        """One row of Table 3 (:data:`TABLE_COLUMNS`)."""
+        f_t, f_m = self.identified.frequency_hz, self.model_frequency_hz
+        return {
+            "case": self.case,
+            "p0": self.p0_pa,
+            "mode": self.mode,
+            "frequency_time_hz": f_t,
+            "frequency_model_hz": f_m,
+            "error_pct": 100.0 * (f_t / f_m - 1.0),
+            "damping": self.identified.damping_ratio,
+        }
+
+    def spectrum(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """[Hz], [unit s] Amplitude spectrum of the test's body coordinate over the decay."""
+        t = self.signals["time"].to_numpy()
+        start = int(np.searchsorted(t, self.identified.t_start_s))
+        stop = int(np.searchsorted(t, self.identified.t_start_s + self.window_s))
+        coord = DROP_CASES[self.case].coordinate
+        return amplitude_spectrum(t[start:stop], self.body[start:stop, coord])
+
+    def to_frame(self) -> pd.DataFrame:
+        """Filtered sensors plus the body accelerations ``a_z_s, a_phi, a_theta``."""
+        body = pd.DataFrame(self.body, columns=[f"a_{c}" for c in BODY_COORDINATES])
+        return pd.concat([self.signals.reset_index(drop=True), body], axis=1)
+
+    def plot_spectrum(self, fig: "go.Figure | None" = None, row: int | None = None) -> "go.Figure":
+        """Response spectrum of the test's body coordinate (paper Fig. 13), one trace."""
+        import plotly.graph_objects as go
+
+        fig = go.Figure() if fig is None else fig
+        f, mag = self.spectrum()
+        keep = f <= 10.0
+        dash = "dash" if self.source == "measured" else "solid"
+        fig.add_scatter(
+            x=f[keep],
+            y=mag[keep],
+            name=f"p0 = {self.p0_pa / 1e6:g} MPa ({self.source})",
+            line={"dash": dash},
+            legendgroup=self.case,
+            legendgrouptitle_text=f"{self.case} drop ({self.mode})",
+            **({"row": row, "col": 1} if row is not None else {}),
+        )
+        return fig
+
+
+def _case(case: str) -> DropCaseSpec:
+    if case not in DROP_CASES:
+        raise ConfigError(f"unknown drop test {case!r}; expected one of {', '.join(DROP_CASES)}", key="case")
+    return DROP_CASES[case]
+
+
+def _with_p0(problem: "Problem", p0_pa: float) -> "Problem":
+    if not p0_pa >= 0.0:
+        raise ConfigError(f"expected a gauge precharge p0 >= 0 [Pa], got {p0_pa!r}", key="p0")
+    return problem.with_values(p0=float(p0_pa))
+
+
+def model_frequency(problem: "Problem", case: DropCase, p0_pa: float) -> float:
+    """[Hz] Damped frequency of the case's mode from :func:`hisopt.modal_analysis` at ``p0``."""
+    modes = modal_analysis(_with_p0(problem, p0_pa)).set_index("mode")
+    return float(modes.loc[_case(case).mode, "damped_frequency_hz"])
+
+
+def process_record(
+    problem: "Problem",
+    case: DropCase,
+    p0_pa: float,
+    record: pd.DataFrame,
+    source: Literal["simulated", "measured"],
+    window_s: float = 4.0,
+) -> DropTest:
+    """Filter, project and identify a drop-test record (``time`` + sensor columns, SI).
+
+    Parameters
+    ----------
+    problem
+        Vehicle and HIS (the model frequency is computed at ``p0_pa``).
+    case
+        Which drop test the record is.
+    p0_pa
+        [Pa] Gauge accumulator precharge of the test.
+    record
+        ``time`` [s] and at least the four ``body_*`` columns [m/s^2].
+    source
+        ``"simulated"`` or ``"measured"``.
+    window_s
+        [s] Length of the analysed free decay.
+    """
+    spec = _case(case)
+    t = record["time"].to_numpy(dtype=float)
+    fs = 1.0 / float(np.median(np.diff(t)))
+    sensors = [c for c in SENSOR_NAMES if c in record.columns]
+    raw = record[sensors].to_numpy(dtype=float)
+    # Accelerometers may carry gravity or a bias: the motion has died out by the end of a
+    # drop record, so its last second is the offset (ERA alone would not mind; spectra do).
+    raw = raw - np.median(raw[t >= t[-1] - 1.0], axis=0)
+    filtered = lowpass(raw, fs)
+    signals = pd.DataFrame(filtered, columns=sensors)
+    signals.insert(0, "time", t)
+    vehicle = problem.spec.vehicle
+    body = body_motion(signals[list(BODY_SENSORS)].to_numpy(), vehicle)
+    identified = identify_mode(t, body, vehicle, spec.mode, window_s)
+    f_model = model_frequency(problem, case, p0_pa)
+    return DropTest(case, float(p0_pa), source, signals, body, identified, f_model, window_s)
+
+
+def run_drop_test(
+    problem: "Problem",
+    case: DropCase,
+    p0_pa: float,
+    height_m: float = DEFAULT_HEIGHT_M,
+    mode: SimulationMode = "linear",
+) -> DropTest:
+    """Simulate and process one drop test at precharge ``p0_pa`` (other values: baseline).
+
+    Parameters
+    ----------
+    problem
+        Vehicle and HIS; the design is the baseline with ``p0`` replaced.
+    case
+        Drop test.
+    p0_pa
+        [Pa] Gauge accumulator precharge.
+    height_m
+        [m] Drop height.
+    mode
+        Simulation fidelity (see :func:`simulate_drop`).
+    """
+    model = _with_p0(problem, p0_pa).model()
+    response = simulate_drop(model, case, height_m, mode=mode)
+    return process_record(problem, case, p0_pa, response_sensors(response), "simulated")
+
+
+def run_drop_tests(
+    problem: "Problem",
+    p0_pa: Sequence[float],
+    height_m: float = DEFAULT_HEIGHT_M,
+    cases: Sequence[DropCase] = ("front_axle", "left_side", "all_wheels"),
+    mode: SimulationMode = "linear",
+) -> list[DropTest]:
+    """All drop tests for each precharge (paper Table 3 uses 1, 2 and 3 MPa)."""
+    if len(p0_pa) == 0:
+        raise ConfigError("expected at least one p0 value", key="p0")
+    return [run_drop_test(problem, case, p0, height_m, mode) for p0 in p0_pa for case in cases]
+
+
+def drop_table(tests: Sequence[DropTest]) -> pd.DataFrame:
+    """Table 3: one row per test, columns :data:`TABLE_COLUMNS`.
+
+    A measured test replaces the simulated one of the same case and ``p0`` (its
+    ``frequency_time_hz`` is the measured frequency); other measured tests are appended.
+    """
+    rows: dict[tuple[str, float], dict[str, Any]] = {}
+    for test in sorted(tests, key=lambda d: d.source == "measured"):
+        rows[(test.case, test.p0_pa)] = test.row()
+    return pd.DataFrame(list(rows.values()), columns=list(TABLE_COLUMNS))
+
+
+# --- measured records ----------------------------------------------------------------------
+
+
+def read_measured(path: str | Path) -> pd.DataFrame:
+    """Read a measured drop-test CSV (format in ``docs/droptest.md``).
+
+    Columns: ``time`` [s], uniformly sampled and increasing; ``body_fl, body_fr, body_rl,
+    body_rr`` [m/s^2] (vertical, z up; a constant offset such as gravity is harmless);
+    optional ``wheel_fl, wheel_fr, wheel_rl, wheel_rr`` [m/s^2]. Other columns are ignored.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(
+            "file not found; expected a CSV with columns time, body_fl, body_fr, body_rl, body_rr", file=str(path)
+        )
+    try:
+        data = pd.read_csv(path, comment="#")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise ConfigError(
+            f"not a readable CSV ({exc.__class__.__name__}); expected columns time, body_fl, ...", file=str(path)
+        ) from exc
+    data.columns = [str(c).strip() for c in data.columns]
+    missing = [c for c in ("time",) + BODY_SENSORS if c not in data.columns]
+    if missing:
+        raise ConfigError(
+            f"missing column(s) {', '.join(missing)}; expected time [s] and body_fl, body_fr, body_rl, body_rr [m/s^2]",
+            file=str(path),
+        )
+    columns = ["time"] + [c for c in SENSOR_NAMES if c in data.columns]
+    values = data[columns].apply(pd.to_numeric, errors="coerce")
+    bad = [c for c in columns if not np.all(np.isfinite(values[c].to_numpy(dtype=float)))]
+    if bad:
+        raise ConfigError(
+            f"column {bad[0]} has empty or non-numeric values; expected numbers in SI units", file=str(path)
+        )
+    t = values["time"].to_numpy(dtype=float)
+    dt = np.diff(t)
+    if t.size < 100 or not np.all(dt > 0) or np.ptp(dt) > 0.01 * np.median(dt):
+        raise ConfigError(
+            "expected an increasing, uniformly sampled time column [s] with >= 100 samples", file=str(path)
+        )
+    return values
+
+
+def measured_drop_test(
+    problem: "Problem", path: str | Path, case: DropCase, p0_pa: float, window_s: float = 4.0
+) -> DropTest:
+    """Identify the dominant mode of a measured drop-test record (same processing as simulated).
+
+    Parameters
+    ----------
+    problem
+        Vehicle geometry and masses (projection, weighting) and the model for comparison.
+    path
+        Measured CSV (:func:`read_measured`).
+    case
+        Which drop test the file records.
+    p0_pa
+        [Pa] Gauge accumulator precharge during the test.
+    window_s
+        [s] Length of the analysed free decay.
+    """
+    _case(case)
+    record = read_measured(path)
+    fs = 1.0 / float(np.median(np.diff(record["time"].to_numpy())))
+    if not fs > 2.0 * LOWPASS_HZ:
+        raise ConfigError(
+            f"sampling rate {fs:g} Hz is too low; expected > {2 * LOWPASS_HZ:g} Hz for the 20 Hz low-pass",
+            file=str(path),
+        )
+    duration = float(record["time"].iloc[-1] - record["time"].iloc[0])
+    if duration < 1.0:
+        raise ConfigError(f"record lasts {duration:g} s; expected a free decay of >= 1 s", file=str(path))
+    return process_record(problem, case, p0_pa, record, "measured", window_s)
+
+
+def spectra_figure(tests: Sequence[DropTest]) -> "go.Figure":
+    """Response spectra of the drop tests, one panel per body mode (paper Fig. 13)."""
+    from plotly.subplots import make_subplots
+
+    order = ("left_side", "front_axle", "all_wheels")
+    present = [c for c in order if any(t.case == c for t in tests)]
+    titles = [f"{DROP_CASES[c].mode} mode ({c.replace('_', ' ')} drop)" for c in present]
+    fig = make_subplots(rows=max(len(present), 1), cols=1, subplot_titles=titles, vertical_spacing=0.08)
+    units = {"bounce": "m/s", "roll": "rad/s", "pitch": "rad/s"}
+    for row, case in enumerate(present, start=1):
+        for test in (t for t in tests if t.case == case):
+            test.plot_spectrum(fig, row=row)
+        mode = DROP_CASES[case].mode
+        fig.update_yaxes(title_text=f"|{mode} acc.| [{units[mode]}]", row=row, col=1)
+    fig.update_xaxes(title_text="frequency [Hz]", row=len(present), col=1)
+    fig.update_layout(
+        title="Drop-test response spectra (20 Hz low-pass, free decay)",
+        height=320 * max(len(present), 1) + 120,
+        legend={"groupclick": "toggleitem"},
+    )
+    return fig
+
+
+__all__ = [
+    "BODY_SENSORS",
+    "DEFAULT_HEIGHT_M",
+    "DROP_CASES",
+    "DropCase",
+    "DropTest",
+    "IdentifiedMode",
+    "LOWPASS_HZ",
+    "ModalFit",
+    "SENSOR_NAMES",
+    "TABLE_COLUMNS",
+    "amplitude_spectrum",
+    "body_motion",
+    "drop_profile",
+    "drop_table",
+    "era",
+    "identify_mode",
+    "lowpass",
+    "measured_drop_test",
+    "model_frequency",
+    "process_record",
+    "read_measured",
+    "response_sensors",
+    "run_drop_test",
+    "run_drop_tests",
+    "simulate_drop",
+    "spectra_figure",
+]
