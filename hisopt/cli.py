@@ -302,6 +302,19 @@ def resume_cmd(
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
 
 
+@app.command()
+def report(
+    run_dir: Annotated[Path, typer.Argument(help="run directory written by `hisopt optimize`")],
+    color_by: Annotated[Optional[str], typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
+    design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
+) -> None:
+    """Write RUN_DIR/report.html: a self-contained, offline report of the run."""
+    from hisopt.report.html import build_report
+
+    path = build_report(run_dir, color_by=color_by, design=design)
+    typer.echo(f"wrote {path}")
+
+
 def main() -> None:
     """Entry point: map user errors to exit code 2 and internal errors to 1."""
     from hisopt.errors import HisoptError
