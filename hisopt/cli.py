@@ -303,6 +303,38 @@ def resume_cmd(
 
 
 @app.command()
+def study(
+    problem: ProblemArg,
+    seeds: Annotated[str, typer.Option(help="seeds to run, e.g. 1-8 or 1,3,5")] = "1-4",
+    out: Annotated[Optional[Path], typer.Option(help="study directory: seed-<n>/ run dirs, merged front.csv, runs.csv")] = None,
+    pop: Annotated[Optional[int], typer.Option(help="population size (default: problem file)")] = None,
+    gens: Annotated[Optional[int], typer.Option(help="generations (default: problem file)")] = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Independent optimisations for several seeds (in parallel on Dask), fronts merged."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from hisopt.optim.study import parse_seeds
+    from hisopt.optim.study import study as run_study
+    from hisopt.parallel import open_backend
+
+    p = load(problem, None)
+    seed_list = parse_seeds(seeds)
+    with open_backend(workers, scheduler) as backend:
+        result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend)
+    table = Table(title=f"{p.name}: {len(seed_list)} seeds, merged front of {len(result.front)} designs, HV {result.hypervolume:.6g}")
+    for col in result.runs.columns:
+        table.add_column(col, justify="right")
+    for row in result.runs.itertuples(index=False):
+        table.add_row(*[f"{v:.6g}" if isinstance(v, float) else str(v) for v in row])
+    Console(width=120).print(table)
+    if out is not None:
+        typer.echo(f"wrote {out / 'front.csv'} and {out / 'runs.csv'}")
+
+
+@app.command()
 def report(
     run_dir: Annotated[Path, typer.Argument(help="run directory written by `hisopt optimize`")],
     color_by: Annotated[Optional[str], typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
@@ -315,12 +347,107 @@ def report(
     typer.echo(f"wrote {path}")
 
 
+@app.command("refine")
+def refine_cmd(
+    run_dir: Annotated[Path, typer.Argument(help="run directory written by `hisopt optimize`")],
+    max_points: Annotated[int, typer.Option("--max-points", help="most front designs to refine, spread evenly over the front")] = 40,
+    workers: Annotated[Optional[int], typer.Option("--workers", help="local worker processes (default: one per CPU)")] = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Refine RUN_DIR's front with exact gradients (CasADi/IPOPT): writes front_refined.csv.
+
+    Each of up to --max-points designs spread over front.csv is moved towards the Pareto
+    front by an achievement-scalarising NLP and kept only if, re-evaluated, it weakly
+    dominates its start. See docs/refine.md.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from hisopt.errors import ConfigError
+    from hisopt.optim.refine import FRONT_REFINED_CSV, refine_run
+    from hisopt.parallel import open_backend
+
+    if max_points < 1:
+        raise ConfigError(f"expected at least 1, got {max_points}", key="--max-points")
+    if workers is not None and workers < 1:
+        raise ConfigError(f"expected at least 1 worker process, got {workers}", key="--workers")
+    bar = Progress(TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"),
+                   TimeElapsedColumn(), console=Console(stderr=True))
+    front = run_dir / "front.csv"
+    if not front.is_file():
+        refine_run(run_dir, max_points)  # raises the error that says what is missing
+    task = bar.add_task("refine", total=min(max_points, _csv_rows(front)))
+    with open_backend(None, scheduler) as backend, bar:
+        result = refine_run(run_dir, max_points, workers=workers, client=backend.client, progress=lambda _: bar.update(task, advance=1))
+    accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
+    typer.echo(
+        f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
+        f"{result.hypervolume_after:.6g} ({100 * result.hypervolume_gain:+.2f} %), "
+        f"{result.seconds_per_point:.2f} s per design"
+    )
+    typer.echo(f"wrote {run_dir / FRONT_REFINED_CSV}")
+
+
+def _csv_rows(path: Path) -> int:
+    """Data rows of a CSV file with a header line."""
+    with open(path, encoding="utf-8") as handle:
+        return max(sum(1 for _ in handle) - 1, 0)
+
+
+@app.command("sweep")
+def sweep_cmd(
+    problem: ProblemArg,
+    vary: Annotated[str, typer.Option("--vary", help="design variable to sweep across its bounds, e.g. p0")],
+    points: Annotated[int, typer.Option("--points", help="values between the bounds (both included)")] = 41,
+    out: Annotated[Path, typer.Option("--out", help="output directory for sweep_NAME.csv and sweep_NAME.html")] = Path("."),
+    set_: SetOpt = None,
+) -> None:
+    """Frequencies and peak responses of the roll, pitch, bounce modes and FL tyre force (paper Figs. 5-8)."""
+    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.report.theme import write_html
+    from hisopt.sweeps import sweep
+
+    p = load(problem, set_)
+    result = sweep(p, vary, points)  # validates --vary and --points before any output
+    ensure_writable_dir(out)
+    csv, html = out / f"sweep_{vary}.csv", out / f"sweep_{vary}.html"
+    write_csv(result.to_frame(), csv)
+    write_html(result.plot(), html)
+    typer.echo(f"wrote {csv} and {html}")
+
+
+@app.command("regions")
+def regions_cmd(
+    problem: ProblemArg,
+    pair: Annotated[str, typer.Option("--pair", help="two design variables, comma-separated, e.g. dA,lam")],
+    points: Annotated[int, typer.Option("--points", help="grid values per variable")] = 41,
+    out: Annotated[Path, typer.Option("--out", help="output directory for regions_A_B.csv and regions_A_B.html")] = Path("."),
+    set_: SetOpt = None,
+) -> None:
+    """The four indicators on a grid of two variables with the feasible region (paper Figs. 9-10)."""
+    from hisopt.errors import ConfigError
+    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.report.theme import write_html
+    from hisopt.sweeps import regions
+
+    names = tuple(n.strip() for n in pair.split(","))
+    if len(names) != 2 or not all(names):
+        raise ConfigError(f"expected two design variables separated by a comma, e.g. dA,lam; got {pair!r}", key="--pair")
+    p = load(problem, set_)
+    result = regions(p, names, points)  # type: ignore[arg-type]
+    ensure_writable_dir(out)
+    stem = f"regions_{names[0]}_{names[1]}"
+    write_csv(result.to_frame(), out / f"{stem}.csv")
+    write_html(result.plot(), out / f"{stem}.html")
+    typer.echo(f"wrote {out / (stem + '.csv')} and {out / (stem + '.html')}")
+
+
 def main() -> None:
     """Entry point: map user errors to exit code 2 and internal errors to 1."""
     from hisopt.errors import HisoptError
 
     try:
-        app(standalone_mode=False)
+        code = app(standalone_mode=False)  # click returns a typer.Exit code here
     except HisoptError as exc:
         if _DEBUG["on"]:
             raise
@@ -342,3 +469,5 @@ def main() -> None:
             raise
         typer.echo(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for a traceback)", err=True)
         sys.exit(1)
+    if isinstance(code, int) and code:
+        sys.exit(code)

@@ -11,6 +11,7 @@ through Dask are identical, bit for bit, to serial ones.
 from __future__ import annotations
 
 import contextlib
+import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -19,6 +20,8 @@ import numpy as np
 
 T = TypeVar("T")
 R = TypeVar("R")
+
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 DEFAULT_CHUNK = 4096
 """Designs per task: big enough to amortise Dask overhead, small enough to spread work."""
@@ -44,7 +47,9 @@ class Backend:
         """``[fn(item, *args) for item in items]``, in order; shared ``args`` are sent once."""
         if self.client is None:
             return [fn(item, *args) for item in items]
-        shared = [self.client.scatter(a, broadcast=True) for a in args]
+        # Unique keys (hash=False): a repeated scatter of the same object must not share a
+        # key whose release by an earlier call would drop it from under the new tasks.
+        shared = [self.client.scatter(a, broadcast=True, hash=False) for a in args]
         futures = self.client.map(fn, list(items), *[[s] * len(items) for s in shared], pure=False)
         return self.client.gather(futures)
 
@@ -74,7 +79,17 @@ def open_backend(workers: int | None = None, scheduler: str | None = None, clien
         return
     if workers < 1:
         raise ConfigError(f"expected --workers >= 1, got {workers}", key="--workers")
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    # One BLAS thread per worker process: the workers already use every core.
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    os.environ.update({k: "1" for k in _THREAD_VARS})
+    try:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
     own = Client(cluster)
     try:
         yield Backend(own)

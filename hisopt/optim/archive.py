@@ -1,0 +1,130 @@
+"""Archive of the non-dominated feasible designs a run has evaluated.
+
+With four objectives most Pareto-optimal designs are found on the way and later lost from
+the population (survival keeps only ``pop_size`` of them), so the front a run reports is this
+archive of every feasible design ever evaluated, not the last population.
+
+Rules (deterministic, independent of timing):
+
+- only feasible, valid designs enter;
+- a candidate is rejected when an archived design weakly dominates it (no worse in every
+  objective, which includes an identical objective vector: the first design found keeps
+  its place) or when an earlier candidate of the same batch does;
+- archived designs dominated by an accepted candidate leave;
+- members are kept in order of evaluation (their evaluation ids ascend).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def weakly_dominates(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``out[i, j]``: ``a[i]`` is no worse than ``b[j]`` in every objective (minimisation).
+
+    Parameters
+    ----------
+    a : [objective units] shape ``(m, k)``
+    b : [objective units] shape ``(n, k)``
+
+    Returns
+    -------
+    Boolean array of shape ``(m, n)``.
+    """
+    out = np.ones((len(a), len(b)), dtype=bool)
+    for j in range(np.shape(a)[1]):  # one objective at a time: no (m, n, k) temporary
+        out &= a[:, None, j] <= b[None, :, j]
+    return out
+
+
+def dominates(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``out[i, j]``: ``a[i]`` Pareto-dominates ``b[j]`` (no worse everywhere, better somewhere)."""
+    return weakly_dominates(a, b) & ~weakly_dominates(b, a).T
+
+
+def non_dominated_mask(f: np.ndarray) -> np.ndarray:
+    """[-] Rows of ``f`` (n, k) that no other row dominates; of equal rows only the first."""
+    n = len(f)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    weak = weakly_dominates(f, f)
+    strict = weak & ~weak.T  # i dominates j
+    equal = weak & weak.T
+    earlier_equal = np.tril(equal, k=-1)  # j equals an earlier row i < j
+    return ~(strict.any(axis=0) | earlier_equal.any(axis=1))
+
+
+def pareto_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which archived designs stay and which new designs enter (module rules).
+
+    Parameters
+    ----------
+    archive_f : [objective units] archived objectives, shape ``(m, k)``
+    new_f : [objective units] candidate objectives (feasible designs only), shape ``(n, k)``
+
+    Returns
+    -------
+    keep : boolean ``(m,)``, archived designs that stay
+    accept : boolean ``(n,)``, candidates that enter
+    """
+    accept = non_dominated_mask(new_f)
+    if len(archive_f) and accept.any():
+        accept[accept] = ~weakly_dominates(archive_f, new_f[accept]).any(axis=0)
+    keep = np.ones(len(archive_f), dtype=bool)
+    if len(archive_f) and accept.any():
+        # no archived design weakly dominates an accepted one, so "weakly dominates" from an
+        # accepted design to an archived one is strict domination here
+        keep = ~weakly_dominates(new_f[accept], archive_f).any(axis=0)
+    return keep, accept
+
+
+@dataclass(frozen=True)
+class Archive:
+    """Non-dominated feasible designs (immutable; :meth:`update` returns a new archive).
+
+    Attributes
+    ----------
+    x : [variable units] designs, shape ``(m, n_var)``
+    f : [objective units] objectives, shape ``(m, n_obj)``
+    q : [physical units] every evaluated quantity (objectives, then constraint-only
+        quantities), shape ``(m, n_q)``
+    ids : [-] evaluation ids (position in the run's evaluation history), ascending, ``(m,)``
+    """
+
+    x: np.ndarray
+    f: np.ndarray
+    q: np.ndarray
+    ids: np.ndarray
+
+    @classmethod
+    def empty(cls, n_var: int, n_obj: int, n_q: int) -> "Archive":
+        """An archive with no designs."""
+        return cls(np.empty((0, n_var)), np.empty((0, n_obj)), np.empty((0, n_q)), np.empty(0, dtype=np.int64))
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def update(self, x: np.ndarray, f: np.ndarray, q: np.ndarray, ids: np.ndarray, feasible: np.ndarray) -> "Archive":
+        """The archive after offering a batch of evaluated designs.
+
+        Parameters
+        ----------
+        x, f, q : [physical units] the batch, shapes ``(n, n_var)``, ``(n, n_obj)``, ``(n, n_q)``
+        ids : [-] evaluation ids of the batch, all greater than the archived ones, ``(n,)``
+        feasible : [-] designs eligible for the archive (valid and meeting all constraints)
+        """
+        sel = np.asarray(feasible, dtype=bool)
+        keep, accept = pareto_update(self.f, f[sel])
+        return Archive(
+            np.concatenate([self.x[keep], x[sel][accept]]),
+            np.concatenate([self.f[keep], f[sel][accept]]),
+            np.concatenate([self.q[keep], q[sel][accept]]),
+            np.concatenate([self.ids[keep], np.asarray(ids, dtype=np.int64)[sel][accept]]),
+        )
+
+    def order(self) -> np.ndarray:
+        """[-] Presentation order: by the first objective, then the next ones, then id."""
+        keys = [self.ids] + [self.f[:, j] for j in range(self.f.shape[1] - 1, -1, -1)]
+        return np.lexsort(keys)

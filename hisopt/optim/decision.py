@@ -1,0 +1,199 @@
+"""Front quality and decision support in log-scaled objective space.
+
+The paper's objectives span orders of magnitude (PSD maxima near 1e-5, tyre-load PSD near
+1e4 to 1e10 N^2/Hz), and a design that halves a PSD is as much better at 1e-5 as at 1e-3.
+Every measure here therefore works on ``z = log10(F)`` (objectives are positive magnitudes;
+values below 1e-300 are clipped to it):
+
+- **Hypervolume** (pymoo ``HV``, computed by moocore) of ``z`` with respect to a fixed
+  reference point, unit decades^n_obj. The reference point depends on the problem only, so
+  runs, seeds and methods are comparable (:func:`reference_point`): evaluate a full-factorial
+  grid over the design box (``levels`` per variable, ``levels = max(2, floor(1000 **
+  (1 / n_var)))``: 5^4 = 625 designs for the paper's problem), keep the feasible designs (all
+  valid ones if none is feasible), take their non-dominated set, and add 10 % of its range
+  (at least 0.01 decade) to its nadir. Designs beyond the reference point add no volume.
+- **Normalisation** for decisions: ``z`` scaled to [0, 1] between the ideal and nadir of the
+  front at hand.
+- **Knee point** (:func:`knee_index`): the design farthest below the hyperplane through the
+  front's extreme designs (each minimising one objective) in normalised space, i.e. the
+  minimiser of ``w . z_norm`` with ``w`` the hyperplane's normal (equal weights when the
+  extreme designs do not span a hyperplane with positive normal).
+- **ASF pick** (:func:`asf_index`): the minimiser of the augmented achievement scalarising
+  function ``max_i w_i (z_i - r_i) + rho sum_i w_i (z_i - r_i)`` in normalised space, with
+  the reference (aspiration) point ``r`` in physical units (default: the front's ideal point)
+  and weights ``w`` (default equal; a larger weight pulls that objective closer to ``r``).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hisopt.errors import ConfigError, RunError
+from hisopt.optim.archive import non_dominated_mask
+
+if TYPE_CHECKING:
+    from hisopt.problem import Problem
+
+LOG_FLOOR = 1e-300
+"""[objective units] values are clipped to this before the log."""
+
+REFERENCE_MARGIN = 0.1
+"""[-] share of the sample front's log range added to its nadir."""
+
+MIN_MARGIN_DECADES = 0.01
+"""[decades] least margin added to the nadir in each objective."""
+
+
+def log_objectives(f: np.ndarray) -> np.ndarray:
+    """[decades] ``log10`` of objectives ``f`` (n, k) (positive magnitudes)."""
+    return np.log10(np.maximum(np.asarray(f, dtype=float), LOG_FLOOR))
+
+
+def grid_designs(lower: np.ndarray, upper: np.ndarray, max_designs: int = 1000) -> np.ndarray:
+    """[variable units] Full-factorial grid over the box, ``levels ** n_var`` rows.
+
+    Parameters
+    ----------
+    lower, upper : [variable units] box bounds, shape ``(n_var,)``
+    max_designs : [-] ``levels = max(2, floor(max_designs ** (1 / n_var)))``
+    """
+    n_var = len(lower)
+    levels = max(2, int(np.floor(max_designs ** (1.0 / n_var) + 1e-9)))
+    axes = [np.linspace(lo, hi, levels) for lo, hi in zip(lower, upper)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, n_var)
+
+
+def reference_from_sample(f: np.ndarray) -> np.ndarray:
+    """[decades] Hypervolume reference point from sample objectives ``f`` (n, k) (module rule)."""
+    z = log_objectives(f)
+    z = z[non_dominated_mask(z)]
+    nadir, ideal = z.max(axis=0), z.min(axis=0)
+    return nadir + np.maximum(REFERENCE_MARGIN * (nadir - ideal), MIN_MARGIN_DECADES)
+
+
+def reference_point(problem: "Problem") -> np.ndarray:
+    """[decades] The problem's fixed hypervolume reference point in ``log10`` space, ``(n_obj,)``.
+
+    Cached per problem specification (the grid evaluation costs a few hundred evaluations).
+
+    Raises
+    ------
+    RunError
+        No design of the grid sample can be evaluated.
+    """
+    key = problem.spec.model_dump_json()
+    if key not in _REFERENCE_CACHE:
+        if len(_REFERENCE_CACHE) >= 16:
+            _REFERENCE_CACHE.pop(next(iter(_REFERENCE_CACHE)))
+        _REFERENCE_CACHE[key] = _reference_point(problem)
+    return _REFERENCE_CACHE[key].copy()
+
+
+_REFERENCE_CACHE: dict[str, np.ndarray] = {}
+
+
+def _reference_point(problem: "Problem") -> np.ndarray:
+    x = grid_designs(problem.lower, problem.upper)
+    q = problem.evaluator()(x)
+    valid = np.asarray(q["valid"], dtype=bool)
+    f = np.column_stack([q[name] for name in problem.objective_names])
+    feasible = valid.copy()
+    for c in problem.spec.constraints:
+        feasible &= q[c.name] <= c.limit
+    chosen = feasible if feasible.any() else valid
+    if not chosen.any():
+        raise RunError(f"no design of a {len(x)}-design grid over the box of {problem.name} can be evaluated")
+    return reference_from_sample(f[chosen])
+
+
+def hypervolume(f: np.ndarray, reference_log: np.ndarray) -> float:
+    """[decades^k] Hypervolume of objectives ``f`` (n, k) in ``log10`` space.
+
+    Parameters
+    ----------
+    f : [objective units] objective vectors (any set; dominated ones add nothing)
+    reference_log : [decades] reference point from :func:`reference_point`, ``(k,)``
+    """
+    if len(f) == 0:
+        return 0.0
+    from pymoo.indicators.hv import HV
+
+    z = log_objectives(f)
+    inside = np.all(z < reference_log, axis=1)
+    if not inside.any():
+        return 0.0
+    return float(HV(ref_point=np.asarray(reference_log, dtype=float))(z[inside]))
+
+
+def normalised_log(f: np.ndarray, reference: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Front ``f`` (n, k) and an optional point ``reference`` (k,) in normalised log space.
+
+    ``0`` is the front's ideal and ``1`` its nadir in each objective (objectives with no
+    spread map to 0).
+    """
+    z = log_objectives(f)
+    ideal, nadir = z.min(axis=0), z.max(axis=0)
+    span = np.where(nadir > ideal, nadir - ideal, 1.0)
+    ref = None if reference is None else (log_objectives(np.asarray(reference, dtype=float)[None])[0] - ideal) / span
+    return (z - ideal) / span, ref
+
+
+def knee_index(f: np.ndarray) -> int:
+    """[-] Row of the knee design of front ``f`` (n, k) (module rule).
+
+    Raises
+    ------
+    ValueError
+        The front is empty.
+    """
+    if len(f) == 0:
+        raise ValueError("the front is empty: no feasible design was found")
+    z, _ = normalised_log(f)
+    k = z.shape[1]
+    w = np.ones(k)
+    if k > 1 and len(z) >= k:
+        extremes = z[np.argmin(z, axis=0)]
+        try:
+            normal = np.linalg.solve(extremes, np.ones(k))
+        except np.linalg.LinAlgError:
+            normal = None
+        if normal is not None and np.all(np.isfinite(normal)) and np.all(normal > 0):
+            w = normal
+    return int(np.argmin(z @ w))
+
+
+def asf_index(
+    f: np.ndarray,
+    reference: np.ndarray | None = None,
+    weights: np.ndarray | None = None,
+    rho: float = 1e-6,
+) -> int:
+    """[-] Row of front ``f`` (n, k) minimising the augmented ASF (module rule).
+
+    Parameters
+    ----------
+    f : [objective units] front, shape ``(n, k)``
+    reference : [objective units] aspiration point, shape ``(k,)``; default the front's ideal
+    weights : [-] positive weights, shape ``(k,)``; default all 1
+    rho : [-] augmentation factor (keeps the pick Pareto-optimal, not weakly)
+
+    Raises
+    ------
+    ConfigError
+        A reference value is not positive or a weight is not positive and finite.
+    """
+    if len(f) == 0:
+        raise ValueError("the front is empty: no feasible design was found")
+    k = np.shape(f)[1]
+    w = np.ones(k) if weights is None else np.asarray(weights, dtype=float)
+    if w.shape != (k,) or not np.all(np.isfinite(w) & (w > 0)):
+        raise ConfigError(f"expected {k} positive ASF weights, got {np.asarray(weights).tolist()}")
+    if reference is not None:
+        reference = np.asarray(reference, dtype=float)
+        if reference.shape != (k,) or not np.all(np.isfinite(reference) & (reference > 0)):
+            raise ConfigError(f"expected an ASF reference point of {k} positive objective values, got {reference.tolist()}")
+    z, r = normalised_log(f, reference)
+    d = w * (z - (np.zeros(k) if r is None else r))
+    return int(np.argmin(d.max(axis=1) + rho * d.sum(axis=1)))

@@ -1,0 +1,96 @@
+"""Multi-seed studies: independent NSGA runs (in parallel on the backend), fronts merged.
+
+Each seed is a full, resumable run in ``OUT/seed-<n>``; the merged front is the
+non-dominated set of the union of the runs' fronts. Runs are deterministic, so a study gives
+the same merged front serially or on any Dask cluster.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.errors import ConfigError
+
+if TYPE_CHECKING:
+    from hisopt.parallel import Backend
+    from hisopt.problem import Problem
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """Merged front (with a ``seed`` column), per-seed summary and merged hypervolume."""
+
+    front: pd.DataFrame
+    runs: pd.DataFrame
+    hypervolume: float
+    out: Path | None
+
+
+def parse_seeds(text: str) -> list[int]:
+    """``"1-8"`` or ``"1,3,5"`` (or a mix, ``"1-3,7"``) -> sorted unique seeds."""
+    seeds: set[int] = set()
+    for part in text.split(","):
+        part = part.strip()
+        lo, sep, hi = part.partition("-")
+        try:
+            values = range(int(lo), int(hi) + 1) if sep else [int(part)]
+        except ValueError:
+            raise ConfigError(f"expected seeds like 1-8 or 1,3,5, got {text!r}", key="--seeds") from None
+        if sep and int(hi) < int(lo):
+            raise ConfigError(f"expected an increasing seed range, got {part!r}", key="--seeds")
+        seeds.update(values)
+    if not seeds or min(seeds) < 0:
+        raise ConfigError(f"expected non-negative seeds, got {text!r}", key="--seeds")
+    return sorted(seeds)
+
+
+def _run_seed(seed: int, problem: "Problem", out: str | None, pop_size: int | None, generations: int | None) -> dict[str, Any]:
+    from hisopt.optim.run import optimize
+
+    run_dir = None if out is None else str(Path(out) / f"seed-{seed}")
+    result = optimize(problem, out=run_dir, seed=seed, pop_size=pop_size, generations=generations)
+    return {"seed": seed, "front": result.front, "hypervolume": result.hypervolume, "wall_time_s": result.wall_time_s, "evaluations": len(result.history)}
+
+
+def study(
+    problem: "Problem",
+    seeds: list[int],
+    *,
+    out: str | Path | None = None,
+    pop_size: int | None = None,
+    generations: int | None = None,
+    backend: "Backend | None" = None,
+) -> StudyResult:
+    """Run one optimisation per seed (one task each on ``backend``) and merge the fronts."""
+    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.optim.archive import non_dominated_mask
+    from hisopt.optim.decision import hypervolume, reference_point
+    from hisopt.parallel import Backend
+
+    backend = backend or Backend()
+    if out is not None:
+        ensure_writable_dir(out)
+    runs = backend.map(_run_seed, seeds, problem, None if out is None else str(out), pop_size, generations)
+    fronts = [r["front"].assign(seed=r["seed"]) for r in runs]
+    union = pd.concat(fronts, ignore_index=True)
+    objectives = list(problem.objective_names)
+    merged = union[non_dominated_mask(union[objectives].to_numpy())]
+    merged = merged.sort_values(objectives + ["seed"], kind="stable").reset_index(drop=True)
+    hv = hypervolume(merged[objectives].to_numpy(), reference_point(problem))
+    summary = pd.DataFrame(
+        [{k: r[k] for k in ("seed", "evaluations", "hypervolume", "wall_time_s")} | {"front_size": len(r["front"])} for r in runs]
+    )
+    if out is not None:
+        write_csv(merged, Path(out) / "front.csv")
+        write_csv(summary, Path(out) / "runs.csv")
+    return StudyResult(merged, summary, hv, None if out is None else Path(out))
+
+
+def merged_front_equal(a: StudyResult, b: StudyResult) -> bool:
+    """Exact equality of two studies' merged fronts (values and order)."""
+    return a.front.shape == b.front.shape and bool(np.all(a.front.to_numpy() == b.front.to_numpy()))
