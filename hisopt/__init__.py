@@ -29,13 +29,14 @@ __all__ = [
     "load_problem",
     "modal_analysis",
     "optimize",
+    "resume",
 ]
 
 
 def __getattr__(name: str) -> Any:
     # Optimisation pulls in pymoo; import it only when asked for.
-    if name == "optimize":
-        from hisopt.optim.run import optimize
+    if name in ("optimize", "resume"):
+        from hisopt.optim import run
 
-        return optimize
+        return getattr(run, name)
     raise AttributeError(f"module 'hisopt' has no attribute {name!r}")

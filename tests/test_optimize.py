@@ -382,3 +382,12 @@ def test_cli_user_errors_are_one_line(tmp_path):
     assert out.returncode == 2 and "population size >= 4" in out.stderr
     out = cli("resume", str(tmp_path / "nowhere"))
     assert out.returncode == 2 and "not a run directory" in out.stderr
+
+
+def test_result_plot_methods_return_figures(problem):
+    import hisopt
+
+    run = hisopt.optimize(problem, pop_size=12, generations=3, seed=2)
+    for fig in (run.plot_front(), run.plot_parallel("max_roll_psd"), run.plot_convergence()):
+        assert len(fig.data) >= 1
+    assert hisopt.resume is hisopt.optim.run.resume

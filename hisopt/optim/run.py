@@ -240,6 +240,26 @@ class OptimizationResult:
         """The knee design of the front (:func:`hisopt.optim.decision.knee_index`)."""
         return self.front.iloc[knee_index(self.objectives.to_numpy())]
 
+    def plot_front(self, refined: pd.DataFrame | None = None) -> Any:
+        """Scatter matrix of the front's objectives, knee and ASF pick highlighted (plotly)."""
+        from hisopt.report.figures import front_scatter_matrix
+
+        highlights = {"knee": self.knee, "ASF pick": self.asf_pick()} if len(self.front) else {}
+        return front_scatter_matrix(self.front, self.problem.objective_names, self.problem.variable_names, highlights, refined)
+
+    def plot_parallel(self, color_by: str | None = None) -> Any:
+        """Parallel coordinates of the front's variables and objectives (plotly)."""
+        from hisopt.report.figures import parallel_coordinates
+
+        names = self.problem.objective_names
+        return parallel_coordinates(self.front, self.problem.variable_names, names, color_by or names[0])
+
+    def plot_convergence(self) -> Any:
+        """Hypervolume, front size and feasible share per generation (plotly)."""
+        from hisopt.report.figures import convergence
+
+        return convergence(self.generations)
+
     def asf_pick(
         self,
         reference: Mapping[str, float] | Sequence[float] | None = None,
