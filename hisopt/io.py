@@ -1,44 +1,84 @@
-"""Atomic file output: write to a temporary file in the same folder, then rename.
+"""Atomic file output: write a temporary file in the same folder, fsync, then rename.
 
-A crash or an interrupt never leaves a half-written result behind; readers see the old file
-or the new one.
+A crash, ``kill -9`` or an interrupt never leaves a half-written result behind; readers see
+the old file or the new one.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
 import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
+_UMASK: dict[str, int] = {}
+
+
+def _umask() -> int:
+    if "umask" not in _UMASK:
+        current = os.umask(0o022)
+        os.umask(current)
+        _UMASK["umask"] = current
+    return _UMASK["umask"]
+
+
+def _fsync_path(path: str | Path, flags: int = os.O_RDONLY) -> None:
+    # Not every platform allows opening (or fsyncing) a directory.
+    with contextlib.suppress(OSError):
+        fd = os.open(path, flags)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
 
 def atomic_write(path: str | Path, write: Callable[[str], None]) -> Path:
-    """Call ``write(tmp_path)`` then atomically move the result to ``path``."""
+    """Call ``write(tmp_path)``, make it durable, then atomically move it to ``path``."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
     try:
         write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual permissions
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; honour the umask
+        _fsync_path(tmp)
         os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
+    except BaseException:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
+        raise
+    _fsync_path(path.parent)  # makes the rename durable
     return path
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically."""
+    return atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically."""
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_json(path: str | Path, data: dict[str, Any]) -> Path:
+    """Write ``data`` as indented JSON to ``path`` atomically."""
+    return atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False, allow_nan=True) + "\n")
 
 
 def write_csv(frame: pd.DataFrame, path: str | Path) -> Path:
     """CSV with full float precision (values round-trip exactly), written atomically."""
-    return atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, float_format="%.17g"))
+    return atomic_write_text(path, frame.to_csv(index=False, float_format="%.17g"))
 
 
-def write_text(text: str, path: str | Path) -> Path:
-    """Text file written atomically."""
-    return atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+def sha256_bytes(data: bytes) -> str:
+    """Hex SHA-256 of ``data``."""
+    return hashlib.sha256(data).hexdigest()
 
 
 def ensure_writable_dir(path: str | Path) -> Path:

@@ -18,17 +18,16 @@ the per-generation statistics and the settings.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import io
 import json
-import os
-import tempfile
+
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from hisopt.errors import RunError
+from hisopt.io import atomic_write_bytes, atomic_write_json, atomic_write_text, sha256_bytes  # noqa: F401 (re-exported)
 
 CHECKPOINT = "checkpoint.npz"
 RUN_JSON = "run.json"
@@ -39,67 +38,6 @@ GENERATIONS_CSV = "generations.csv"
 PROBLEM_TOML = "problem.toml"
 PROBLEM_JSON = "problem.json"
 CHECKPOINT_FORMAT = 1
-
-
-def sha256_bytes(data: bytes) -> str:
-    """Hex SHA-256 of ``data``."""
-    return hashlib.sha256(data).hexdigest()
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically (temporary file, fsync, :func:`os.replace`).
-
-    Parameters
-    ----------
-    path : [-] target file; its directory must exist
-    data : [-] the complete file content
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with contextlib.suppress(OSError, AttributeError):  # mkstemp makes 0600; honour the umask
-            os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    _fsync_directory(path.parent)
-
-
-def _umask() -> int:
-    if "umask" not in _UMASK:
-        current = os.umask(0o022)
-        os.umask(current)
-        _UMASK["umask"] = current
-    return _UMASK["umask"]
-
-
-_UMASK: dict[str, int] = {}
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write UTF-8 ``text`` to ``path`` atomically."""
-    atomic_write_bytes(path, text.encode("utf-8"))
-
-
-def atomic_write_json(path: Path, data: dict[str, Any]) -> None:
-    """Write ``data`` as indented JSON to ``path`` atomically."""
-    atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False, allow_nan=True) + "\n")
-
-
-def _fsync_directory(directory: Path) -> None:
-    # Makes the rename durable; not every platform allows opening a directory.
-    with contextlib.suppress(OSError):
-        fd = os.open(directory, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
 
 
 def prepare_run_directory(run_dir: Path, *, fresh: bool) -> Path:

@@ -60,7 +60,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     """
     import plotly.offline
 
-    from hisopt.io import write_text
+    from hisopt.io import atomic_write_text
     from hisopt.modal import modal_analysis
     from hisopt.optim.decision import asf_index, knee_index
     from hisopt.report import figures
@@ -124,5 +124,5 @@ objectives {html.escape(", ".join(objectives))}; knee and ASF pick highlighted.<
 {''.join(parts)}
 </body></html>"""
     out = run_dir / "report.html"
-    write_text(page, out)
+    atomic_write_text(out, page)
     return out
