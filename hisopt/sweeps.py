@@ -1,0 +1,392 @@
+"""Parameter sweeps and feasible regions (paper Section IV, Figs. 5-8, and Section V, Figs. 9-10).
+
+**Sweep** (:func:`sweep`): one design variable across its bounds, the others at the baseline
+design. For the roll, pitch and bounce modes: the modal frequency and damping ratio
+(:func:`hisopt.modal.modal_table`) and the peak of the mode's response PSD (its frequency and
+value); for the FL tyre force: the peak of its PSD. The responses are the paper's Fig. 4
+indicators (:data:`SWEEP_RESPONSES`): roll and pitch angular accelerations, CG vertical
+acceleration, FL dynamic tyre load. A mode's peak is the continuous maximum of its response
+PSD within an octave of the modal frequency (so that, e.g., the wheel-hop hump of the roll
+acceleration near 11 Hz does not stand in for the roll mode); the tyre force's peak is its
+maximum over the whole band, wherever it is. Maxima are found as the evaluator finds its
+own: the largest value on the pole-aware nodes (:meth:`hisopt.evaluate.Evaluator.nodes`),
+then repeated zooming into its bracket.
+
+**Regions** (:func:`regions`): a 2-D grid over two variables' bounds, the others at the
+baseline, of the four indicators of DESIGN section 5 (paper Section V) and of the problem's
+constraint quantities. The feasible region is where every constraint of the problem holds;
+a problem without constraints gets the baseline design's four indicator values as reference
+thresholds (the region then holds the designs no worse than the baseline in any indicator),
+and the figure says so.
+
+Both return result objects with ``to_frame()`` (SI units, Hz for frequencies) and ``plot()``
+(a plotly figure).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from hisopt.errors import ConfigError
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+    from hisopt.problem import Problem
+
+SweepKey = Literal["roll", "pitch", "bounce", "tire"]
+
+SWEEP_MODES: tuple[str, ...] = ("roll", "pitch", "bounce")
+"""Modes whose modal frequency a sweep reports (names of :data:`hisopt.modal.MODE_NAMES`)."""
+
+SWEEP_RESPONSES: dict[str, str] = {"roll": "acc_roll", "pitch": "acc_pitch", "bounce": "acc_z", "tire": "tire_load_fl"}
+"""Response whose PSD peak characterises each mode (paper Fig. 4 (b), (c), (a), (d))."""
+
+INDICATORS: tuple[str, ...] = ("sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd")
+"""The paper's four indicators (DESIGN section 5; paper Section V, Figs. 9-10)."""
+
+_LABELS = {"roll": "roll mode", "pitch": "pitch mode", "bounce": "bounce mode", "tire": "FL tyre force"}
+
+
+def _check_variable(problem: "Problem", name: str, option: str) -> None:
+    if name not in problem.variable_names:
+        raise ConfigError(f"expected a design variable of {problem.name} ({', '.join(problem.variable_names)}), got {name!r}", key=option)
+
+
+def _check_points(points: int, least: int = 2) -> None:
+    if not isinstance(points, int) or points < least:
+        raise ConfigError(f"expected an integer of at least {least} grid points, got {points!r}", key="--points")
+
+
+# --- PSD peaks -------------------------------------------------------------------------------
+def response_peaks(
+    problem: "Problem",
+    designs: Any,
+    outputs: tuple[str, ...],
+    centers_hz: Mapping[str, np.ndarray] | None = None,
+    window: float = 2.0,
+    zoom_steps: int = 10,
+    points: int = 9,
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """[Hz], [unit^2/Hz] Frequency and value of the maximum of each output's PSD.
+
+    Parameters
+    ----------
+    problem : the problem (vehicle, HIS, road, band)
+    designs : designs, as :meth:`hisopt.problem.Problem.design_matrix` accepts, ``n`` rows
+    outputs : names of :func:`hisopt.response.standard_outputs`
+    centers_hz : [Hz] per output, a frequency per design, shape ``(n,)``: the maximum is then
+        sought within ``[center / window, center * window]`` (a mode's own peak, not another
+        mode's); outputs without a centre use the whole band
+    window : [-] frequency ratio of the search window each side of a centre
+    zoom_steps, points : refinement of each maximum (each step keeps ``2 / (points - 1)`` of
+        the bracket)
+
+    Returns
+    -------
+    dict name -> ``(f_peak_hz (n,), psd_peak (n,))``
+    """
+    from hisopt.evaluate import DirectOutputs, Evaluator
+
+    ev = Evaluator(problem)
+    unknown = [o for o in outputs if o not in ev.all_outputs]
+    if unknown:
+        raise ConfigError(f"unknown response {unknown[0]!r}; expected one of {', '.join(ev.all_outputs)}")
+    x = problem.design_matrix(designs)
+    model = problem.model(x)
+    lam = np.linalg.eigvals(model.state_space().a)
+    f, _ = ev.nodes(lam)
+    frf = DirectOutputs(model, {name: ev.all_outputs[name] for name in outputs})
+    psd = ev.spectra(f, frf(2j * np.pi * f))
+    rows = np.arange(len(x))
+    t = np.linspace(0.0, 1.0, points)
+    out = {}
+    for j, name in enumerate(outputs):
+        y = psd[..., j]
+        if centers_hz is not None and name in centers_hz:
+            c = np.asarray(centers_hz[name], dtype=float)[:, None]
+            y = np.where((f >= c / window) & (f <= c * window), y, -np.inf)
+        i = np.argmax(y, axis=1)
+        best, f_best = y[rows, i], f[rows, i]
+        lo, hi = f[rows, np.maximum(i - 1, 0)], f[rows, np.minimum(i + 1, f.shape[1] - 1)]
+        for _ in range(zoom_steps):
+            pts = lo[:, None] + (hi - lo)[:, None] * t
+            vals = ev.spectra(pts, frf(2j * np.pi * pts, j))[..., 0]
+            k = np.argmax(vals, axis=1)
+            better = vals[rows, k] > best
+            best = np.where(better, vals[rows, k], best)
+            f_best = np.where(better, pts[rows, k], f_best)
+            lo, hi = pts[rows, np.maximum(k - 1, 0)], pts[rows, np.minimum(k + 1, points - 1)]
+        out[name] = (f_best, best)
+    return out
+
+
+# --- sweeps ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SweepResult:
+    """A one-variable sweep (paper Figs. 5-8).
+
+    Attributes
+    ----------
+    problem_name : the problem's name
+    variable : the swept design variable
+    unit : its unit (SI)
+    frame : one row per value: the variable, then ``<mode>_frequency_hz``,
+        ``<mode>_damping_ratio``, ``<mode>_peak_hz`` and ``<mode>_peak_psd`` for roll, pitch
+        and bounce, ``tire_peak_hz`` and ``tire_peak_psd`` for the FL tyre force
+    responses : response of each key (:data:`SWEEP_RESPONSES`)
+    units : PSD unit of each key
+    baseline : the fixed values of the other variables
+    """
+
+    problem_name: str
+    variable: str
+    unit: str
+    frame: pd.DataFrame
+    responses: dict[str, str]
+    units: dict[str, str]
+    baseline: dict[str, float] = field(default_factory=dict)
+
+    def to_frame(self) -> pd.DataFrame:
+        """The sweep as a table (a copy of :attr:`frame`)."""
+        return self.frame.copy()
+
+    def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
+        """Frequency (left axis) and peak PSD (right axis, log) against the variable, per mode."""
+        from plotly.subplots import make_subplots
+
+        from hisopt.report.theme import use_theme
+
+        use_theme()
+        keys = list(self.responses)
+        titles = [f"{_LABELS.get(k, k)}: {self.responses[k]}" for k in keys]
+        fig = fig or make_subplots(rows=2, cols=2, subplot_titles=titles, specs=[[{"secondary_y": True}] * 2] * 2)
+        x = self.frame[self.variable]
+        for n, key in enumerate(keys):
+            r, c = n // 2 + 1, n % 2 + 1
+            first = n == 0
+            if f"{key}_frequency_hz" in self.frame:
+                fig.add_scatter(x=x, y=self.frame[f"{key}_frequency_hz"], name="modal frequency", legendgroup="f",
+                                showlegend=first, line={"color": "#1f4e79"}, row=r, col=c, secondary_y=False)
+            fig.add_scatter(x=x, y=self.frame[f"{key}_peak_hz"], name="frequency of the PSD peak", legendgroup="fp",
+                            showlegend=first, line={"color": "#1f4e79", "dash": "dot"}, row=r, col=c, secondary_y=False)
+            fig.add_scatter(x=x, y=self.frame[f"{key}_peak_psd"], name="peak PSD", legendgroup="a", showlegend=first,
+                            line={"color": "#d1495b"}, row=r, col=c, secondary_y=True)
+            fig.update_xaxes(title_text=f"{self.variable} [{self.unit}]", row=r, col=c)
+            fig.update_yaxes(title_text="frequency [Hz]", row=r, col=c, secondary_y=False)
+            fig.update_yaxes(title_text=f"peak PSD [{self.units[key]}]", type="log", row=r, col=c, secondary_y=True)
+        fixed = ", ".join(f"{k}={v:.4g}" for k, v in self.baseline.items())
+        fig.update_layout(title=f"{self.problem_name}: sweep of {self.variable} ({fixed or 'no other variables'})")
+        return fig
+
+
+def sweep(problem: "Problem", vary: str, points: int = 41, responses: Mapping[str, str] | None = None) -> SweepResult:
+    """Sweep ``vary`` across its bounds, the other variables at the baseline (paper Figs. 5-8).
+
+    Parameters
+    ----------
+    problem : the problem (its variables' bounds, baseline design, vehicle, road, band)
+    vary : a design variable of the problem
+    points : [-] values, evenly spaced between the bounds (both included)
+    responses : response per key (``roll``, ``pitch``, ``bounce``, ``tire``); default
+        :data:`SWEEP_RESPONSES`; e.g. ``{"roll": "roll"}`` for the roll angle
+
+    Raises
+    ------
+    ConfigError
+        ``vary`` is not a design variable, ``points < 2`` or a response is unknown.
+    """
+    from hisopt.modal import modal_analysis
+
+    _check_variable(problem, vary, "--vary")
+    _check_points(points)
+    chosen = dict(SWEEP_RESPONSES) | dict(responses or {})
+    j = problem.variable_names.index(vary)
+    values = np.linspace(problem.lower[j], problem.upper[j], points)
+    x = np.repeat(problem.baseline[None, :], points, axis=0)
+    x[:, j] = values
+    frame = pd.DataFrame({vary: values})
+    records = []
+    for row in x:
+        modes = modal_analysis(problem, row).set_index("mode")
+        rec: dict[str, float] = {}
+        for mode in SWEEP_MODES:
+            rec[f"{mode}_frequency_hz"] = float(modes.loc[mode, "frequency_hz"])
+            rec[f"{mode}_damping_ratio"] = float(modes.loc[mode, "damping_ratio"])
+        records.append(rec)
+    modal = pd.DataFrame.from_records(records)
+    peaks = {
+        key: response_peaks(problem, x, (name,), {name: modal[f"{key}_frequency_hz"].to_numpy()} if key in SWEEP_MODES else None)[name]
+        for key, name in chosen.items()
+    }
+    for key, name in chosen.items():
+        if key in SWEEP_MODES:
+            for col in ("frequency_hz", "damping_ratio"):
+                frame[f"{key}_{col}"] = modal[f"{key}_{col}"]
+        frame[f"{key}_peak_hz"], frame[f"{key}_peak_psd"] = peaks[key]
+    from hisopt.response import standard_outputs
+
+    all_outputs = standard_outputs(problem.spec.vehicle)
+    units = {key: f"({all_outputs[name].unit})²/Hz" for key, name in chosen.items()}
+    spec_var = problem.spec.variables[vary]
+    baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n != vary}
+    return SweepResult(problem.name, vary, spec_var.unit, frame, chosen, units, baseline)
+
+
+# --- feasible regions -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RegionsResult:
+    """Indicators on a 2-D design grid with thresholds (paper Figs. 9-10).
+
+    Attributes
+    ----------
+    problem_name : the problem's name
+    pair : the two varied design variables (x axis, y axis)
+    units : their units
+    grid_x, grid_y : [variable units] grid values, shapes ``(n_x,)``, ``(n_y,)``
+    values : [physical units] each indicator and constraint quantity, shape ``(n_y, n_x)``
+    valid : the model could be evaluated, shape ``(n_y, n_x)``
+    thresholds : [physical units] upper limit per quantity (value <= limit is acceptable)
+    threshold_source : ``"constraints"`` (the problem's) or ``"baseline"`` (the baseline
+        design's indicator values, for a problem without constraints)
+    baseline : the fixed values of the other variables
+    """
+
+    problem_name: str
+    pair: tuple[str, str]
+    units: tuple[str, str]
+    grid_x: np.ndarray
+    grid_y: np.ndarray
+    values: dict[str, np.ndarray]
+    valid: np.ndarray
+    thresholds: dict[str, float]
+    threshold_source: Literal["constraints", "baseline"]
+    baseline: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def feasible(self) -> np.ndarray:
+        """Grid points meeting every threshold (and valid), shape ``(n_y, n_x)``."""
+        ok = self.valid.copy()
+        for name, limit in self.thresholds.items():
+            ok &= self.values[name] <= limit
+        return ok
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per grid point: both variables, every quantity, ``valid``, ``feasible``."""
+        xx, yy = np.meshgrid(self.grid_x, self.grid_y)
+        frame = pd.DataFrame({self.pair[0]: xx.ravel(), self.pair[1]: yy.ravel()})
+        for name, v in self.values.items():
+            frame[name] = v.ravel()
+        frame["valid"] = self.valid.ravel()
+        frame["feasible"] = self.feasible.ravel()
+        return frame
+
+    def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
+        """Contours of log10 of each indicator; thresholds dashed, the infeasible set shaded."""
+        from plotly.subplots import make_subplots
+
+        from hisopt.metrics import METRICS
+        from hisopt.report.theme import use_theme
+
+        use_theme()
+        titles = [f"{n} [{METRICS[n].unit}] (log10)" for n in INDICATORS]
+        fig = fig or make_subplots(rows=2, cols=2, subplot_titles=titles, horizontal_spacing=0.16, vertical_spacing=0.14)
+        feasible = self.feasible.astype(float)
+        dashes = ["dash", "dot", "dashdot", "longdash", "longdashdot"]
+        for n, name in enumerate(INDICATORS):
+            r, c = n // 2 + 1, n % 2 + 1
+            z = np.log10(np.where(self.valid, self.values[name], np.nan))
+            fig.add_contour(
+                x=self.grid_x, y=self.grid_y, z=z, colorscale="Viridis", ncontours=18, showlegend=False, name=name,
+                colorbar={"len": 0.4, "thickness": 12, "x": 0.44 if c == 1 else 1.0, "y": 0.79 if r == 1 else 0.21},
+                contours={"showlabels": False}, row=r, col=c,
+            )
+            fig.add_contour(  # shades where the feasibility indicator is below 1/2
+                x=self.grid_x, y=self.grid_y, z=feasible, contours={"type": "constraint", "operation": ">=", "value": 0.5},
+                fillcolor="rgba(60,60,60,0.35)", line={"width": 0}, hoverinfo="skip", name="infeasible",
+                legendgroup="infeasible", showlegend=n == 0, row=r, col=c,
+            )
+            for k, (q, limit) in enumerate(self.thresholds.items()):
+                if np.all(np.isnan(np.where(self.valid, self.values[q], np.nan))):
+                    continue
+                fig.add_contour(
+                    x=self.grid_x, y=self.grid_y, z=np.where(self.valid, self.values[q], np.nan), showscale=False,
+                    contours={"start": limit, "end": limit, "size": 1.0, "coloring": "lines"},
+                    line={"color": "black", "dash": dashes[k % len(dashes)], "width": 2},
+                    colorscale=[[0, "black"], [1, "black"]], name=f"{q} = {limit:.4g}", legendgroup=q,
+                    showlegend=n == 0, row=r, col=c,
+                )
+            fig.update_xaxes(title_text=f"{self.pair[0]} [{self.units[0]}]", row=r, col=c)
+            fig.update_yaxes(title_text=f"{self.pair[1]} [{self.units[1]}]", row=r, col=c)
+        fixed = ", ".join(f"{k}={v:.4g}" for k, v in self.baseline.items())
+        source = (
+            "thresholds: the problem's constraints"
+            if self.threshold_source == "constraints"
+            else "no constraints: thresholds are the baseline design's values"
+        )
+        fig.update_layout(title=f"{self.problem_name}: feasible region over {self.pair[0]}, {self.pair[1]} ({fixed}); {source}; shaded: infeasible")
+        return fig
+
+
+def indicator_problem(problem: "Problem") -> "Problem":
+    """The problem with the four indicators as objectives (constraints kept)."""
+    from hisopt.problem import Problem, problem_from_dict
+
+    if tuple(problem.objective_names) == INDICATORS:
+        return problem
+    data = problem.spec.model_dump(by_alias=True)
+    data["objectives"] = list(INDICATORS)
+    derived = problem_from_dict(data, str(problem.path or "<problem>"))
+    return Problem(derived.spec, problem.path, None)
+
+
+def regions(problem: "Problem", pair: tuple[str, str], points: int = 41) -> RegionsResult:
+    """The four indicators on a ``points x points`` grid over ``pair`` (paper Figs. 9-10).
+
+    Parameters
+    ----------
+    problem : the problem (bounds, baseline design, constraints)
+    pair : two different design variables: x axis, y axis
+    points : [-] grid values per variable, evenly spaced between its bounds
+
+    Raises
+    ------
+    ConfigError
+        A name is not a design variable, the two are equal, or ``points < 2``.
+    """
+    if len(pair) != 2:
+        raise ConfigError(f"expected two design variables separated by a comma, got {','.join(pair)!r}", key="--pair")
+    a, b = pair
+    for name in pair:
+        _check_variable(problem, name, "--pair")
+    if a == b:
+        raise ConfigError(f"expected two different design variables, got {a!r} twice", key="--pair")
+    _check_points(points)
+    ia, ib = problem.variable_names.index(a), problem.variable_names.index(b)
+    grid_x = np.linspace(problem.lower[ia], problem.upper[ia], points)
+    grid_y = np.linspace(problem.lower[ib], problem.upper[ib], points)
+    xx, yy = np.meshgrid(grid_x, grid_y)
+    x = np.repeat(problem.baseline[None, :], xx.size, axis=0)
+    x[:, ia], x[:, ib] = xx.ravel(), yy.ravel()
+    derived = indicator_problem(problem)
+    ev = derived.evaluator()
+    q = ev(x)
+    shape = (points, points)
+    values = {name: np.asarray(q[name]).reshape(shape) for name in ev.names}
+    if problem.spec.constraints:
+        thresholds = {c.name: float(c.limit) for c in problem.spec.constraints}
+        source: Literal["constraints", "baseline"] = "constraints"
+    else:
+        base = ev(problem.baseline[None, :])
+        thresholds = {name: float(base[name][0]) for name in INDICATORS}
+        source = "baseline"
+    units = (problem.spec.variables[a].unit, problem.spec.variables[b].unit)
+    baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n not in pair}
+    return RegionsResult(
+        problem.name, (a, b), units, grid_x, grid_y, values, np.asarray(q["valid"]).reshape(shape), thresholds, source, baseline
+    )

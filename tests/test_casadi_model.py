@@ -1,0 +1,177 @@
+"""The CasADi model of the lumped no-pipe circuit against the numpy model and evaluator.
+
+Values: the CasADi graph and the numpy evaluator's machinery (``Evaluator.spectra`` of a
+direct solve, quadrature sums, maxima over nodes) on the same frequency set, which is the
+evaluator's own pole-aware node set at the design, so integrals equal the evaluator's
+objectives. Gradients: CasADi's AD Jacobian against central differences of that numpy
+computation (fixed nodes), within 1e-4 relative, on random designs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import hisopt
+from hisopt.evaluate import DirectOutputs
+from hisopt.hydraulics.coupling import stroke_impedance
+from hisopt.metrics import COMFORT_OUTPUTS
+from hisopt.optim.casadi_model import CasadiModel, FrequencySet, SpectraCallback, check_supported, compiled, his_matrices
+from hisopt.problem import problem_from_dict
+from hisopt.standards import iso_2631_1_1997 as iso2631
+from tests.conftest import ROOT, random_designs
+
+HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"
+
+
+@pytest.fixture(scope="module")
+def handling() -> hisopt.Problem:
+    # constraints on roll_gradient (static), rms_tire_load and rms_stroke (integrals)
+    return hisopt.load_problem(HANDLING)
+
+
+@pytest.fixture(scope="module", params=["default", "handling"])
+def setup(request, problem, handling):
+    p = problem if request.param == "default" else handling
+    return p, CasadiModel(p, compile=False)
+
+
+def evaluator_nodes(problem: hisopt.Problem, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The evaluator's nodes and weights at design ``x`` (duplicates merged)."""
+    ev = problem.evaluator()
+    lam = np.linalg.eigvals(problem.model(x[None]).state_space().a)
+    f, w = ev.nodes(lam)
+    f, inverse = np.unique(f[0], return_inverse=True)
+    return f, np.bincount(inverse, weights=w[0], minlength=f.size)
+
+
+def numpy_quantities(
+    problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.ndarray, at: dict[str, int] | None = None
+) -> dict[str, float]:
+    """The evaluator's quantities with nodes ``f``, weights ``w`` fixed; maxima over the nodes.
+
+    ``at`` fixes the node of a maximum (its derivative is that node's, where the maximum is
+    unique), so central differences do not straddle a change of the maximising node.
+    """
+    from hisopt.evaluate import roll_gradient
+
+    ev = problem.evaluator()
+    model = problem.model(x[None])
+    psd = ev.spectra(f[None], DirectOutputs(model, ev.outputs)(2j * np.pi * f[None]))[0]
+    comfort = problem.spec.comfort
+    out = {}
+    for m in ev.metrics:
+        if m.kind == "comfort":
+            total = 0.0
+            for axis, name in COMFORT_OUTPUTS.items():
+                gain = iso2631.weighting_gain_squared(f, ev.outputs[name].weighting)
+                total += getattr(comfort, f"k_{axis}") ** 2 * np.sum(w * gain * psd[:, ev.output_index[name]])
+            out[m.name] = np.sqrt(total)
+        elif m.kind == "rms":
+            out[m.name] = np.sqrt(np.sum(w * psd[:, ev.output_index[m.output]]))
+        elif m.kind == "max":
+            y = psd[:, ev.output_index[m.output]]
+            out[m.name] = y.max() if at is None else y[at[m.name]]
+            out[f"{m.name}_node"] = int(np.argmax(y))
+        else:
+            out[m.name] = roll_gradient(model)[0]
+    return out
+
+
+def test_his_matrices_equal_the_circuit_model(problem, rng):
+    # K_his + s C_his against the nodal-analysis stroke impedance D(s) of DESIGN section 2
+    s = 2j * np.pi * np.array([0.7, 3.0, 25.0])
+    for x in random_designs(problem, 6, rng):
+        kh, ch = his_matrices(problem, x)
+        d = stroke_impedance(problem.model(x[None]).his, s, "lumped")[0]
+        mine = np.array(kh)[None] + s[:, None, None] * np.diag(np.array(ch).ravel())[None]
+        np.testing.assert_allclose(mine, d, rtol=1e-12, atol=1e-12 * np.abs(d).max())
+
+
+def test_spectra_equal_the_numpy_model(setup, rng):
+    problem, model = setup
+    ev = problem.evaluator()
+    for x in random_designs(problem, 5, rng):
+        f, w = evaluator_nodes(problem, x)
+        fs = model.frequency_set(f, w)
+        mine = np.array(model.spectra(x, fs.params)).T
+        ref = ev.spectra(f[None], DirectOutputs(problem.model(x[None]), ev.outputs)(2j * np.pi * f[None]))[0]
+        np.testing.assert_allclose(mine, ref, rtol=1e-8, atol=0)
+
+
+def test_quantities_equal_the_evaluator_on_its_nodes(setup, rng):
+    problem, model = setup
+    x_all = random_designs(problem, 5, rng)
+    full = problem.evaluator()(x_all)
+    for k, x in enumerate(x_all):
+        f, w = evaluator_nodes(problem, x)
+        q = np.array(model.function(model.frequency_set(f, w))(x)[0]).ravel()
+        ref = numpy_quantities(problem, x, f, w)
+        for i, name in enumerate(model.names):
+            assert q[i] == pytest.approx(ref[name], rel=1e-9), name
+            if name in ("sigma_aw", "rms_roll", "rms_stroke", "rms_tire_load", "roll_gradient"):
+                # same nodes, same weights: the evaluator's own value
+                assert q[i] == pytest.approx(full[name][k], rel=1e-9), name
+            else:
+                # a maximum over nodes lies below the evaluator's continuous maximum
+                assert q[i] <= full[name][k] * (1 + 1e-12)
+
+
+def test_gradients_match_central_differences(setup, rng):
+    problem, model = setup
+    span = problem.upper - problem.lower
+    for x in random_designs(problem, 4, rng, corners=False):
+        f, w = evaluator_nodes(problem, x)
+        q, jac = (np.array(v) for v in model.function(model.frequency_set(f, w))(x))
+        at = {k.removesuffix("_node"): v for k, v in numpy_quantities(problem, x, f, w).items() if k.endswith("_node")}
+        for j in range(model.n_var):
+            h = 1e-5 * span[j]
+            up = numpy_quantities(problem, x + h * np.eye(model.n_var)[j], f, w, at)
+            down = numpy_quantities(problem, x - h * np.eye(model.n_var)[j], f, w, at)
+            for i, name in enumerate(model.names):
+                fd = (up[name] - down[name]) / (2 * h)
+                scale = max(abs(jac[i, j]), abs(fd), 1e-8 * abs(q[i, 0]) / span[j])  # per unit of the variable
+                assert abs(jac[i, j] - fd) <= 1e-4 * scale, (name, problem.variable_names[j], jac[i, j], fd)
+
+
+def test_callback_jacobian_equals_the_graph_jacobian(problem, rng):
+    import casadi as ca
+
+    model = CasadiModel(problem, compile=False)
+    x = random_designs(problem, 1, rng, corners=False)[0]
+    f, w = evaluator_nodes(problem, x)
+    fs = model.frequency_set(f, w)
+    lower, span = problem.lower, problem.upper - problem.lower
+    callback = SpectraCallback(model, fs, lower, span)
+    u = ca.MX.sym("u", model.n_var)
+    via_callback = ca.Function("a", [u], [ca.jacobian(ca.vec(callback(u)), u)])
+    graph = model.spectra(ca.DM(lower) + ca.DM(span) * u, fs.params)
+    via_graph = ca.Function("b", [u], [ca.jacobian(ca.vec(graph), u)])
+    u0 = (x - lower) / span
+    a, b = np.array(via_callback(u0)), np.array(via_graph(u0))
+    # two AD orders (forward inside each node; through K_his, C_his in the graph): equal to
+    # rounding relative to each derivative's scale
+    assert np.all(np.abs(a - b) <= 1e-9 * (np.abs(b) + np.abs(b).max(axis=0)))
+
+
+def test_compiled_function_gives_the_same_numbers(problem, tmp_path, monkeypatch):
+    monkeypatch.setenv("HISOPT_CACHE_DIR", str(tmp_path))
+    model = CasadiModel(problem, compile=False)
+    fn = model.node_function(jacobian=True)
+    fast = compiled(fn)
+    fs: FrequencySet = model.frequency_set(np.array([0.5, 1.3, 2.7, 11.0, 80.0]))
+    x = problem.baseline
+    for k in range(fs.size):
+        for a, b in zip(fn(x, fs.params[:, k]), fast(x, fs.params[:, k])):
+            np.testing.assert_allclose(np.array(b), np.array(a), rtol=1e-13, atol=0)
+
+
+def test_problems_outside_the_scope_are_refused(problem):
+    data = problem.spec.model_dump(by_alias=True)
+    data["his"]["pipes"] = {"diameter": 0.01, "length_front": 1.0, "length_rear": 2.5}
+    with pytest.raises(hisopt.ConfigError, match="without pipes"):
+        check_supported(problem_from_dict(data))
+    data = problem.spec.model_dump(by_alias=True)
+    data["his"]["chamber_volume"] = 1e-4
+    with pytest.raises(hisopt.ConfigError, match="chamber compliance"):
+        check_supported(problem_from_dict(data))

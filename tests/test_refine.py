@@ -1,0 +1,193 @@
+"""Gradient refinement of Pareto fronts (hisopt.optim.refine).
+
+Every kept refined design is re-evaluated with the standard evaluator and must weakly
+dominate its start; the refined front must be non-dominated and never lose hypervolume. The
+acceptance run of the issue (40 generations, population 40, 40 refined designs, >= 1 %
+hypervolume gain) is ``test_refinement_gains_hypervolume_on_a_40_by_40_run`` (slow); its
+timing is printed here and checked by ``benchmarks/bench_refine.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import hisopt
+from hisopt.optim.archive import non_dominated_mask
+from hisopt.optim.casadi_model import CasadiModel
+from hisopt.optim.refine import (
+    FRONT_REFINED_CSV,
+    REFINE_JSON,
+    RefineSettings,
+    asf_weights,
+    read_front,
+    refine_front,
+    refine_point,
+    refine_run,
+    select_points,
+)
+from hisopt.optim.run import optimize
+from hisopt.problem import problem_from_dict
+from tests.conftest import ROOT
+
+HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"
+
+
+@pytest.fixture(scope="module", autouse=True)
+def compile_cache(tmp_path_factory):
+    # compiled CasADi functions go to a test directory, not the user's cache
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("HISOPT_CACHE_DIR", str(tmp_path_factory.mktemp("casadi_cache")))
+        yield
+
+
+@pytest.fixture(scope="module")
+def small_run(problem):
+    return optimize(problem, seed=3, pop_size=20, generations=8, algorithm="nsga2")
+
+
+def objectives(problem: hisopt.Problem, frame: pd.DataFrame) -> np.ndarray:
+    return frame[list(problem.objective_names)].to_numpy(dtype=float)
+
+
+def check_refined(problem: hisopt.Problem, front: pd.DataFrame, result) -> None:
+    """Shared invariants of a refinement result."""
+    names = list(problem.objective_names)
+    refined = result.front
+    assert list(refined.columns) == [*front.columns, "source_index"]
+    assert refined["source_index"].between(0, len(front) - 1).all()
+    # re-evaluated with the standard evaluator, every row has the values it shows
+    q = problem.evaluator()(refined[list(problem.variable_names)])
+    for name in problem.objective_names + problem.constraint_names:
+        np.testing.assert_allclose(refined[name], q[name], rtol=1e-12)
+    # every refined row weakly dominates its start, and no row is dominated
+    start = objectives(problem, front)[refined["source_index"]]
+    f = refined[names].to_numpy()
+    assert np.all(f <= start)
+    assert non_dominated_mask(f).all()
+    assert result.hypervolume_after >= result.hypervolume_before
+    for row in result.points.itertuples():
+        mine = np.array([getattr(row, n) for n in names])
+        assert np.all(mine <= objectives(problem, front)[row.source_index])
+        assert row.accepted == bool(np.any(mine < objectives(problem, front)[row.source_index]))
+
+
+def test_select_points_takes_extremes_then_spreads(rng):
+    f = 10.0 ** rng.normal(size=(300, 4))
+    chosen = select_points(f, 25)
+    assert len(chosen) == 25 and np.all(np.diff(chosen) > 0)
+    assert set(np.argmin(f, axis=0)) <= set(chosen)
+    np.testing.assert_array_equal(chosen, select_points(f, 25))
+    np.testing.assert_array_equal(select_points(f[:7], 25), np.arange(7))
+    # farthest-point sampling leaves no design far from the chosen ones
+    z = np.log10(f)
+    z = (z - z.min(0)) / (z.max(0) - z.min(0))
+    gap = np.min(np.linalg.norm(z[:, None] - z[None, chosen], axis=2), axis=1).max()
+    random_gap = np.min(np.linalg.norm(z[:, None] - z[None, rng.choice(300, 25, replace=False)], axis=2), axis=1).max()
+    assert gap < random_gap
+    with pytest.raises(hisopt.ConfigError, match="--max-points"):
+        select_points(f, 0)
+
+
+def test_asf_weights_are_reciprocal_log_ranges():
+    f = np.array([[1.0, 1e-3, 5.0], [100.0, 1e-2, 5.0]])
+    np.testing.assert_allclose(asf_weights(f), [0.5, 1.0, 1.0])
+
+
+def test_refine_point_improves_an_interior_design(problem):
+    # the baseline design is far from the front: refinement must dominate it
+    model = CasadiModel(problem)
+    x0 = problem.baseline
+    q0 = problem.evaluator()(x0[None])
+    f0 = np.array([q0[n][0] for n in problem.objective_names])
+    result = refine_point(problem, model, 0, x0, f0, np.ones(4) * 3.0, RefineSettings())
+    assert result.accepted and result.merit < -1e-3
+    q = problem.evaluator()(result.x[None])
+    f = np.array([q[n][0] for n in problem.objective_names])
+    assert np.all(f <= f0) and np.any(f < f0)
+    assert np.all((result.x >= problem.lower) & (result.x <= problem.upper))
+
+
+def test_refine_front_keeps_only_dominating_designs(problem, small_run):
+    front = small_run.front
+    result = refine_front(problem, front, max_points=6, workers=1)
+    assert len(result.points) == min(6, len(front))
+    check_refined(problem, front, result)
+    assert result.points["accepted"].any()
+
+
+def test_parallel_refinement_equals_serial(problem, small_run):
+    serial = refine_front(problem, small_run.front, max_points=4, workers=1)
+    parallel = refine_front(problem, small_run.front, max_points=4, workers=2)
+    pd.testing.assert_frame_equal(serial.front, parallel.front)
+    cols = ["source_index", "accepted", *problem.variable_names, *problem.objective_names]
+    pd.testing.assert_frame_equal(serial.points[cols], parallel.points[cols])
+
+
+def test_refinement_on_a_dask_cluster_equals_serial(problem, small_run):
+    from hisopt.parallel import open_backend
+
+    serial = refine_front(problem, small_run.front, max_points=3, workers=1)
+    with open_backend(workers=2) as backend:
+        distributed = refine_front(problem, small_run.front, max_points=3, client=backend.client)
+    pd.testing.assert_frame_equal(serial.front, distributed.front)
+
+
+def test_refinement_respects_the_problem_constraints():
+    problem = hisopt.load_problem(HANDLING)
+    run = optimize(problem, seed=2, pop_size=20, generations=6, algorithm="nsga2")
+    result = refine_front(problem, run.front, max_points=5, workers=1)
+    check_refined(problem, run.front, result)
+    for c in problem.spec.constraints:
+        assert (result.front[c.name] <= c.limit).all(), c.name
+
+
+def test_refine_run_and_cli_write_the_refined_front(problem, tmp_path):
+    run_dir = tmp_path / "run"
+    optimize(problem, out=run_dir, seed=5, pop_size=16, generations=5, algorithm="nsga2")
+    front = read_front(run_dir / "front.csv")
+    result = refine_run(run_dir, max_points=3, workers=1)
+    written = pd.read_csv(run_dir / FRONT_REFINED_CSV)
+    assert list(written.columns) == [*front.columns, "source_index"]
+    np.testing.assert_allclose(written[list(problem.objective_names)], result.front[list(problem.objective_names)], rtol=1e-15)
+    summary = json.loads((run_dir / REFINE_JSON).read_text())
+    assert summary["points"] == 3 and summary["hypervolume_after"] >= summary["hypervolume_before"]
+    (run_dir / FRONT_REFINED_CSV).unlink()
+    out = subprocess.run(
+        [sys.executable, "-m", "hisopt", "refine", str(run_dir), "--max-points", "2", "--workers", "1"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert out.returncode == 0, out.stderr
+    assert "hypervolume" in out.stdout and (run_dir / FRONT_REFINED_CSV).is_file()
+    bad = subprocess.run([sys.executable, "-m", "hisopt", "refine", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2 and "not a run directory" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_refinement_refuses_problems_with_pipes(problem, small_run):
+    data = problem.spec.model_dump(by_alias=True)
+    data["his"]["pipes"] = {"diameter": 0.01, "length_front": 1.0, "length_rear": 2.5}
+    with pytest.raises(hisopt.ConfigError, match="lumped circuits without pipes"):
+        refine_front(problem_from_dict(data), small_run.front, max_points=2, workers=1)
+
+
+@pytest.mark.slow
+def test_refinement_gains_hypervolume_on_a_40_by_40_run(problem):
+    run = optimize(problem, seed=1, pop_size=40, generations=40, algorithm="nsga2")
+    started = time.perf_counter()
+    result = refine_front(problem, run.front, max_points=40, workers=2, reference_log=run.reference_point)
+    seconds = time.perf_counter() - started
+    print(
+        f"\nrefined {int(result.points['accepted'].sum())}/{len(result.points)} designs of a {len(run.front)}-design front: "
+        f"hypervolume {result.hypervolume_before:.6g} -> {result.hypervolume_after:.6g} "
+        f"({100 * result.hypervolume_gain:+.2f} %), {seconds / len(result.points):.2f} s per design"
+    )
+    assert len(result.points) == 40
+    assert result.hypervolume_before == pytest.approx(run.hypervolume, rel=1e-12)
+    assert result.hypervolume_gain >= 0.01
+    check_refined(problem, run.front, result)
