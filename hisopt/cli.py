@@ -247,6 +247,8 @@ def optimize_cmd(
     seed: Annotated[Optional[int], typer.Option("--seed", help="random seed (default: problem file)")] = None,
     pop: Annotated[Optional[int], typer.Option("--pop", help="population size (default: problem file, 100)")] = None,
     gens: Annotated[Optional[int], typer.Option("--gens", help="generations (default: problem file, 200)")] = None,
+    refine: Annotated[bool, typer.Option("--refine", help="refine the front with CasADi/IPOPT afterwards (front_refined.csv)")] = False,
+    max_points: Annotated[int, typer.Option("--max-points", help="with --refine: most front designs to refine")] = 40,
 ) -> None:
     """Pareto-optimise PROBLEM (NSGA-II; NSGA-III from four objectives) in a resumable run directory."""
     from datetime import datetime
@@ -278,6 +280,8 @@ def optimize_cmd(
     )
     if code:
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
+    if refine:
+        _refine_and_report(out, max_points, None, None)
 
 
 @app.command("resume")
@@ -351,34 +355,39 @@ def report(
 def refine_cmd(
     run_dir: Annotated[Path, typer.Argument(help="run directory written by `hisopt optimize`")],
     max_points: Annotated[int, typer.Option("--max-points", help="most front designs to refine, spread evenly over the front")] = 40,
-    workers: Annotated[Optional[int], typer.Option("--workers", help="local worker processes (default: one per CPU)")] = None,
+    workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
     """Refine RUN_DIR's front with exact gradients (CasADi/IPOPT): writes front_refined.csv.
 
     Each of up to --max-points designs spread over front.csv is moved towards the Pareto
     front by an achievement-scalarising NLP and kept only if, re-evaluated, it weakly
-    dominates its start. See docs/refine.md.
+    dominates its start. NLPs run in local worker processes, or on Dask with --workers or
+    --scheduler. See docs/refine.md.
     """
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
     from hisopt.errors import ConfigError
-    from hisopt.optim.refine import FRONT_REFINED_CSV, refine_run
-    from hisopt.parallel import open_backend
 
     if max_points < 1:
         raise ConfigError(f"expected at least 1, got {max_points}", key="--max-points")
-    if workers is not None and workers < 1:
-        raise ConfigError(f"expected at least 1 worker process, got {workers}", key="--workers")
+    _refine_and_report(run_dir, max_points, workers, scheduler)
+
+
+def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, scheduler: str | None) -> None:
+    """Refine a run's front with a progress bar; local processes unless Dask is asked for."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from hisopt.optim.refine import FRONT_REFINED_CSV, refine_run
+    from hisopt.parallel import open_backend
+
     bar = Progress(TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"),
                    TimeElapsedColumn(), console=Console(stderr=True))
     front = run_dir / "front.csv"
     if not front.is_file():
         refine_run(run_dir, max_points)  # raises the error that says what is missing
     task = bar.add_task("refine", total=min(max_points, _csv_rows(front)))
-    with open_backend(None, scheduler) as backend, bar:
-        result = refine_run(run_dir, max_points, workers=workers, client=backend.client, progress=lambda _: bar.update(task, advance=1))
+    with open_backend(workers, scheduler) as backend, bar:
+        result = refine_run(run_dir, max_points, client=backend.client, progress=lambda _: bar.update(task, advance=1))
     accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
     typer.echo(
         f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
@@ -401,14 +410,19 @@ def sweep_cmd(
     points: Annotated[int, typer.Option("--points", help="values between the bounds (both included)")] = 41,
     out: Annotated[Path, typer.Option("--out", help="output directory for sweep_NAME.csv and sweep_NAME.html")] = Path("."),
     set_: SetOpt = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
 ) -> None:
     """Frequencies and peak responses of the roll, pitch, bounce modes and FL tyre force (paper Figs. 5-8)."""
     from hisopt.io import ensure_writable_dir, write_csv
     from hisopt.report.theme import write_html
     from hisopt.sweeps import sweep
 
+    from hisopt.parallel import open_backend
+
     p = load(problem, set_)
-    result = sweep(p, vary, points)  # validates --vary and --points before any output
+    with open_backend(workers, scheduler) as backend:
+        result = sweep(p, vary, points, backend=backend)  # validates --vary and --points first
     ensure_writable_dir(out)
     csv, html = out / f"sweep_{vary}.csv", out / f"sweep_{vary}.html"
     write_csv(result.to_frame(), csv)
@@ -423,6 +437,8 @@ def regions_cmd(
     points: Annotated[int, typer.Option("--points", help="grid values per variable")] = 41,
     out: Annotated[Path, typer.Option("--out", help="output directory for regions_A_B.csv and regions_A_B.html")] = Path("."),
     set_: SetOpt = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
 ) -> None:
     """The four indicators on a grid of two variables with the feasible region (paper Figs. 9-10)."""
     from hisopt.errors import ConfigError
@@ -433,8 +449,11 @@ def regions_cmd(
     names = tuple(n.strip() for n in pair.split(","))
     if len(names) != 2 or not all(names):
         raise ConfigError(f"expected two design variables separated by a comma, e.g. dA,lam; got {pair!r}", key="--pair")
+    from hisopt.parallel import open_backend
+
     p = load(problem, set_)
-    result = regions(p, names, points)  # type: ignore[arg-type]
+    with open_backend(workers, scheduler) as backend:
+        result = regions(p, names, points, backend=backend)  # type: ignore[arg-type]
     ensure_writable_dir(out)
     stem = f"regions_{names[0]}_{names[1]}"
     write_csv(result.to_frame(), out / f"{stem}.csv")

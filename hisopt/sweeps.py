@@ -37,6 +37,8 @@ from hisopt.errors import ConfigError
 if TYPE_CHECKING:
     import plotly.graph_objects as go
 
+    from hisopt.parallel import Backend
+
     from hisopt.problem import Problem
 
 SweepKey = Literal["roll", "pitch", "bounce", "tire"]
@@ -185,32 +187,10 @@ class SweepResult:
         return fig
 
 
-def sweep(problem: "Problem", vary: str, points: int = 41, responses: Mapping[str, str] | None = None) -> SweepResult:
-    """Sweep ``vary`` across its bounds, the other variables at the baseline (paper Figs. 5-8).
-
-    Parameters
-    ----------
-    problem : the problem (its variables' bounds, baseline design, vehicle, road, band)
-    vary : a design variable of the problem
-    points : [-] values, evenly spaced between the bounds (both included)
-    responses : response per key (``roll``, ``pitch``, ``bounce``, ``tire``); default
-        :data:`SWEEP_RESPONSES`; e.g. ``{"roll": "roll"}`` for the roll angle
-
-    Raises
-    ------
-    ConfigError
-        ``vary`` is not a design variable, ``points < 2`` or a response is unknown.
-    """
+def _sweep_rows(x: np.ndarray, problem: "Problem", chosen: dict[str, str]) -> pd.DataFrame:
+    """Modal frequencies, damping and response peaks of the designs ``x`` (one row each)."""
     from hisopt.modal import modal_analysis
 
-    _check_variable(problem, vary, "--vary")
-    _check_points(points)
-    chosen = dict(SWEEP_RESPONSES) | dict(responses or {})
-    j = problem.variable_names.index(vary)
-    values = np.linspace(problem.lower[j], problem.upper[j], points)
-    x = np.repeat(problem.baseline[None, :], points, axis=0)
-    x[:, j] = values
-    frame = pd.DataFrame({vary: values})
     records = []
     for row in x:
         modes = modal_analysis(problem, row).set_index("mode")
@@ -220,15 +200,54 @@ def sweep(problem: "Problem", vary: str, points: int = 41, responses: Mapping[st
             rec[f"{mode}_damping_ratio"] = float(modes.loc[mode, "damping_ratio"])
         records.append(rec)
     modal = pd.DataFrame.from_records(records)
-    peaks = {
-        key: response_peaks(problem, x, (name,), {name: modal[f"{key}_frequency_hz"].to_numpy()} if key in SWEEP_MODES else None)[name]
-        for key, name in chosen.items()
-    }
+    frame = pd.DataFrame(index=range(len(x)))
     for key, name in chosen.items():
+        near = {name: modal[f"{key}_frequency_hz"].to_numpy()} if key in SWEEP_MODES else None
+        peak_hz, peak_psd = response_peaks(problem, x, (name,), near)[name]
         if key in SWEEP_MODES:
             for col in ("frequency_hz", "damping_ratio"):
                 frame[f"{key}_{col}"] = modal[f"{key}_{col}"]
-        frame[f"{key}_peak_hz"], frame[f"{key}_peak_psd"] = peaks[key]
+        frame[f"{key}_peak_hz"], frame[f"{key}_peak_psd"] = peak_hz, peak_psd
+    return frame
+
+
+def sweep(
+    problem: "Problem",
+    vary: str,
+    points: int = 41,
+    responses: Mapping[str, str] | None = None,
+    backend: "Backend | None" = None,
+) -> SweepResult:
+    """Sweep ``vary`` across its bounds, the other variables at the baseline (paper Figs. 5-8).
+
+    Parameters
+    ----------
+    problem : the problem (its variables' bounds, baseline design, vehicle, road, band)
+    vary : a design variable of the problem
+    points : [-] values, evenly spaced between the bounds (both included)
+    responses : response per key (``roll``, ``pitch``, ``bounce``, ``tire``); default
+        :data:`SWEEP_RESPONSES`; e.g. ``{"roll": "roll"}`` for the roll angle
+    backend : where to compute (default in-process; a Dask backend splits the points into
+        chunks of :data:`hisopt.parallel.DEFAULT_CHUNK`)
+
+    Raises
+    ------
+    ConfigError
+        ``vary`` is not a design variable, ``points < 2`` or a response is unknown.
+    """
+    from hisopt.parallel import Backend, chunks
+
+    _check_variable(problem, vary, "--vary")
+    _check_points(points)
+    chosen = dict(SWEEP_RESPONSES) | dict(responses or {})
+    j = problem.variable_names.index(vary)
+    values = np.linspace(problem.lower[j], problem.upper[j], points)
+    x = np.repeat(problem.baseline[None, :], points, axis=0)
+    x[:, j] = values
+    backend = backend or Backend()
+    size = len(x) if not backend.is_distributed else max(1, -(-len(x) // (4 * backend.n_workers)))
+    parts = backend.map(_sweep_rows, [x[c] for c in chunks(len(x), size)], problem, chosen)
+    frame = pd.concat([pd.DataFrame({vary: values}), pd.concat(parts, ignore_index=True)], axis=1)
     from hisopt.response import standard_outputs
 
     all_outputs = standard_outputs(problem.spec.vehicle)
@@ -345,7 +364,7 @@ def indicator_problem(problem: "Problem") -> "Problem":
     return Problem(derived.spec, problem.path, None)
 
 
-def regions(problem: "Problem", pair: tuple[str, str], points: int = 41) -> RegionsResult:
+def regions(problem: "Problem", pair: tuple[str, str], points: int = 41, backend: "Backend | None" = None) -> RegionsResult:
     """The four indicators on a ``points x points`` grid over ``pair`` (paper Figs. 9-10).
 
     Parameters
@@ -353,6 +372,7 @@ def regions(problem: "Problem", pair: tuple[str, str], points: int = 41) -> Regi
     problem : the problem (bounds, baseline design, constraints)
     pair : two different design variables: x axis, y axis
     points : [-] grid values per variable, evenly spaced between its bounds
+    backend : where to evaluate the grid (default in-process; Dask for large grids)
 
     Raises
     ------
@@ -373,9 +393,11 @@ def regions(problem: "Problem", pair: tuple[str, str], points: int = 41) -> Regi
     xx, yy = np.meshgrid(grid_x, grid_y)
     x = np.repeat(problem.baseline[None, :], xx.size, axis=0)
     x[:, ia], x[:, ib] = xx.ravel(), yy.ravel()
+    from hisopt.parallel import evaluate_designs
+
     derived = indicator_problem(problem)
     ev = derived.evaluator()
-    q = ev(x)
+    q = evaluate_designs(derived, x, backend)
     shape = (points, points)
     values = {name: np.asarray(q[name]).reshape(shape) for name in ev.names}
     if problem.spec.constraints:

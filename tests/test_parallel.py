@@ -66,3 +66,26 @@ def test_multi_seed_study_identical_serial_and_distributed(problem, dask_backend
     assert (tmp_path / "serial" / "seed-2" / "front.csv").is_file()
     # The merged front dominates-or-equals each seed's hypervolume.
     assert serial.hypervolume >= serial.runs["hypervolume"].max() - 1e-12
+
+
+def test_sweep_and_regions_identical_through_dask(problem, dask_backend):
+    from hisopt.sweeps import regions, sweep
+
+    a = sweep(problem, "p0", points=9)
+    b = sweep(problem, "p0", points=9, backend=dask_backend)
+    pd.testing.assert_frame_equal(a.frame, b.frame, check_exact=True)
+    r1 = regions(problem, ("dA", "lam"), points=12)
+    r2 = regions(problem, ("dA", "lam"), points=12, backend=dask_backend)
+    for name in r1.values:
+        assert np.array_equal(r1.values[name], r2.values[name], equal_nan=True)
+
+
+def test_refinement_identical_through_dask(problem, dask_backend):
+    """One NLP per task; the refined designs do not depend on where they were solved."""
+    import hisopt
+    from hisopt.optim.refine import refine_front
+
+    run = hisopt.optimize(problem, pop_size=12, generations=3, seed=4)
+    local = refine_front(problem, run.front, max_points=2, workers=1)
+    dist = refine_front(problem, run.front, max_points=2, client=dask_backend.client)
+    pd.testing.assert_frame_equal(local.front, dist.front, check_exact=True)

@@ -191,3 +191,24 @@ def test_refinement_gains_hypervolume_on_a_40_by_40_run(problem):
     assert result.hypervolume_before == pytest.approx(run.hypervolume, rel=1e-12)
     assert result.hypervolume_gain >= 0.01
     check_refined(problem, run.front, result)
+
+
+def test_optimize_with_refine_flag_writes_refined_front(tmp_path):
+    import subprocess
+    import sys
+
+    import pandas as pd
+
+    from tests.conftest import DEFAULT_PROBLEM
+
+    out = tmp_path / "run"
+    proc = subprocess.run(
+        [sys.executable, "-m", "hisopt", "optimize", str(DEFAULT_PROBLEM), "--out", str(out), "--pop", "12", "--gens", "3",
+         "--refine", "--max-points", "2"],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    refined = pd.read_csv(out / "front_refined.csv")
+    front = pd.read_csv(out / "front.csv")
+    assert list(refined.columns) == list(front.columns) + ["source_index"]
+    assert refined["source_index"].between(0, len(front) - 1).all()
