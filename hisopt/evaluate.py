@@ -18,10 +18,10 @@ import numpy as np
 import pandas as pd
 
 from hisopt.constants import G_MPS2
-from hisopt.linalg import bmm, cbmm, cmul, join, split
+from hisopt.linalg import bmm, cbmm, cmul, split
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
 from hisopt.quadrature import base_edges, panel_nodes, pole_edges
-from hisopt.response import Output, standard_outputs, track_frf, track_psd
+from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
@@ -56,8 +56,8 @@ class Evaluator:
         chunk_size: int = 256,
         order: int = 4,
         zoom_iterations: int = 5,
-        base_panels: int = 12,
-        pole_ratio: float = 4.0,
+        base_panels: int = 8,
+        pole_ratio: float = 5.0,
     ):
         spec = problem.spec
         self.problem = problem
@@ -75,6 +75,8 @@ class Evaluator:
                 wanted.append(m.output)
         self.outputs: dict[str, Output] = {n: self.all_outputs[n] for n in dict.fromkeys(wanted)}
         self.output_index = {name: i for i, name in enumerate(self.outputs)}
+        self.bases, self.derived = _share_outputs(self.outputs)
+        self.base_index = {name: i for i, name in enumerate(self.bases)}
         self.f_lo, self.f_hi = spec.band.f_min_hz, spec.band.f_max_hz
         self.gd_n0 = class_gd_n0(spec.road.road_class)
         self.speed = spec.road.speed
@@ -132,13 +134,13 @@ class Evaluator:
         scale = np.abs(lam).max(axis=1)
         stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1)
         if model.pipe_model == "distributed":
-            frf: FrfFn = DirectOutputs(model, self.outputs)
+            frf: FrfFn = DirectOutputs(model, self.bases)
         else:
-            fast = PoleResidueOutputs(ss, lam, vec, self.outputs)
+            fast = PoleResidueOutputs(ss, lam, vec, self.bases)
             # Near-defective eigenvector bases make residues inaccurate: solve those directly.
             frf = fast
             if np.any(fast.conditioning > 1e8):
-                frf = _mixed_frf(fast, DirectOutputs(model, self.outputs), fast.conditioning > 1e8)
+                frf = _mixed_frf(fast, DirectOutputs(model, self.bases), fast.conditioning > 1e8)
         values = self.quantities(lam, frf, model)
         ok = stable & np.all([np.isfinite(v) for v in values.values()], axis=0)
         return values, ok
@@ -153,27 +155,30 @@ class Evaluator:
         order = np.argsort(f, axis=1)
         return np.take_along_axis(f, order, 1), np.take_along_axis(w, order, 1)
 
-    def spectra(self, f_hz: np.ndarray, h_out: np.ndarray) -> np.ndarray:  # noqa: D417
-        """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their FRFs (n, F, n_out, 4).
+    def spectra(self, f_hz: np.ndarray, h_out: np.ndarray | tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their FRFs (n, F, 4, n_out),
+        complex or as (real, imag) parts.
 
         Returns shape ``(n, F, n_out)`` (paper Eq. 24 with the track model of DESIGN sec. 3).
         """
+        re, im = h_out if isinstance(h_out, tuple) else split(h_out)
         phase = 2 * np.pi * f_hz * self.tau
-        delay = (np.cos(phase)[..., None, None], -np.sin(phase)[..., None, None])
-        front, rear = split(h_out[..., 0:2]), split(h_out[..., 2:4])
-        rear = cmul(delay, rear)
-        tracks = join(front[0] + rear[0], front[1] + rear[1])
-        coherence: np.ndarray | float = 0.0
+        cos, sin = np.cos(phase)[..., None, None], np.sin(phase)[..., None, None]
+        # Track FRF = front + exp(-j w tau) rear, for the left (FL, RL) and right (FR, RR) wheels.
+        t_re = re[..., 0:2, :] + cos * re[..., 2:4, :] + sin * im[..., 2:4, :]
+        t_im = im[..., 0:2, :] + cos * im[..., 2:4, :] - sin * re[..., 2:4, :]
+        power = t_re[..., 0, :] ** 2 + t_im[..., 0, :] ** 2 + t_re[..., 1, :] ** 2 + t_im[..., 1, :] ** 2
         if self.problem.spec.road.coherence == "isotropic":
             v = self.problem.spec.vehicle
             coherence = isotropic_coherence(f_hz / self.speed, v.t_f + v.t_r)[..., None]
-        return track_psd(tracks, temporal_psd(f_hz, self.gd_n0, self.speed)[..., None], coherence)
+            power = power + 2.0 * coherence * (t_re[..., 0, :] * t_re[..., 1, :] + t_im[..., 0, :] * t_im[..., 1, :])
+        return temporal_psd(f_hz, self.gd_n0, self.speed)[..., None] * power
 
     def quantities(self, lam: np.ndarray, frf: FrfFn, model: "CoupledModel") -> dict[str, np.ndarray]:
-        """All requested metrics from poles (for the nodes) and an FRF function."""
+        """All requested metrics from poles (for the nodes) and an FRF function of the bases."""
         f, w = self.nodes(lam)
         psd = self.spectra(f, frf(2j * np.pi * f))
-        spectra = {name: psd[..., i] for name, i in self.output_index.items()}
+        spectra = {name: self._derive(name, f, psd[..., self.base_index[base]]) for name, (base, _, _) in self.derived.items()}
         comfort = self.problem.spec.comfort
         values: dict[str, np.ndarray] = {}
         gains: dict[str, np.ndarray] = {}
@@ -200,6 +205,13 @@ class Evaluator:
                 values[m.name] = roll_gradient(model)
         return values
 
+    def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
+        """PSD of output ``name`` from its base: ``scale^2 omega^(2p) S_base``."""
+        _, scale, power = self.derived[name]
+        if power == 0 and scale == 1.0:
+            return base_psd
+        return scale**2 * (2 * np.pi * f_hz) ** (2 * power) * base_psd
+
     def _refined_max(self, name: str, f: np.ndarray, psd: np.ndarray, frf: FrfFn, points: int = 7) -> np.ndarray:
         """Continuous maximum: zoom into the bracket around the best node, repeatedly.
 
@@ -214,7 +226,8 @@ class Evaluator:
         t = np.linspace(0.0, 1.0, points)
         for _ in range(self.zoom_iterations):
             pts = a[:, None] + (b - a)[:, None] * t
-            vals = self.spectra(pts, frf(2j * np.pi * pts, self.output_index[name]))[..., 0]
+            base = self.derived[name][0]
+            vals = self._derive(name, pts, self.spectra(pts, frf(2j * np.pi * pts, self.base_index[base]))[..., 0])
             j = np.argmax(vals, axis=1)
             best = np.maximum(best, vals[rows, j])
             a = pts[rows, np.maximum(j - 1, 0)]
@@ -268,22 +281,36 @@ class PoleResidueOutputs:
                 for j in range(p_):
                     d[:, p_ - 1 - j, :] += bmm(o.c[p_][None, :], markov[j])[:, 0, :]
             poly.append(d)
-        self.rho = (np.concatenate(rho_re, axis=2), np.concatenate(rho_im, axis=2))  # (n, ns, n_out*4)
-        self.poly = np.stack(poly, axis=2)  # (n, n_pow, n_out, 4), real
+        # Columns ordered input-major (4 inputs x n_out outputs) so that the front inputs
+        # (FL, FR) and the rear inputs (RL, RR) are contiguous blocks for the track sums.
+        n_out = len(rho_re)
+        order = lambda parts: np.stack(parts, axis=3).reshape(len(lam), -1, 4 * n_out)  # noqa: E731
+        self.rho = (order(rho_re), order(rho_im))  # (n, ns, 4 * n_out)
+        self.n_out = n_out
+        # [Re P, Im P] @ [[Re rho, Im rho], [-Im rho, Re rho]] = [Re h, Im h]: one real gemm.
+        self.rho_block = _complex_block(*self.rho)
+        self.poly = np.stack(poly, axis=3)  # (n, n_pow, 4, n_out), real
 
-    def __call__(self, s: np.ndarray, output: int | None = None) -> np.ndarray:
-        """Output FRFs at ``s = j omega`` (n, F) -> (n, F, n_out, 4), or (n, F, 1, 4) for one ``output``."""
-        rho, poly = self.rho, self.poly
+    def __call__(self, s: np.ndarray, output: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Output FRFs at ``s = j omega`` (n, F), as (real, imag) parts each (n, F, 4, n_out)
+        (inputs FL, FR, RL, RR, then outputs; (n, F, 4, 1) for one ``output``)."""
+        rho, poly = self.rho_block, self.poly
         if output is not None:
-            cols = slice(4 * output, 4 * output + 4)
-            rho = (rho[0][:, :, cols], rho[1][:, :, cols])
-            poly = poly[:, :, output : output + 1]
+            cols = np.arange(4) * self.n_out + output
+            rho = _complex_block(self.rho[0][:, :, cols], self.rho[1][:, :, cols])
+            poly = poly[..., output : output + 1]
         omega = np.asarray(s).imag
-        # 1 / (j omega - lam) in real arithmetic.
+        # 1 / (j omega - lam) in real arithmetic, real and imaginary parts side by side.
+        ns = self.lam.shape[1]
         a = -self.lam.real[:, None, :]
         b = omega[..., None] - self.lam.imag[:, None, :]
-        den = a * a + b * b
-        h = cbmm((a / den, -b / den), rho)
+        inv = 1.0 / (a * a + b * b)
+        p = np.empty(omega.shape + (2 * ns,))
+        np.multiply(a, inv, out=p[..., :ns])
+        np.multiply(-b, inv, out=p[..., ns:])
+        h = bmm(p, rho)
+        half = h.shape[-1] // 2
+        h = (h[..., :half], h[..., half:])
         shape = omega.shape + poly.shape[2:]
         h_re, h_im = h[0].reshape(shape), h[1].reshape(shape)
         for m in range(poly.shape[1]):
@@ -295,7 +322,7 @@ class PoleResidueOutputs:
                     h_re = h_re + term
                 else:
                     h_im = h_im + term
-        return join(h_re, h_im)
+        return h_re, h_im
 
 
 class DirectOutputs:
@@ -307,10 +334,11 @@ class DirectOutputs:
         self.names = tuple(outputs)
 
     def __call__(self, s: np.ndarray, output: int | None = None) -> np.ndarray:
+        """Complex output FRFs (n, F, 4, n_out), as :class:`PoleResidueOutputs`."""
         h_x = self.model.frequency_response(s)
         outputs = list(self.outputs.values())
         chosen = outputs if output is None else [outputs[output]]
-        return np.stack([o.frf(h_x, s) for o in chosen], axis=-2)
+        return np.stack([o.frf(h_x, s) for o in chosen], axis=-1)
 
 
 def _total(terms: np.ndarray) -> np.ndarray:
@@ -319,13 +347,46 @@ def _total(terms: np.ndarray) -> np.ndarray:
     return np.cumsum(terms, axis=1)[:, -1]
 
 
+def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[str, tuple[str, float, int]]]:
+    """Evaluate fewer FRFs: an output ``s^p (c . X)`` is a multiple of a displacement output.
+
+    Returns the base outputs to evaluate and, per output, ``(base, scale, p)`` with
+    ``S_y = scale^2 omega^(2p) S_base`` (e.g. ``acc_y = -h_0s phi''`` from ``roll``).
+    """
+    bases: dict[str, Output] = {}
+    derived: dict[str, tuple[str, float, int]] = {}
+    pure = {}  # base name -> displacement vector of a pure (p = 0, no road term) base
+    for name, out in outputs.items():
+        rows = np.flatnonzero(np.any(out.c != 0, axis=1))
+        if len(rows) != 1 or np.any(out.d):
+            bases[name], derived[name] = out, (name, 1.0, 0)
+            continue
+        p, vec = int(rows[0]), out.c[rows[0]]
+        k = int(np.flatnonzero(vec)[0])
+        for bname, bvec in pure.items():
+            if np.allclose(vec * bvec[k], bvec * vec[k], rtol=0, atol=0):
+                derived[name] = (bname, float(vec[k] / bvec[k]), p)
+                break
+        else:
+            bases[name] = Output(name, out.unit, vec[None, :], np.zeros((1, 4)), out.weighting)
+            pure[name] = vec
+            derived[name] = (name, 1.0, p)
+    return bases, derived
+
+
+def _complex_block(re: np.ndarray, im: np.ndarray) -> np.ndarray:
+    """``[[re, im], [-im, re]]`` along the last two axes (real form of a complex right factor)."""
+    return np.concatenate([np.concatenate([re, im], axis=-1), np.concatenate([-im, re], axis=-1)], axis=-2)
+
+
 def _mixed_frf(fast: FrfFn, slow: FrfFn, use_slow: np.ndarray) -> FrfFn:
     """FRF from ``fast`` except for the designs flagged in ``use_slow``."""
 
-    def frf(s: np.ndarray, output: int | None = None) -> np.ndarray:
-        out = fast(s, output)
-        out[use_slow] = slow(s, output)[use_slow]
-        return out
+    def frf(s: np.ndarray, output: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        re, im = fast(s, output)
+        exact = slow(s, output)[use_slow]
+        re[use_slow], im[use_slow] = exact.real, exact.imag
+        return re, im
 
     return frf
 

@@ -90,13 +90,16 @@ def track_frf(h_y: np.ndarray, delay: np.ndarray) -> np.ndarray:
     return h_y[..., 0:2] + d * h_y[..., 2:4]
 
 
-def track_psd(h_tracks: np.ndarray, g_road: np.ndarray, coherence: np.ndarray | float = 0.0) -> np.ndarray:
+def track_psd(
+    h_tracks: np.ndarray | tuple[np.ndarray, np.ndarray], g_road: np.ndarray, coherence: np.ndarray | float = 0.0
+) -> np.ndarray:
     """One-sided output PSD from per-track FRFs (paper Eq. 24), shape ``(..., F)``.
 
-    ``g_road``: single-track road PSD [m^2/Hz]; ``coherence``: left-right coherence ``g(f)``.
+    ``h_tracks``: (..., 2) left/right, complex or as (real, imag) parts; ``g_road``:
+    single-track road PSD [m^2/Hz]; ``coherence``: left-right coherence ``g(f)``.
     """
-    left, right = h_tracks[..., 0], h_tracks[..., 1]
-    power = left.real**2 + left.imag**2 + right.real**2 + right.imag**2
+    re, im = h_tracks if isinstance(h_tracks, tuple) else (h_tracks.real, h_tracks.imag)
+    power = re[..., 0] ** 2 + im[..., 0] ** 2 + re[..., 1] ** 2 + im[..., 1] ** 2
     if np.any(coherence):
-        power = power + 2.0 * coherence * np.real(left * np.conj(right))
+        power = power + 2.0 * coherence * (re[..., 0] * re[..., 1] + im[..., 0] * im[..., 1])
     return g_road * power
