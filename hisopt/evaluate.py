@@ -425,10 +425,10 @@ def results_frame(problem: "Problem", designs: Any, quantities: dict[str, np.nda
 
 
 def grid_quantities(problem: "Problem", designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:
-    """Straightforward evaluator: direct solve on a given grid, trapezoid integrals, sample maxima.
+    """Reference evaluator: direct solve on a given grid, trapezoid integrals, sample maxima.
 
-    The baseline of ``benchmarks/bench_evaluate.py`` (a plain log grid) and, with a fine
-    pole-clustered grid per design, the converged reference of the tests.
+    With a fine pole-clustered grid per design it is the converged reference of the tests
+    and of ``benchmarks/bench_evaluate.py``; on a plain grid it shows what sampling misses.
 
     Parameters
     ----------

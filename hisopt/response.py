@@ -3,7 +3,8 @@
 An output is a polynomial in ``s`` of the car's motion and the road input:
 ``y(s) = sum_p s^p (c_p . X(s) + d_p . z_g(s))``. With the 4-wheel FRF ``H_X = X / z_g`` the
 output FRF per wheel input is ``H_y = sum_p s^p (c_p H_X + d_p)``; the two tracks combine front
-and delayed rear inputs and ``S_y = G (|h_L|^2 + |h_R|^2 + 2 g Re(h_L conj(h_R)))``.
+and delayed rear inputs and ``S_y = G (|h_L|^2 + |h_R|^2 + 2 g Re(h_L conj(h_R)))``
+(:meth:`hisopt.evaluate.Evaluator.spectra`).
 """
 
 from __future__ import annotations
@@ -79,27 +80,3 @@ def standard_outputs(vehicle: VehicleParams) -> dict[str, Output]:
             poly(-v.k_tf * _unit(0, 4), -v.c_tf * _unit(0, 4)),
         ),
     }
-
-
-def track_frf(h_y: np.ndarray, delay: np.ndarray) -> np.ndarray:
-    """Per-track FRF: front input plus delayed rear input, shape ``(..., F, 2)`` (left, right).
-
-    ``h_y``: ``(..., F, 4)`` per wheel (FL, FR, RL, RR); ``delay``: ``exp(-s tau)``, ``(..., F)``.
-    """
-    d = delay[..., None]
-    return h_y[..., 0:2] + d * h_y[..., 2:4]
-
-
-def track_psd(
-    h_tracks: np.ndarray | tuple[np.ndarray, np.ndarray], g_road: np.ndarray, coherence: np.ndarray | float = 0.0
-) -> np.ndarray:
-    """One-sided output PSD from per-track FRFs (paper Eq. 24), shape ``(..., F)``.
-
-    ``h_tracks``: (..., 2) left/right, complex or as (real, imag) parts; ``g_road``:
-    single-track road PSD [m^2/Hz]; ``coherence``: left-right coherence ``g(f)``.
-    """
-    re, im = h_tracks if isinstance(h_tracks, tuple) else (h_tracks.real, h_tracks.imag)
-    power = re[..., 0] ** 2 + im[..., 0] ** 2 + re[..., 1] ** 2 + im[..., 1] ** 2
-    if np.any(coherence):
-        power = power + 2.0 * coherence * (re[..., 0] * re[..., 1] + im[..., 0] * im[..., 1])
-    return g_road * power
