@@ -491,6 +491,9 @@ class DropTest:
         """Response spectrum of the test's body coordinate (paper Fig. 13), one trace."""
         import plotly.graph_objects as go
 
+        from hisopt.report.theme import use_theme
+
+        use_theme()
         fig = go.Figure() if fig is None else fig
         f, mag = self.spectrum()
         keep = f <= 10.0
@@ -700,6 +703,9 @@ def spectra_figure(tests: Sequence[DropTest]) -> "go.Figure":
     """Response spectra of the drop tests, one panel per body mode (paper Fig. 13)."""
     from plotly.subplots import make_subplots
 
+    from hisopt.report.theme import use_theme
+
+    use_theme()
     order = ("left_side", "front_axle", "all_wheels")
     present = [c for c in order if any(t.case == c for t in tests)]
     titles = [f"{DROP_CASES[c].mode} mode ({c.replace('_', ' ')} drop)" for c in present]

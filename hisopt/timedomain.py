@@ -707,6 +707,9 @@ class TimeResponse:
             raise ConfigError(
                 f"unknown signal(s) {unknown}; expected columns of to_frame(), e.g. {list(frame.columns[:8])}"
             )
+        from hisopt.report.theme import use_theme
+
+        use_theme()
         if fig is None:
             fig = make_subplots(rows=len(columns), cols=1, shared_xaxes=True, subplot_titles=list(columns))
         for row, col in enumerate(columns, start=1):
@@ -718,6 +721,9 @@ class TimeResponse:
         """Gauge accumulator pressures [MPa] against time."""
         import plotly.graph_objects as go
 
+        from hisopt.report.theme import use_theme
+
+        use_theme()
         fig = go.Figure() if fig is None else fig
         for i, name in enumerate(self.accumulator_names):
             pressure_mpa = self.accumulator_pressure_pa[:, i] / 1e6
