@@ -50,7 +50,9 @@ class Backend:
         # Unique keys (hash=False): a repeated scatter of the same object must not share a
         # key whose release by an earlier call would drop it from under the new tasks.
         shared = [self.client.scatter(a, broadcast=True, hash=False) for a in args]
-        futures = self.client.map(fn, list(items), *[[s] * len(items) for s in shared], pure=False)
+        # Items are scattered too, so the task graph stays small whatever the data size.
+        item_futures = self.client.scatter(list(items), hash=False)
+        futures = self.client.map(fn, item_futures, *[[s] * len(items) for s in shared], pure=False)
         return self.client.gather(futures)
 
 
