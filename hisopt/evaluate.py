@@ -30,8 +30,9 @@ if TYPE_CHECKING:
     from hisopt.model import CoupledModel
     from hisopt.problem import Problem
 
-FrfFn = Callable[..., np.ndarray]
-"""``frf(s, output=None)``: output FRFs (n, F, n_out, 4) at ``s`` (n, F), or one output."""
+FrfFn = Callable[..., Any]
+"""``frf(s, output=None)``: output FRFs (n, F, 4 inputs, n_out) at ``s`` (n, F), or one output;
+complex, or as (real, imag) parts (both accepted by :meth:`Evaluator.spectra`)."""
 
 
 class Evaluator:

@@ -19,8 +19,6 @@ if TYPE_CHECKING:
     from hisopt.evaluate import Evaluator
 
 
-
-
 @dataclass(frozen=True)
 class Problem:
     """A design problem: vehicle, HIS, variables with bounds, road, band and objectives."""
