@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import itertools
 import json
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -71,9 +72,42 @@ def atomic_write_json(path: str | Path, data: dict[str, Any]) -> Path:
     return atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False, allow_nan=True) + "\n")
 
 
-def write_csv(frame: pd.DataFrame, path: str | Path) -> Path:
-    """CSV with full float precision (values round-trip exactly), written atomically."""
-    return atomic_write_text(path, frame.to_csv(index=False, float_format="%.17g"))
+def write_csv(frame: pd.DataFrame, path: str | Path, units: Mapping[str, str] | None = None) -> Path:
+    """CSV whose floats round-trip exactly (shortest decimals: ``0.1``), written atomically.
+
+    Units (``units``, else ``frame.attrs["units"]``) go in a second header row, each in square
+    brackets (``[Pa]``; ``[-]`` dimensionless, ``[]`` unknown), so that a spreadsheet shows
+    them under the names; :func:`read_csv` recognises and strips that row.
+    """
+    units = dict(frame.attrs.get("units", {}) if units is None else units)
+    text = frame.to_csv(index=False)
+    if units:
+        header, _, body = text.partition("\n")
+        row = pd.DataFrame([[f"[{units.get(str(c), '')}]" for c in frame.columns]]).to_csv(index=False, header=False)
+        text = header + "\n" + row + body
+    return atomic_write_text(path, text)
+
+
+def _is_units_row(cells: list[str]) -> bool:
+    filled = [c.strip() for c in cells if c.strip()]
+    return bool(filled) and all(c.startswith("[") and c.endswith("]") for c in filled)
+
+
+def read_csv(path: str | Path, **kwargs: Any) -> pd.DataFrame:
+    """Read a CSV written by :func:`write_csv` (or any plain CSV): floats exactly, units row
+    (if any) moved to ``attrs["units"]``.
+
+    ``kwargs`` go to :func:`pandas.read_csv`. Raises what :func:`pandas.read_csv` raises.
+    """
+    import csv
+
+    with open(path, encoding="utf-8", newline="") as handle:
+        rows = list(itertools.islice(csv.reader(handle), 2))
+    has_units = len(rows) == 2 and _is_units_row(rows[1])
+    frame = pd.read_csv(path, skiprows=[1] if has_units else None, **kwargs)
+    if has_units:
+        frame.attrs["units"] = {name: unit.strip()[1:-1] for name, unit in zip(rows[0], rows[1]) if unit.strip() not in ("", "[]")}
+    return frame
 
 
 def sha256_bytes(data: bytes) -> str:

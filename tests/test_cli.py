@@ -1,5 +1,6 @@
 """CLI smoke tests through the real entry point (exit codes, output)."""
 
+from hisopt.io import read_csv
 import subprocess
 import sys
 
@@ -41,9 +42,8 @@ def test_evaluate_baseline_and_designs_file(tmp_path):
     results = tmp_path / "results.csv"
     out = run("evaluate", str(DEFAULT_PROBLEM), "--designs", str(designs), "--out", str(results))
     assert out.returncode == 0, out.stderr
-    import pandas as pd
 
-    df = pd.read_csv(results)
+    df = read_csv(results)
     assert list(df.columns) == ["p0", "dA", "lam", "Rv", "sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "feasible"]
     assert abs(df.loc[1, "sigma_aw"] / 0.4599 - 1) < 5e-3
 
@@ -59,9 +59,8 @@ def test_evaluate_bad_designs_file_is_a_user_error(tmp_path):
 def test_response_writes_csv_and_offline_html(tmp_path):
     out = run("response", str(DEFAULT_PROBLEM), "--out", str(tmp_path / "resp"))
     assert out.returncode == 0, out.stderr
-    import pandas as pd
 
-    df = pd.read_csv(tmp_path / "resp" / "response.csv")
+    df = read_csv(tmp_path / "resp" / "response.csv")
     for col in ("f_hz", "acc_z_his", "acc_z_ref", "acc_roll_his", "acc_pitch_ref", "tire_load_fl_his"):
         assert col in df
     # The HIS stiffens bounce: the body's vertical-acceleration peak moves up in frequency;

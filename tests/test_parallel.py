@@ -1,5 +1,6 @@
 """Dask backend: a 2-process LocalCluster gives results identical to serial ones."""
 
+from hisopt.io import read_csv
 import subprocess
 import sys
 
@@ -43,7 +44,7 @@ def test_cli_evaluate_with_workers_matches_serial(tmp_path, problem, rng):
             capture_output=True, text=True, timeout=300,
         )
         assert proc.returncode == 0, proc.stderr
-        outs.append(pd.read_csv(out))
+        outs.append(read_csv(out))
     pd.testing.assert_frame_equal(outs[0], outs[1], check_exact=True)
 
 

@@ -9,6 +9,7 @@ timing is printed here and checked by ``benchmarks/bench_refine.py``.
 
 from __future__ import annotations
 
+from hisopt.io import read_csv
 import json
 import subprocess
 import sys
@@ -153,7 +154,7 @@ def test_refine_run_and_cli_write_the_refined_front(problem, tmp_path):
     optimize(problem, out=run_dir, seed=5, pop_size=16, generations=5, algorithm="nsga2")
     front = read_front(run_dir / "front.csv")
     result = refine_run(run_dir, max_points=3, workers=1)
-    written = pd.read_csv(run_dir / FRONT_REFINED_CSV)
+    written = read_csv(run_dir / FRONT_REFINED_CSV)
     assert list(written.columns) == [*front.columns, "source_index"]
     np.testing.assert_allclose(written[list(problem.objective_names)], result.front[list(problem.objective_names)], rtol=1e-15)
     summary = json.loads((run_dir / REFINE_JSON).read_text())
@@ -197,7 +198,6 @@ def test_optimize_with_refine_flag_writes_refined_front(tmp_path):
     import subprocess
     import sys
 
-    import pandas as pd
 
     from tests.conftest import DEFAULT_PROBLEM
 
@@ -208,7 +208,7 @@ def test_optimize_with_refine_flag_writes_refined_front(tmp_path):
         capture_output=True, text=True, timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
-    refined = pd.read_csv(out / "front_refined.csv")
-    front = pd.read_csv(out / "front.csv")
+    refined = read_csv(out / "front_refined.csv")
+    front = read_csv(out / "front.csv")
     assert list(refined.columns) == list(front.columns) + ["source_index"]
     assert refined["source_index"].between(0, len(front) - 1).all()

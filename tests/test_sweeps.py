@@ -51,6 +51,7 @@ the Fig. 4 acceleration responses, which is why :data:`hisopt.sweeps.SWEEP_RESPO
 
 from __future__ import annotations
 
+from hisopt.io import read_csv
 import subprocess
 import sys
 
@@ -246,12 +247,12 @@ def test_cli_sweep_and_regions_write_csv_and_html(tmp_path):
 
     out = run("sweep", str(DEFAULT_PROBLEM), "--vary", "lam", "--points", "5", "--out", str(tmp_path))
     assert out.returncode == 0, out.stderr
-    frame = pd.read_csv(tmp_path / "sweep_lam.csv")
+    frame = read_csv(tmp_path / "sweep_lam.csv")
     assert len(frame) == 5 and "roll_frequency_hz" in frame and "tire_peak_psd" in frame
     assert "plotly" in (tmp_path / "sweep_lam.html").read_text()[:20000].lower()
     out = run("regions", str(DEFAULT_PROBLEM), "--pair", "p0,Rv", "--points", "4", "--out", str(tmp_path))
     assert out.returncode == 0, out.stderr
-    assert len(pd.read_csv(tmp_path / "regions_p0_Rv.csv")) == 16
+    assert len(read_csv(tmp_path / "regions_p0_Rv.csv")) == 16
     assert (tmp_path / "regions_p0_Rv.html").stat().st_size > 1_000_000  # plotly.js embedded: offline
     bad = run("regions", str(DEFAULT_PROBLEM), "--pair", "p0")
     assert bad.returncode == 2 and "--pair" in bad.stderr and "Traceback" not in bad.stderr

@@ -663,18 +663,15 @@ def _refined_front(problem: "Problem", front: pd.DataFrame, results: list[PointR
 # --- run directories -------------------------------------------------------------------------
 def read_front(path: str | Path) -> pd.DataFrame:
     """A ``front.csv`` (full precision; the values round-trip)."""
+    from hisopt.io import read_csv
+
     path = Path(path)
     if not path.is_file():
         raise RunError(f"{path}: front not found; expected a run directory with {path.name}")
     try:
-        return pd.read_csv(path, engine="c", float_precision="round_trip") if _pandas_round_trip() else pd.read_csv(path)
+        return read_csv(path)
     except (OSError, ValueError, pd.errors.ParserError) as exc:
         raise RunError(f"{path}: unreadable front ({exc})") from None
-
-
-def _pandas_round_trip() -> bool:
-    # pandas 3 reads floats exactly by default and deprecates float_precision
-    return int(pd.__version__.split(".")[0]) < 3
 
 
 def run_problem(run_dir: Path) -> tuple["Problem", np.ndarray | None]:

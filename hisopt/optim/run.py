@@ -18,9 +18,8 @@ Run directory files (all written atomically):
   run's own copy of the problem;
 - ``checkpoint.npz``: written after every generation;
 - ``front.csv``: the archive's non-dominated feasible designs: variables, objectives,
-  constraint quantities, physical units, ``%.17g`` (re-evaluating a row gives its values
-  exactly; ``pandas.read_csv`` reads it back exactly from pandas 3 on, older versions
-  need ``float_precision="round_trip"``);
+  constraint quantities, physical units, shortest round-trip decimals and a units row
+  (:func:`hisopt.io.write_csv`; read it back with :func:`hisopt.io.read_csv`);
 - ``evaluations.parquet`` (``evaluations.csv`` without pyarrow): every evaluated design
   with its generation, quantities, ``valid`` and ``feasible``;
 - ``generations.csv``: per-generation statistics (evaluations, feasible share, front
@@ -52,6 +51,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.errors import ConfigError, RunError
+from hisopt.io import write_csv
 from hisopt.optim import runio
 from hisopt.optim.archive import Archive
 from hisopt.optim.decision import asf_index, hypervolume, knee_index, reference_point
@@ -625,8 +625,8 @@ def _summary(result: OptimizationResult) -> dict[str, Any]:
 
 def write_outputs(run_dir: Path, result: OptimizationResult) -> None:
     """``front.csv``, the evaluations and ``generations.csv`` (each atomically)."""
-    runio.atomic_write_text(run_dir / runio.FRONT_CSV, result.front.to_csv(index=False, float_format="%.17g"))
-    runio.atomic_write_text(run_dir / runio.GENERATIONS_CSV, result.generations.to_csv(index=False, float_format="%.17g"))
+    write_csv(result.front, run_dir / runio.FRONT_CSV)
+    write_csv(result.generations, run_dir / runio.GENERATIONS_CSV)
     try:
         import io
 
@@ -634,7 +634,7 @@ def write_outputs(run_dir: Path, result: OptimizationResult) -> None:
         result.history.to_parquet(buffer, index=False)
         runio.atomic_write_bytes(run_dir / runio.EVALUATIONS, buffer.getvalue())
     except ImportError:
-        runio.atomic_write_text(run_dir / runio.EVALUATIONS_CSV, result.history.to_csv(index=False, float_format="%.17g"))
+        write_csv(result.history, run_dir / runio.EVALUATIONS_CSV)
 
 
 def _update_run_json(

@@ -10,6 +10,7 @@ from typing import Any
 import pandas as pd
 
 from hisopt.errors import RunError
+from hisopt.io import read_csv
 
 RUN_FILES = {"front": "front.csv", "refined": "front_refined.csv", "generations": "generations.csv", "run": "run.json"}
 
@@ -28,10 +29,10 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
         raise RunError(f"{front_path}: missing; the run has not finished a generation yet")
     copy = run_dir / record["problem"]["copy"]
     problem = load_problem(copy) if copy.suffix == ".toml" else problem_from_dict(json.loads(copy.read_text()), str(copy))
-    out: dict[str, Any] = {"record": record, "problem": problem, "front": pd.read_csv(front_path)}
+    out: dict[str, Any] = {"record": record, "problem": problem, "front": read_csv(front_path)}
     for key in ("refined", "generations"):
         path = run_dir / RUN_FILES[key]
-        out[key] = pd.read_csv(path) if path.is_file() else None
+        out[key] = read_csv(path) if path.is_file() else None
     return out
 
 
