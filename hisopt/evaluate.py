@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.constants import G_MPS2
-from hisopt.linalg import bmm, cbmm, cmul, split
+from hisopt.linalg import bmm, cbmm, cmul, one_blas_thread, split
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
 from hisopt.quadrature import base_edges, panel_nodes, pole_edges
 from hisopt.response import Output, standard_outputs
@@ -93,7 +93,8 @@ class Evaluator:
     def __call__(self, designs: Any) -> dict[str, np.ndarray]:
         """Quantities by name, each shape ``(n,)``, plus ``"valid"`` (finite, stable model)."""
         x = self.problem.design_matrix(designs)
-        results = [self._chunk(x[i : i + self.chunk_size]) for i in range(0, max(len(x), 1), self.chunk_size)]
+        with one_blas_thread():
+            results = [self._chunk(x[i : i + self.chunk_size]) for i in range(0, max(len(x), 1), self.chunk_size)]
         return {k: np.concatenate([r[k] for r in results]) for k in results[0]}
 
     # --- internals -----------------------------------------------------------------------
@@ -247,8 +248,7 @@ class PoleResidueOutputs:
     """
 
     def __init__(self, ss: Any, lam: np.ndarray, vec: np.ndarray, outputs: dict[str, Output]):
-        # Complex arithmetic is done on (real, imag) pairs with plain real operations, so each
-        # design's numbers are the same in any batch (see hisopt.linalg).
+        # Complex arithmetic on (real, imag) pairs: the products below are real gemm calls.
         self.names = tuple(outputs)
         self.lam = lam
         lam_c = split(lam)
@@ -343,8 +343,7 @@ class DirectOutputs:
 
 
 def _total(terms: np.ndarray) -> np.ndarray:
-    """Row sums in sequential order, so zero-weight padding (which varies with the batch)
-    leaves every design's value bit-for-bit unchanged."""
+    """Row sums in sequential order (zero-weight padding nodes add exact zeros)."""
     return np.cumsum(terms, axis=1)[:, -1]
 
 

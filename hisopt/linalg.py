@@ -1,40 +1,53 @@
-"""Small batched linear algebra with a fixed order of operations.
+"""Small batched linear algebra for the evaluator, and the BLAS threading rule.
 
-The evaluator promises that a design's objectives do not depend on its batch (an optimiser's
-archive must re-evaluate exactly). numpy's complex kernels fuse multiply-adds differently in
-different loops, and BLAS switches to other kernels for matrix-vector shapes, so the hot path
-does complex arithmetic on (real, imag) pairs of real arrays and multiplies matrices with
-:func:`bmm`, which uses real gemm only where its per-matrix result is batch-independent.
+Determinism contract (docs/model.md): a design's objectives may differ by rounding between
+batches (a BLAS kernel rounds a matrix product differently for other matrix sizes, and the
+evaluator pads each batch to its longest frequency grid), but never by more than 1e-12
+relative; and the same work in the same order gives the same numbers. The one thing that
+could break the second rule is BLAS splitting a product between threads, which changes with
+``OPENBLAS_NUM_THREADS`` and the machine: :func:`one_blas_thread` rules it out.
+
+Complex arithmetic on the hot path works on (real, imag) pairs of real arrays, so that
+matrix products go to real gemm (two real products share one call, see
+:func:`hisopt.evaluate.PoleResidueOutputs`).
 """
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+from typing import Any
+
 import numpy as np
+
+_CONTROLLER: dict[str, Any] = {}
+
+
+@contextlib.contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Run the enclosed numpy linear algebra on one BLAS thread.
+
+    A threaded BLAS splits a product into blocks per thread, and a block's edge may be
+    computed by another kernel; one thread gives the same numbers whatever
+    ``OPENBLAS_NUM_THREADS`` says. The evaluator's matrices are small (a 14 x 14 state
+    matrix, products of a few hundred frequencies by a few dozen columns), so a second
+    thread would not speed them up anyway; processes are the unit of parallelism.
+    """
+    if "controller" not in _CONTROLLER:
+        from threadpoolctl import ThreadpoolController
+
+        _CONTROLLER["controller"] = ThreadpoolController()
+    with _CONTROLLER["controller"].limit(limits=1, user_api="blas"):
+        yield
 
 
 def bmm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Matrix product ``a @ b`` over the last two axes, broadcasting leading axes.
-
-    Real products with every matrix dimension >= 2 go to BLAS (gemm: the same per-matrix
-    result for any batch, checked by the tests); the rest (matrix-vector shapes, for which
-    BLAS switches to gemv, and complex operands) use a fixed-order multiply-add.
-    """
-    a = np.asarray(a)
-    b = np.asarray(b)
-    if (
-        a.dtype == np.float64
-        and b.dtype == np.float64
-        and min(a.shape[-2], a.shape[-1], b.shape[-1]) >= 2
-    ):
-        return np.matmul(a, b)
-    out = a[..., :, 0, None] * b[..., 0, None, :]
-    for k in range(1, a.shape[-1]):
-        out = out + a[..., :, k, None] * b[..., k, None, :]
-    return out
+    """Matrix product ``a @ b`` over the last two axes, broadcasting leading axes."""
+    return np.matmul(a, b)
 
 
 def bsum(a: np.ndarray, axis: int) -> np.ndarray:
-    """Sum over ``axis`` in sequential order (batch-independent, unlike pairwise ``np.sum``)."""
+    """Sum over ``axis`` in sequential order (the same order for every batch)."""
     a = np.moveaxis(np.asarray(a), axis, 0)
     out = a[0]
     for k in range(1, a.shape[0]):
@@ -57,11 +70,10 @@ def join(re: np.ndarray, im: np.ndarray) -> np.ndarray:
 
 
 def cmul(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Complex product in real arithmetic (numpy's complex kernels may fuse multiply-adds
-    differently in different loops; separate real operations are rounded the same everywhere)."""
+    """Complex product of (real, imag) pairs in real arithmetic."""
     return a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]
 
 
 def cbmm(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Complex batched matrix product in real arithmetic (see :func:`bmm`, :func:`cmul`)."""
+    """Complex batched matrix product of (real, imag) pairs in real arithmetic."""
     return bmm(a[0], b[0]) - bmm(a[1], b[1]), bmm(a[0], b[1]) + bmm(a[1], b[0])

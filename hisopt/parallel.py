@@ -4,8 +4,9 @@
 ``--scheduler ADDRESS`` connects to an existing cluster (``dask scheduler`` / ``dask worker``
 on several machines). Library functions take ``client=`` (a ``dask.distributed.Client``) or
 ``backend=``. Work is split into chunks large enough for the vectorised evaluator (never one
-task per design); because every design's numbers are independent of its batch, results
-through Dask are identical, bit for bit, to serial ones.
+task per design). Results through Dask equal serial ones within 1e-12 relative (the
+determinism contract of docs/model.md: a design's numbers may differ by rounding between
+batches, never more).
 """
 
 from __future__ import annotations

@@ -117,12 +117,20 @@ def test_singular_designs_give_nan_and_never_raise(problem):
     assert df.loc[0, "sigma_aw"] == pytest.approx(0.5534, rel=1e-3)
 
 
-def test_each_design_is_independent_of_its_batch(problem, rng):
+def test_each_design_within_1e12_of_itself_in_any_batch(problem, rng):
+    """Determinism contract: batches change rounding (other matrix sizes), never more."""
     x = random_designs(problem, 40, rng)
-    together = problem.evaluator()(x)
-    alone = [problem.evaluator()(xi[None]) for xi in x[[0, 7, 39]]]
+    ev = problem.evaluator()
+    together = ev(x)
+    order = rng.permutation(len(x))
+    shuffled = ev(x[order])
+    small = Evaluator(problem, chunk_size=7)(x)
+    alone = {i: ev(x[i : i + 1]) for i in (0, 7, 39)}
     for name in problem.objective_names:
-        assert np.array_equal(together[name][[0, 7, 39]], [a[name][0] for a in alone])
+        np.testing.assert_allclose(shuffled[name], together[name][order], rtol=1e-12, atol=0)
+        np.testing.assert_allclose(small[name], together[name], rtol=1e-12, atol=0)
+        for i, a in alone.items():
+            np.testing.assert_allclose(a[name][0], together[name][i], rtol=1e-12, atol=0)
 
 
 def test_memory_bounded_by_chunking(problem, rng):

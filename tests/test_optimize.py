@@ -211,7 +211,7 @@ def test_run_directory_contents_and_exact_front(tmp_path, handling):
     assert list(front.columns) == expected_columns
     assert front.equals(res.front)
     again = handling.evaluate(front[list(handling.variable_names)])
-    assert np.array_equal(again[expected_columns].to_numpy(), front.to_numpy())
+    np.testing.assert_allclose(again[expected_columns].to_numpy(), front.to_numpy(), rtol=1e-12, atol=0)
     info = json.loads((run_dir / "run.json").read_text())
     assert info["status"] == "finished"
     assert info["problem"]["sha256"] == handling.sha256 == runio.sha256_bytes(HANDLING_PROBLEM.read_bytes())
