@@ -17,13 +17,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from hisopt.constants import G_MPS2
+from hisopt.errors import ModelError
 from hisopt.linalg import bmm, cbmm, cmul, one_blas_thread, split
+from hisopt import psd as psd_kernels
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
+from hisopt.standards import iso_2631_1_1997 as iso2631
+from hisopt.psd import comfort_gain_squared, reduce_metrics, track_power, zoom_maximum
 from hisopt.quadrature import base_edges, panel_nodes, pole_edges
 from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
-from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
 
 if TYPE_CHECKING:
@@ -104,16 +106,16 @@ class Evaluator:
         valid = np.all(np.isfinite(x), axis=1)
         if not valid.any():
             return out | {"valid": valid}
-        with np.errstate(all="ignore"):
-            model = self.problem.model(x[valid])
-            try:
-                values, ok = self._solve(model)
-            except np.linalg.LinAlgError:
-                values, ok = self._one_by_one(x[valid])
         idx = np.flatnonzero(valid)
-        for name in self.names:
-            out[name][idx] = np.where(ok, values[name], np.nan)
-        valid[idx] = ok
+        with np.errstate(all="ignore"):
+            for rows, model in self.problem.model(x[valid]).groups():
+                try:
+                    values, ok = self._solve(model)
+                except (np.linalg.LinAlgError, ModelError):
+                    values, ok = self._one_by_one(x[valid][rows])
+                for name in self.names:
+                    out[name][idx[rows]] = np.where(ok, values[name], np.nan)
+                valid[idx[rows]] = ok
         return out | {"valid": valid}
 
     def _one_by_one(self, x: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -121,7 +123,8 @@ class Evaluator:
         ok = np.zeros(len(x), dtype=bool)
         for i, row in enumerate(x):
             try:
-                v, good = self._solve(self.problem.model(row[None, :]))
+                ((_, model),) = self.problem.model(row[None, :]).groups()
+                v, good = self._solve(model)
             except (np.linalg.LinAlgError, ValueError):
                 continue
             for name in self.names:
@@ -161,19 +164,17 @@ class Evaluator:
         """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their FRFs (n, F, 4, n_out),
         complex or as (real, imag) parts.
 
-        Returns shape ``(n, F, n_out)`` (paper Eq. 24 with the track model of DESIGN sec. 3).
+        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`hisopt.psd.track_power`).
         """
         re, im = h_out if isinstance(h_out, tuple) else split(h_out)
         phase = 2 * np.pi * f_hz * self.tau
-        cos, sin = np.cos(phase)[..., None, None], np.sin(phase)[..., None, None]
-        # Track FRF = front + exp(-j w tau) rear, for the left (FL, RL) and right (FR, RR) wheels.
-        t_re = re[..., 0:2, :] + cos * re[..., 2:4, :] + sin * im[..., 2:4, :]
-        t_im = im[..., 0:2, :] + cos * im[..., 2:4, :] - sin * re[..., 2:4, :]
-        power = t_re[..., 0, :] ** 2 + t_im[..., 0, :] ** 2 + t_re[..., 1, :] ** 2 + t_im[..., 1, :] ** 2
+        cos, sin = np.cos(phase)[..., None], np.sin(phase)[..., None]
+        coherence = None
         if self.problem.spec.road.coherence == "isotropic":
             v = self.problem.spec.vehicle
             coherence = isotropic_coherence(f_hz / self.speed, v.t_f + v.t_r)[..., None]
-            power = power + 2.0 * coherence * (t_re[..., 0, :] * t_re[..., 1, :] + t_im[..., 0, :] * t_im[..., 1, :])
+        wheel = [(re[..., k, :], im[..., k, :]) for k in range(4)]
+        power = track_power(*wheel, cos, sin, coherence)
         return temporal_psd(f_hz, self.gd_n0, self.speed)[..., None] * power
 
     def quantities(self, lam: np.ndarray, frf: FrfFn, model: "CoupledModel") -> dict[str, np.ndarray]:
@@ -181,31 +182,24 @@ class Evaluator:
         f, w = self.nodes(lam)
         psd = self.spectra(f, frf(2j * np.pi * f))
         spectra = {name: self._derive(name, f, psd[..., self.base_index[base]]) for name, (base, _, _) in self.derived.items()}
-        comfort = self.problem.spec.comfort
-        values: dict[str, np.ndarray] = {}
+        spec = self.problem.spec
         gains: dict[str, np.ndarray] = {}
-        for m in self.metrics:
-            if m.kind == "comfort":
-                total = 0.0
-                for axis, name in COMFORT_OUTPUTS.items():
-                    k = getattr(comfort, f"k_{axis}")
-                    weighting = self.outputs[name].weighting
-                    if weighting not in gains:
-                        gains[weighting] = (
-                            iso2631.band_gain_squared(f, weighting, self.f_lo, self.f_hi)
-                            if comfort.method == "band"
-                            else iso2631.weighting_gain_squared(f, weighting)
-                        )
-                    ms = _total(w * gains[weighting] * spectra[name])
-                    total = total + k**2 * ms
-                values[m.name] = np.sqrt(total)
-            elif m.kind == "rms":
-                values[m.name] = np.sqrt(_total(w * spectra[m.output]))
-            elif m.kind == "max":
-                values[m.name] = self._refined_max(m.output, f, spectra[m.output], frf)
-            else:
-                values[m.name] = roll_gradient(model)
-        return values
+
+        def integral(output: str, weighting: str | None) -> np.ndarray:
+            if weighting is None:
+                return _total(w * spectra[output])
+            if weighting not in gains:
+                gains[weighting] = comfort_gain_squared(f, weighting, spec.comfort, self.f_lo, self.f_hi)
+            return _total(w * gains[weighting] * spectra[output])
+
+        return reduce_metrics(
+            self.metrics,
+            spec.comfort,
+            lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
+            integral,
+            lambda output: self._refined_max(output, f, spectra[output], frf),
+            lambda name: roll_gradient(model),
+        )
 
     def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
         """PSD of output ``name`` from its base: ``scale^2 omega^(2p) S_base``."""
@@ -214,27 +208,14 @@ class Evaluator:
             return base_psd
         return scale**2 * (2 * np.pi * f_hz) ** (2 * power) * base_psd
 
-    def _refined_max(self, name: str, f: np.ndarray, psd: np.ndarray, frf: FrfFn, points: int = 7) -> np.ndarray:
-        """Continuous maximum: zoom into the bracket around the best node, repeatedly.
+    def _refined_max(self, name: str, f: np.ndarray, psd: np.ndarray, frf: FrfFn) -> np.ndarray:
+        """Continuous maximum of output ``name``'s PSD (:func:`hisopt.psd.zoom_maximum`)."""
+        base = self.derived[name][0]
 
-        The bracket (the best node's neighbours) holds the peak because the pole panels
-        resolve every resonance; each step keeps the neighbours of the best of ``points``.
-        """
-        rows = np.arange(len(f))
-        i = np.argmax(psd, axis=1)
-        best = psd[rows, i]
-        a = f[rows, np.maximum(i - 1, 0)]
-        b = f[rows, np.minimum(i + 1, f.shape[1] - 1)]
-        t = np.linspace(0.0, 1.0, points)
-        for _ in range(self.zoom_iterations):
-            pts = a[:, None] + (b - a)[:, None] * t
-            base = self.derived[name][0]
-            vals = self._derive(name, pts, self.spectra(pts, frf(2j * np.pi * pts, self.base_index[base]))[..., 0])
-            j = np.argmax(vals, axis=1)
-            best = np.maximum(best, vals[rows, j])
-            a = pts[rows, np.maximum(j - 1, 0)]
-            b = pts[rows, np.minimum(j + 1, points - 1)]
-        return best
+        def values_at(pts: np.ndarray) -> np.ndarray:
+            return self._derive(name, pts, self.spectra(pts, frf(2j * np.pi * pts, self.base_index[base]))[..., 0])
+
+        return zoom_maximum(values_at, f, psd, self.zoom_iterations)[1]
 
 
 class PoleResidueOutputs:
@@ -392,13 +373,8 @@ def _mixed_frf(fast: FrfFn, slow: FrfFn, use_slow: np.ndarray) -> FrfFn:
 
 
 def roll_gradient(model: "CoupledModel") -> np.ndarray:
-    """[rad/g] Static roll angle under the moment ``m_s g h_0s`` on the roll DOF, shape (n,)."""
-    v = model.vehicle
-    k = model.stiffness()
-    load = np.zeros(7)
-    load[1] = v.m_s * G_MPS2 * v.h_0s
-    x = np.linalg.solve(k, np.broadcast_to(load[:, None], k.shape[:-1] + (1,)))
-    return np.atleast_1d(x[..., 1, 0])
+    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.psd.roll_gradient`)."""
+    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
 def evaluate_problem(problem: "Problem", designs: Any) -> pd.DataFrame:
@@ -429,12 +405,14 @@ def grid_quantities(problem: "Problem", designs: Any, f_hz: np.ndarray, chunk_si
 
     With a fine pole-clustered grid per design it is the converged reference of the tests
     and of ``benchmarks/bench_evaluate.py``; on a plain grid it shows what sampling misses.
+    Same track model, comfort method and metric dispatch as the evaluator (:mod:`hisopt.psd`).
 
     Parameters
     ----------
     f_hz : [Hz] grid, shape ``(F,)`` shared by all designs or ``(n, F)`` per design, sorted
     """
     ev = Evaluator(problem)
+    spec = problem.spec
     x = problem.design_matrix(designs)
     f_all = np.broadcast_to(np.asarray(f_hz, dtype=float), (len(x), np.shape(f_hz)[-1]))
     parts = []
@@ -443,22 +421,19 @@ def grid_quantities(problem: "Problem", designs: Any, f_hz: np.ndarray, chunk_si
         model = problem.model(x[i : i + chunk_size])
         psd = ev.spectra(f, DirectOutputs(model, ev.outputs)(2j * np.pi * f))
         spectra = {name: psd[..., j] for name, j in ev.output_index.items()}
-        trap = lambda y: np.trapezoid(y, f, axis=1)  # noqa: E731
-        values: dict[str, np.ndarray] = {}
-        comfort = problem.spec.comfort
-        for m in ev.metrics:
-            if m.kind == "comfort":
-                total = sum(
-                    getattr(comfort, f"k_{axis}") ** 2
-                    * trap(iso2631.weighting_gain_squared(f, ev.outputs[name].weighting) * spectra[name])
-                    for axis, name in COMFORT_OUTPUTS.items()
-                )
-                values[m.name] = np.sqrt(total)
-            elif m.kind == "rms":
-                values[m.name] = np.sqrt(trap(spectra[m.output]))
-            elif m.kind == "max":
-                values[m.name] = spectra[m.output].max(axis=1)
-            else:
-                values[m.name] = roll_gradient(model)
-        parts.append(values)
+
+        def integral(output: str, weighting: str | None) -> np.ndarray:
+            gain = 1.0 if weighting is None else comfort_gain_squared(f, weighting, spec.comfort, ev.f_lo, ev.f_hi)
+            return np.trapezoid(gain * spectra[output], f, axis=1)
+
+        parts.append(
+            reduce_metrics(
+                ev.metrics,
+                spec.comfort,
+                lambda name: ev.outputs[name].weighting,  # type: ignore[arg-type,return-value]
+                integral,
+                lambda output: spectra[output].max(axis=1),
+                lambda name: roll_gradient(model),
+            )
+        )
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

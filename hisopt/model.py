@@ -14,10 +14,10 @@ from numpy.typing import ArrayLike
 
 from hisopt.constants import DOF_NAMES
 from hisopt.errors import ModelError
-from hisopt.hydraulics.circuit import HydraulicSystem
-from hisopt.hydraulics.coupling import hydraulic_descriptor, stroke_impedance
-from hisopt.hydraulics.elements import PipeModel
-from hisopt.linalg import bmm, bsum
+from hisopt.hydraulics.coupling import HydraulicSystem
+from hisopt.hydraulics.network import PipeModel, singular_shorts
+from hisopt.linalg import bsum
+from hisopt.hydraulics.realisation import Descriptor, Realisation, realise
 from hisopt.vehicle import (
     VehicleParams,
     damping_matrix,
@@ -44,6 +44,9 @@ class StateSpace:
     kinetic_weights: np.ndarray
     """Per-state kinetic coefficients (mass, inertia, pipe inertance; 0 for displacements
     and pressures): a mode's kinetic energy is ``sum(w |x|^2)``, shape ``B + (n,)``."""
+    realisation: Realisation | None = None
+    """How the states map back to every unknown of the coupled descriptor (``None`` without
+    HIS: the states are the unknowns): ``[X, V, hydraulic unknowns]`` = ``full_map() @ x``."""
 
     @property
     def n_states(self) -> int:
@@ -64,25 +67,23 @@ class CoupledModel:
 
     vehicle: VehicleParams
     his: HydraulicSystem | None = None
-    pipe_model: PipeModel = "lumped"
+
+    @property
+    def pipe_model(self) -> PipeModel:
+        """Pipe fidelity of the HIS network (``"lumped"`` without HIS)."""
+        return "lumped" if self.his is None else self.his.network.fidelity
 
     @property
     def mass(self) -> np.ndarray:
         return mass_matrix(self.vehicle)
 
     def stiffness(self) -> np.ndarray:
-        """Static stiffness ``K + G^T K_his G``, shape ``B + (7, 7)`` (``D(s)`` at ``s -> 0``).
-
-        Only meaningful for circuits whose ``D(s)`` has a finite static limit (lumped).
-        """
+        """Static stiffness ``K + G^T K_his G``, shape ``B + (7, 7)`` (``D(s)`` at ``s -> 0``)."""
         k = stiffness_matrix(self.vehicle)
         if self.his is None:
             return k
-        # K_his = lim_{s->0} D(s): the real part at a tiny s is exact to rounding for lumped
-        # circuits (resistances only add imaginary terms, inertances O(s^2)).
         g = stroke_matrix(self.vehicle)
-        d0 = stroke_impedance(self.his, np.array([1e-6j]), "lumped")[..., 0, :, :].real
-        return k + bmm(bmm(g.T, d0), g)
+        return k + g.T @ self.his.static_stiffness() @ g
 
     def dynamic_stiffness(self, s: ArrayLike) -> np.ndarray:
         """``s^2 M + s C + K + G^T D(s) G``, shape ``B + (F, 7, 7)`` (paper Eq. 21)."""
@@ -91,7 +92,7 @@ class CoupledModel:
         kdyn = sb**2 * self.mass + sb * damping_matrix(self.vehicle) + stiffness_matrix(self.vehicle)
         if self.his is not None:
             g = stroke_matrix(self.vehicle)
-            kdyn = kdyn + bmm(bmm(g.T, stroke_impedance(self.his, s, self.pipe_model)), g)
+            kdyn = kdyn + g.T @ self.his.stroke_impedance(s) @ g
         return kdyn
 
     def road_input(self, s: ArrayLike) -> np.ndarray:
@@ -108,90 +109,104 @@ class CoupledModel:
         rhs = np.broadcast_to(self.road_input(s), kdyn.shape[:-1] + (4,))
         return np.linalg.solve(kdyn, rhs)
 
-    def state_space(self) -> StateSpace:
-        """Exact state-space realisation of the lumped model (pipes as pi-sections).
+    def descriptor(self) -> Descriptor:
+        """The coupled lumped model ``diag(e) dz/dt = A z + B0 u + B1 du/dt``, ``z = [X, V, h]``.
 
-        Builds the descriptor ``E dz/dt = A z + ...`` of ``z = [X, V, h]`` and eliminates
-        the algebraic hydraulic unknowns (pressures of nodes without compliance, valve
-        flows) by a batched Schur complement; shorts (``R_v = 0``) stay exact.
+        Port flows ``q = N G V`` enter the network, the fluid acts on the car with
+        ``-G^T N^T p_port``; each circuit's oil volume is an invariant (docs/model.md §3.7).
+        """
+        if self.his is None:
+            raise ModelError("the car without HIS has no hydraulic descriptor")
+        v = self.vehicle
+        net = self.his.network
+        m_diag = np.diag(self.mass)
+        e_h, a_h = self.his.descriptor()
+        g = stroke_matrix(v)
+        n_inc = np.asarray(self.his.incidence)
+        batch = np.broadcast_shapes(np.shape(e_h)[:-1], n_inc.shape[:-2])
+        n_h = net.size
+        size = 14 + n_h
+        coupling = net.injection @ n_inc @ g  # h rows <- V: injected port flows, B + (n_h, 7)
+        a = np.zeros(batch + (size, size))
+        a[..., :7, 7:14] = np.eye(7)
+        a[..., 7:14, :7] = -stiffness_matrix(v)
+        a[..., 7:14, 7:14] = -damping_matrix(v)
+        a[..., 7:14, 14:] = -np.swapaxes(coupling, -1, -2)  # f = -G^T N^T p_port
+        a[..., 14:, 7:14] = coupling
+        a[..., 14:, 14:] = a_h
+        e = np.concatenate(
+            [np.ones(batch + (7,)), np.broadcast_to(m_diag, batch + (7,)), np.broadcast_to(e_h, batch + (n_h,))], axis=-1
+        )
+        b0 = np.zeros((size, 4))
+        b1 = np.zeros((size, 4))
+        b0[7:14], b1[7:14] = road_stiffness_input(v), road_damping_input(v)
+        dynamic = np.concatenate([np.ones(14, dtype=bool), net.dynamic])
+        invariants = []
+        for c in range(net.n_circuits):
+            rows = net.circuit_rows(c)
+            stored = rows[net.dynamic[rows] & ~net.is_flow[rows]]
+            coeff = np.zeros(batch + (size,))
+            coeff[..., 14 + stored] = e[..., 14 + stored]
+            # (B, 1, 4) @ (4, 7): one small product per design, the same in any batch
+            coeff[..., :7] = -(bsum(n_inc[..., net.port_circuit == c, :], axis=-2)[..., None, :] @ g)[..., 0, :]
+            invariants.append((14 + int(stored[0]), coeff))
+        labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES) + net.labels
+        return Descriptor(e, a, b0, b1, dynamic, tuple(invariants), labels)
+
+    def state_space(self) -> StateSpace:
+        """Exact minimal state-space realisation of the lumped model (pipes as pi-sections).
+
+        Algebraic hydraulic unknowns (pressures of nodes without compliance, valve flows) are
+        eliminated by a batched Schur complement and one pressure per closed circuit by its
+        volume balance (:mod:`hisopt.hydraulics.realisation`); shorts (``R_v = 0``) stay exact:
+        a short between two storage nodes merges them, which needs every design of the batch
+        to share its pattern of shorts (:meth:`groups` splits a batch).
         """
         v = self.vehicle
         m_diag = np.diag(self.mass)
-        k, c = stiffness_matrix(v), damping_matrix(v)
-        b0, b1 = road_stiffness_input(v), road_damping_input(v)
         if self.his is None:
+            k, c = stiffness_matrix(v), damping_matrix(v)
             a = np.block([[np.zeros((7, 7)), np.eye(7)], [-k / m_diag[:, None], -c / m_diag[:, None]]])
             zeros = np.zeros((7, 4))
             labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES)
             weights = np.r_[np.zeros(7), m_diag]
+            b0, b1 = road_stiffness_input(v), road_damping_input(v)
             return StateSpace(
                 a, np.vstack([zeros, b0 / m_diag[:, None]]), np.vstack([zeros, b1 / m_diag[:, None]]), labels, weights
             )
-
-        h = hydraulic_descriptor(self.his)
-        g = stroke_matrix(v)
-        batch = np.broadcast_shapes(h.e.shape[:-1], h.n.shape[:-2])
-        n_h = h.e.shape[-1]
-        size = 14 + n_h
-        coupling = bmm(bmm(h.port_map, h.n), g)  # h rows <- V: injected port flows, B + (n_h, 7)
-        a = np.zeros(batch + (size, size))
-        a[..., :7, 7:14] = np.eye(7)
-        a[..., 7:14, :7] = -k
-        a[..., 7:14, 7:14] = -c
-        a[..., 7:14, 14:] = -np.swapaxes(coupling, -1, -2)  # f = -G^T N^T p_port
-        a[..., 14:, 7:14] = coupling
-        a[..., 14:, 14:] = h.a
-        e = np.concatenate(
-            [np.ones(batch + (7,)), np.broadcast_to(m_diag, batch + (7,)), np.broadcast_to(h.e, batch + (n_h,))],
-            axis=-1,
-        )
-        bb0 = np.zeros((size, 4))
-        bb1 = np.zeros((size, 4))
-        bb0[7:14], bb1[7:14] = b0, b1
-
-        dyn = np.concatenate([np.ones(14, dtype=bool), h.dynamic])
-        alg = ~dyn
-        a_dd = a[..., dyn, :][..., :, dyn]
-        if alg.any():
-            a_aa = a[..., alg, :][..., :, alg]
-            a_ad = a[..., alg, :][..., :, dyn]
-            a_da = a[..., dyn, :][..., :, alg]
-            try:
-                a_dd = a_dd - bmm(a_da, np.linalg.solve(a_aa, a_ad))
-            except np.linalg.LinAlgError as exc:
-                raise ModelError("the hydraulic network has an algebraic loop with no resistance") from exc
-        e_d = e[..., dyn]
-        if np.any(e_d <= 0):
-            raise ModelError("a hydraulic storage element has zero compliance or inertance")
-        a_ss = a_dd / e_d[..., :, None]
-        b0_ss, b1_ss = bb0[dyn] / e_d[..., :, None], bb1[dyn] / e_d[..., :, None]
-        labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES) + tuple(l for l, d in zip(h.labels, h.dynamic) if d)
-        is_flow = np.array([False] * 14 + [lab.split(":", 1)[1].startswith("q[") for lab in h.labels])
-        weights = np.where(is_flow, e, 0.0)
+        if self.his.network.fidelity != "lumped":
+            return CoupledModel(self.vehicle, self.his.lumped()).state_space()
+        groups = self.groups()
+        if len(groups) > 1:
+            raise ModelError("designs of this batch short different valves; take CoupledModel.groups() one at a time")
+        model = groups[0][1]
+        d = model.descriptor()
+        r = realise(d)
+        is_flow = np.concatenate([np.zeros(14, dtype=bool), model.his.network.is_flow])  # type: ignore[union-attr]
+        weights = np.where(is_flow, d.e, 0.0)
         weights[..., 7:14] = m_diag
-        weights = weights[..., dyn]
+        return StateSpace(r.a, r.b0, r.b1, r.labels, weights[..., r.kept], r)
 
-        # Each closed circuit conserves fluid volume: sum_i C_i p_i = 1^T N_c G X. Eliminating
-        # one pressure per circuit removes that conserved (zero-eigenvalue) mode, giving a
-        # minimal realisation with a well-conditioned eigenvector basis.
-        circuit = np.concatenate([np.full(14, -1), h.circuit])[dyn]
-        is_pressure = np.concatenate([np.zeros(14, dtype=bool), ~is_flow[14:]])[dyn]
-        size_d = dyn.sum()
-        t = np.broadcast_to(np.eye(size_d), batch + (size_d, size_d)).copy()
-        keep = np.ones(size_d, dtype=bool)
-        for c in range(len(self.his.circuits)):
-            nodes = np.flatnonzero(is_pressure & (circuit == c))
-            r = nodes[0]
-            ports = h.port_circuit == c
-            volume_per_x = bmm(bsum(h.n[..., ports, :], axis=-2)[..., None, :], g)[..., 0, :]  # B + (7,)
-            t[..., r, :] = 0.0
-            t[..., r, :7] = volume_per_x / e_d[..., r, None]
-            t[..., r, nodes[1:]] = -e_d[..., nodes[1:]] / e_d[..., r, None]
-            keep[r] = False
-        return StateSpace(
-            bmm(a_ss[..., keep, :], t[..., :, keep]),
-            b0_ss[..., keep, :],
-            b1_ss[..., keep, :],
-            tuple(l for l, k in zip(labels, keep) if k),
-            weights[..., keep],
-        )
+    def groups(self) -> list[tuple[np.ndarray, "CoupledModel"]]:
+        """The batch split by the valves each design shorts (``R = 0``): ``(rows, model)`` pairs
+        whose models have the shorted valves merged away (one group when none is shorted)."""
+        if self.his is None or self.his.network.fidelity != "lumped":
+            return [(np.arange(int(np.prod(self.his.batch_shape)) if self.his else 1), self)]
+        if not self.his.network.valves():
+            return [(np.arange(int(np.prod(self.his.batch_shape))), self)]
+        net = self.his.network
+        valves = [k for k, _, _ in net.valves()]
+        flat = self.his.shorted_valves().reshape(-1, len(valves))
+        if not flat.any():
+            return [(np.arange(flat.shape[0]), self)]
+        patterns, inverse = np.unique(flat, axis=0, return_inverse=True)
+        merges = [singular_shorts(net, frozenset(k for k, short in zip(valves, p) if short)) for p in patterns]
+        keys = sorted(set(merges), key=sorted)
+        if keys == [frozenset()]:
+            return [(np.arange(flat.shape[0]), self)]
+        out = []
+        for key in keys:
+            rows = np.flatnonzero(np.isin(inverse.ravel(), [i for i, m in enumerate(merges) if m == key]))
+            his = self.his.subset(rows) if len(keys) > 1 else self.his
+            out.append((rows, CoupledModel(self.vehicle, his.contracted(key) if key else his)))
+        return out

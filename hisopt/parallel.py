@@ -86,7 +86,8 @@ def open_backend(workers: int | None = None, scheduler: str | None = None, clien
     saved = {k: os.environ.get(k) for k in _THREAD_VARS}
     os.environ.update({k: "1" for k in _THREAD_VARS})
     try:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        # ":0": any free port, so several studies (or test runs) on one machine never collide
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
     finally:
         for k, v in saved.items():
             if v is None:

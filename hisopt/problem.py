@@ -12,11 +12,13 @@ import pandas as pd
 
 from hisopt.config import ProblemSpec, parse_problem, read_problem_file
 from hisopt.errors import ConfigError
-from hisopt.hydraulics.roll_plane import roll_plane_system
+from hisopt.hydraulics.coupling import HydraulicSystem
+from hisopt.hydraulics.roll_plane import parameter_values, roll_plane_network
 from hisopt.model import CoupledModel
 
 if TYPE_CHECKING:
     from hisopt.evaluate import Evaluator
+    from hisopt.hydraulics.network import Network
 
 
 @dataclass(frozen=True)
@@ -110,8 +112,18 @@ class Problem:
         if not his:
             return CoupledModel(self.spec.vehicle, None)
         params = self.his_parameters(self.baseline if designs is None else designs)
-        system = roll_plane_system(params, self.spec.his)
-        return CoupledModel(self.spec.vehicle, system, self.spec.his.pipe_model)
+        return CoupledModel(self.spec.vehicle, self.hydraulic_system(params))
+
+    def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
+        """The HIS with design variables set from ``overrides`` (numpy arrays of one batch
+        shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values."""
+        return HydraulicSystem(self.network(), parameter_values(self.spec.his, overrides))
+
+    def network(self) -> "Network":
+        """The compiled HIS network (structure only; computed once per problem)."""
+        if "network" not in self._cache:
+            self._cache["network"] = roll_plane_network(self.spec.his)
+        return self._cache["network"]
 
     def evaluator(self) -> "Evaluator":
         """The (cached) batched evaluator of this problem's objectives and constraints."""

@@ -19,15 +19,10 @@ from hisopt.errors import ConfigError
 from hisopt.model import CoupledModel
 from hisopt.road import bump_profile, random_profile, step_profile
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
-from hisopt.timedomain import (
-    RoadInput,
-    _NonlinearNetwork,
-    gas_compliance,
-    gas_pressure_rise,
-    gas_volume,
-    orifice_pressure_drop,
-    simulate,
-)
+from hisopt.hydraulics.laws import gas_compliance, gas_pressure_rise, gas_volume
+from hisopt.hydraulics.laws import valve_pressure_drop as orifice_pressure_drop
+from hisopt.nonlinear_model import NonlinearModel
+from hisopt.timedomain import RoadInput, simulate
 from hisopt.vehicle import stroke_matrix
 
 P_ABS0 = 2.0e6 + 101_325.0
@@ -221,7 +216,7 @@ def test_gas_spring_hardens_at_large_amplitude(problem):
 @pytest.mark.parametrize("chamber_volume", [0.0, 2e-4])
 def test_nonlinear_jacobian_matches_finite_differences(problem, rng, chamber_volume):
     model = problem.with_values(chamber_volume=chamber_volume).model()
-    net = _NonlinearNetwork(model, valve_kq=1e13, tyre_liftoff=True)
+    net = NonlinearModel(model, valve_kq=1e13, tyre_liftoff=True)
     scale = np.r_[np.full(7, 0.01), np.full(7, 0.1), np.full(net.n_states - 14, 1e4)]
     y = rng.standard_normal(net.n_states) * scale
     y[14 + net.acc_state] = rng.uniform(-1e-4, 1e-4, net.acc_state.size)  # volumes [m^3]
@@ -240,7 +235,7 @@ def test_quadratic_valves_satisfy_their_law(problem, rng):
     """The algebraic network solved by Newton satisfies ``dp = R_v q + K_q q |q|`` exactly."""
     model = problem.model()
     kq = 3e12
-    net = _NonlinearNetwork(model, valve_kq=kq, tyre_liftoff=False)
+    net = NonlinearModel(model, valve_kq=kq, tyre_liftoff=False)
     w = rng.uniform(-1e-5, 1e-5, (net.dyn.size, 5))
     vel = rng.standard_normal((7, 5)) * 0.2
     h = net.hydraulic_state(w, vel)

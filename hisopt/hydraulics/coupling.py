@@ -1,83 +1,126 @@
-"""Coupling of the HIS circuits to the 7-DOF car (paper Eq. 15-21, DESIGN section 2).
+"""A HIS for a batch of designs and its coupling to the strokes (paper Eq. 15-21).
 
-Port flows ``q = N G dX/dt`` enter the circuits; the fluid acts on the strokes with
-``f_delta = -N^T p_port``. In the frequency domain this adds ``G^T D(s) G`` with
-``D(s) = s N^T Z_port(s) N`` to the car's dynamic stiffness; in the time domain the lumped
-network's descriptor states join the mechanical ones.
+:class:`HydraulicSystem` pairs a compiled :class:`~hisopt.hydraulics.network.Network` with
+parameter values (floats, numpy arrays of batch shape ``B``, or CasADi expressions) and gives
+what the car sees of it: port flows ``q = N d(delta)/dt`` enter the circuits and the fluid
+pushes back on the strokes with ``f_delta = -N^T p_port``, so the strokes feel
+
+    D(s) = s N^T Z_port(s) N            (force per stroke displacement, 4 x 4)
+
+and statically ``K_his = lim_{s->0} D(s)``; docs/model.md §3.6.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from hisopt.hydraulics.circuit import HydraulicSystem, lumped_descriptor, port_impedance
-from hisopt.hydraulics.elements import PipeModel
-from hisopt.linalg import bmm
+from hisopt.hydraulics import backend as bk
+from hisopt.hydraulics import laws
+from hisopt.hydraulics import network as nw
+from hisopt.hydraulics.network import ElementValues, Network
+
+AXLE_OF_WHEEL = ("front", "front", "rear", "rear")
 
 
-def stroke_impedance(system: HydraulicSystem, s: ArrayLike, model: PipeModel = "lumped") -> np.ndarray:
-    """``D(s) = s N^T Z_port(s) N``: force per stroke displacement, shape ``B + (F, 4, 4)``.
+def wheel_areas(params: Mapping[str, Any]) -> tuple[Any, Any]:
+    """[m^2] Top and bottom chamber areas per wheel from ``dA``, ``lam`` (front axle) and
+    ``dA_rear``, ``lam_rear`` (rear axle; absent: equal to the front).
 
-    Parameters
-    ----------
-    system : the HIS, batch shape ``B``
-    s : [rad/s] Laplace variable, shape ``(F,)`` or ``B + (F,)``
-    model : pipe fidelity
+    numpy: arrays of shape ``B + (4,)``; CasADi: lists of four expressions.
     """
-    s = np.asarray(s, dtype=complex)
-    n_all = system.incidence()
-    total = 0.0
-    start = 0
-    for circuit in system.circuits:
-        n = n_all[..., start : start + len(circuit.ports), :][..., None, :, :]
-        start += len(circuit.ports)
-        z = port_impedance(circuit, s, model)
-        total = total + bmm(bmm(np.swapaxes(n, -1, -2), z), n)
-    return s[..., None, None] * total
+    front = laws.cylinder_areas(params["dA"], params["lam"])
+    rear = laws.cylinder_areas(params.get("dA_rear", params["dA"]), params.get("lam_rear", params["lam"]))
+    per_wheel = (front, front, rear, rear)
+    top = [w[0] for w in per_wheel]
+    bottom = [w[1] for w in per_wheel]
+    if any(bk.is_casadi(v) for v in top + bottom):
+        return top, bottom
+    return np.stack(np.broadcast_arrays(*top), axis=-1), np.stack(np.broadcast_arrays(*bottom), axis=-1)
 
 
 @dataclass(frozen=True)
-class HydraulicDescriptor:
-    """All circuits' lumped descriptors stacked block-diagonally (see ``lumped_descriptor``).
+class HydraulicSystem:
+    """A network with parameter values for a batch of designs (or one symbolic design).
 
-    ``port_map`` (``n_h x n_ports``) picks port pressures from ``h``; ``n`` is the port
-    incidence ``B + (n_ports, 4)``; ``circuit`` gives each state's circuit index and
-    ``port_circuit`` each port's.
+    Attributes
+    ----------
+    network : the compiled structure
+    params : every parameter the layout refers to, the fluid (``rho``, ``mu``, ``beta``) and
+        the cylinder geometry (``dA``, ``lam``, ``dA_rear``, ``lam_rear``)
     """
 
-    e: np.ndarray
-    a: np.ndarray
-    port_map: np.ndarray
-    dynamic: np.ndarray
-    labels: tuple[str, ...]
-    n: np.ndarray
-    circuit: np.ndarray
-    port_circuit: np.ndarray
+    network: Network
+    params: Mapping[str, Any]
 
+    @cached_property
+    def values(self) -> ElementValues:
+        """The constitutive laws applied to every element."""
+        return nw.element_values(self.network, self.params)
 
-def hydraulic_descriptor(system: HydraulicSystem) -> HydraulicDescriptor:
-    """Stack the circuits' lumped descriptors into one block-diagonal network."""
-    parts = [lumped_descriptor(c) for c in system.circuits]
-    batch = np.broadcast_shapes(*(p.e.shape[:-1] for p in parts))
-    size = sum(p.e.shape[-1] for p in parts)
-    n_ports = sum(p.p.shape[1] for p in parts)
-    e = np.zeros(batch + (size,))
-    a = np.zeros(batch + (size, size))
-    port_map = np.zeros((size, n_ports))
-    i = k = 0
-    for part in parts:
-        m, q = part.e.shape[-1], part.p.shape[1]
-        e[..., i : i + m] = part.e
-        a[..., i : i + m, i : i + m] = part.a
-        port_map[i : i + m, k : k + q] = part.p
-        i, k = i + m, k + q
-    labels = tuple(
-        f"{c.name}:{label}" for c, part in zip(system.circuits, parts) for label in part.labels
-    )
-    dynamic = np.concatenate([p.dynamic for p in parts])
-    circuit = np.concatenate([np.full(p.e.shape[-1], i) for i, p in enumerate(parts)])
-    port_circuit = np.concatenate([np.full(p.p.shape[1], i) for i, p in enumerate(parts)])
-    return HydraulicDescriptor(e, a, port_map, dynamic, labels, system.incidence(), circuit, port_circuit)
+    @cached_property
+    def areas(self) -> tuple[Any, Any]:
+        """[m^2] Top and bottom chamber areas per wheel (:func:`wheel_areas`)."""
+        return wheel_areas(self.params)
+
+    @cached_property
+    def incidence(self) -> Any:
+        """``N`` [m^2]: signed chamber areas, ports x wheels (numpy ``B + (n_ports, 4)``)."""
+        return nw.incidence(self.network, *self.areas)
+
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        """Batch shape ``B`` of the parameter values (numpy)."""
+        return tuple(np.shape(self.incidence)[:-2])
+
+    def port_impedance(self, s: Any) -> Any:
+        """``Z_port(s)`` [Pa s m^-3] (:func:`hisopt.hydraulics.network.port_impedance`)."""
+        return nw.port_impedance(self.network, self.values, s)
+
+    def stroke_impedance(self, s: Any) -> Any:
+        """``D(s) = s N^T Z_port(s) N`` [N/m], numpy ``B + (F, 4, 4)`` for ``s`` of shape ``(F,)``
+        or ``B + (F,)``."""
+        z = self.port_impedance(s)
+        n = self.incidence
+        if bk.is_casadi(z):
+            return s * bk.matmul(bk.matmul(n.T, z), n)
+        s = np.asarray(s, dtype=complex)
+        nf = np.asarray(n)[..., None, :, :]
+        return s[..., None, None] * (np.swapaxes(nf, -1, -2) @ z @ nf)
+
+    def static_stiffness(self) -> Any:
+        """[N/m] ``K_his = lim_{s->0} D(s)`` (:func:`hisopt.hydraulics.network.static_stiffness`)."""
+        return nw.static_stiffness(self.network, self.values, self.incidence)
+
+    def descriptor(self) -> tuple[Any, Any]:
+        """``(e, A)`` of the lumped network ``diag(e) dh/dt = A h + P q_port``."""
+        return nw.lumped_descriptor(self.network, self.values)
+
+    def shorted_valves(self) -> np.ndarray:
+        """[-] Per design and valve, ``R = 0`` (an exact short), shape ``B + (n_valves,)``."""
+        valves = self.network.valves()
+        if not valves:
+            return np.zeros(self.batch_shape + (0,), dtype=bool)
+        r = [np.broadcast_to(np.asarray(self.values.resistance[k], dtype=float), self.batch_shape) for k, _, _ in valves]
+        return np.stack(r, axis=-1) == 0.0
+
+    def subset(self, rows: np.ndarray) -> "HydraulicSystem":
+        """The designs ``rows`` of a batch of shape ``(n,)``."""
+        params = {k: (np.asarray(v)[rows] if np.ndim(v) else v) for k, v in self.params.items()}
+        return HydraulicSystem(self.network, params)
+
+    def contracted(self, shorted: frozenset[int]) -> "HydraulicSystem":
+        """The same designs with the valves ``shorted`` (element indices) merged away."""
+        layout = nw.contract_shorts(self.network.layout, shorted)
+        return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params)
+
+    def lumped(self) -> "HydraulicSystem":
+        """The same designs with lumped (pi-section) pipes: the rational model whose state
+        space places the frequency nodes of a distributed-pipe problem."""
+        if self.network.fidelity == "lumped":
+            return self
+        return HydraulicSystem(nw.compile_network(self.network.layout, "lumped"), self.params)

@@ -7,22 +7,17 @@ from each cylinder port to its circuit node; optional chamber compliances sit at
 
 from __future__ import annotations
 
-from typing import Literal
+from collections.abc import Mapping
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from hisopt.hydraulics.circuit import Circuit, Cylinders, HydraulicSystem, Port
-from hisopt.hydraulics.elements import (
-    Accumulator,
-    ChamberCompliance,
-    Element,
-    Pipe,
-    PipeModel,
-    Valve,
-)
+from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.fluid import Fluid
+from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
+from hisopt.hydraulics.network import Network, PipeModel, compile_network
 
 CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = {
     "A": ((0, "top"), (1, "bottom"), (2, "top"), (3, "bottom")),
@@ -69,59 +64,69 @@ class RollPlaneHIS(BaseModel):
         return self
 
 
-def cylinder_areas(dA: ArrayLike, lam: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Top (annulus) and bottom (bore) areas from ``dA = A_b - A_t`` and ``lam = A_t / A_b``.
+def roll_plane_layout(pipes: bool = False, chamber: bool = False) -> Layout:
+    """The roll-plane layout (paper Fig. 3): circuits A and B of :data:`CIRCUIT_CHAMBERS`.
 
-    Returns ``(A_t, A_b)`` [m^2]: ``A_b = dA / (1 - lam)``, ``A_t = lam dA / (1 - lam)``.
+    One accumulator per circuit on its node; a damper valve on every bottom-chamber line
+    (``Rv`` front, ``Rv_rear`` rear); with ``pipes``, a pipe from each chamber's port (after its
+    valve) to the circuit node (``pipe_length_front``/``_rear``, ``pipe_diameter``); with
+    ``chamber``, the oil volume ``chamber_volume`` at every port.
     """
-    dA = np.asarray(dA, dtype=float)
-    lam = np.asarray(lam, dtype=float)
-    a_b = dA / (1.0 - lam)
-    return lam * a_b, a_b
-
-
-def roll_plane_system(params: dict[str, ArrayLike], base: RollPlaneHIS | None = None) -> HydraulicSystem:
-    """Build the roll-plane HIS for one design or a batch of designs.
-
-    Parameters
-    ----------
-    params : overrides of :class:`RollPlaneHIS` fields (``p0``, ``dA``, ``lam``, ``Rv``, ...);
-        each a scalar or an array of one common batch shape ``B`` (one value per design)
-    base : fixed parameters (defaults when omitted)
-    """
-    base = base or RollPlaneHIS()
-    get = lambda k: np.asarray(params[k], dtype=float) if k in params else getattr(base, k)  # noqa: E731
-
-    def rear(key: str) -> np.ndarray:
-        value = get(f"{key}_rear")
-        return get(key) if value is None else value
-
-    dA_f, lam_f, rv_f = get("dA"), get("lam"), get("Rv")
-    dA_r, lam_r, rv_r = rear("dA"), rear("lam"), rear("Rv")
-    at_f, ab_f = cylinder_areas(dA_f, lam_f)
-    at_r, ab_r = cylinder_areas(dA_r, lam_r)
-    top = np.stack(np.broadcast_arrays(at_f, at_f, at_r, at_r), axis=-1)
-    bottom = np.stack(np.broadcast_arrays(ab_f, ab_f, ab_r, ab_r), axis=-1)
-
     circuits = []
     for name, chambers in CIRCUIT_CHAMBERS.items():
-        elements: list[Element] = [Accumulator(name, get("V0"), get("p0"), get("gamma"))]
+        elements: list[Element] = [Accumulator(name)]
         ports = []
-        for wheel, chamber in chambers:
+        for wheel, chamber_kind in chambers:
             front = wheel < 2
-            port_node = f"{name}.{wheel + 1}{chamber[0]}"
+            port_node = f"{name}.{wheel + 1}{chamber_kind[0]}"
             # The chamber's line: damper valve (bottom chambers only), then pipe, to the node.
             pipe_start = port_node
-            if chamber == "bottom":
-                pipe_start = name if base.pipes is None else f"{port_node}.valve"
-                elements.append(Valve(port_node, pipe_start, rv_f if front else rv_r))
-            elif base.pipes is None:
+            if chamber_kind == "bottom":
+                pipe_start = name if not pipes else f"{port_node}.valve"
+                elements.append(Valve(port_node, pipe_start, "Rv" if front else "Rv_rear"))
+            elif not pipes:
                 port_node = name  # a top chamber with no pipe sits on the circuit node
-            if base.pipes is not None:
-                length = base.pipes.length_front if front else base.pipes.length_rear
-                elements.append(Pipe(pipe_start, name, length, base.pipes.diameter, base.fluid))
-            if base.chamber_volume > 0:
-                elements.append(ChamberCompliance(port_node, base.chamber_volume, base.fluid))
-            ports.append(Port(port_node, wheel, chamber))
+            if pipes:
+                length = "pipe_length_front" if front else "pipe_length_rear"
+                elements.append(Pipe(pipe_start, name, length, "pipe_diameter"))
+            if chamber:
+                elements.append(ChamberCompliance(port_node))
+            ports.append(Port(port_node, wheel, chamber_kind))
         circuits.append(Circuit(name, tuple(elements), tuple(ports)))
-    return HydraulicSystem(Cylinders(top, bottom), tuple(circuits))
+    return Layout(tuple(circuits), "roll_plane")
+
+
+def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | None = None) -> dict[str, Any]:
+    """Every parameter the roll-plane layout and the cylinders read, for a batch of designs.
+
+    ``[his]`` values of ``base`` with ``overrides`` (design variables: arrays of one batch
+    shape ``B``, or CasADi expressions); rear-axle ``dA``, ``lam``, ``Rv`` follow the front ones
+    unless given; the pipe set and the fluid are spelt out (``pipe_*``, ``rho``, ``mu``, ``beta``).
+    """
+    values: dict[str, Any] = {
+        k: getattr(base, k) for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)
+    }
+    values.update(overrides or {})
+    for key in ("dA", "lam", "Rv"):
+        if values.get(f"{key}_rear") is None:
+            values[f"{key}_rear"] = values[key]
+    if base.pipes is not None:
+        values |= {
+            "pipe_diameter": base.pipes.diameter,
+            "pipe_length_front": base.pipes.length_front,
+            "pipe_length_rear": base.pipes.length_rear,
+        }
+    values |= {"rho": base.fluid.rho, "mu": base.fluid.mu, "beta": base.fluid.beta}
+    return {k: (np.asarray(v, dtype=float) if isinstance(v, (list, np.ndarray)) else v) for k, v in values.items()}
+
+
+def roll_plane_network(base: RollPlaneHIS) -> Network:
+    """The compiled roll-plane network of ``base``'s pipe set, chamber volume and fidelity."""
+    layout = roll_plane_layout(pipes=base.pipes is not None, chamber=base.chamber_volume > 0)
+    return compile_network(layout, base.pipe_model)
+
+
+def roll_plane_system(params: Mapping[str, ArrayLike] | None = None, base: RollPlaneHIS | None = None) -> HydraulicSystem:
+    """The roll-plane HIS for one design or a batch (``params`` override ``base``'s values)."""
+    base = base or RollPlaneHIS()
+    return HydraulicSystem(roll_plane_network(base), parameter_values(base, params))

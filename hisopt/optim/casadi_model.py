@@ -1,33 +1,28 @@
-"""CasADi graph of the lumped no-pipe frequency model, in real arithmetic, with exact AD.
+"""CasADi graph of a problem's frequency model, in real arithmetic, with exact AD.
 
-The gradient refinement (:mod:`hisopt.optim.refine`) needs the objectives and constraints of
-DESIGN section 5 as CasADi expressions of the design variables. CasADi has no complex type,
-so every complex quantity is carried as a (real, imaginary) pair.
+The gradient refinement (:mod:`hisopt.optim.refine`) needs the objectives and constraints as
+CasADi expressions of the design variables. They are compiled from the same physics core as
+the numpy evaluator (docs/model.md §3.8): the problem's layout and laws with CasADi symbols as
+parameter values (:meth:`hisopt.problem.Problem.hydraulic_system`) give the HIS stroke
+dynamic stiffness ``D(j omega) = j omega N^T Z_port N`` of any network, lumped or
+distributed, solved node by node; CasADi has no complex type, so every complex quantity is a
+(real, imaginary) pair (:class:`hisopt.hydraulics.backend.Complex`).
 
-Model (DESIGN sections 1-2; paper Eq. 20-24). For the default roll-plane circuit with no pipe
-dynamics and no chamber compliance the HIS adds ``G^T Z(s) G`` with ``Z(s) = K_his + s C_his``,
-``K_his = k_acc (a_A a_A^T + a_B a_B^T)``, ``k_acc = gamma p_abs / V0``, ``C_his = R_v
-diag(A_b^2)``. Only ``Z`` (4 x 4) depends on the design; the car without HIS, ``D0(s) = s^2 M +
-s C + K``, does not. With the design-independent ``H0 = D0^-1 B``, ``R = D0^-1 G^T``, ``P = G R``
-(the car's stroke receptance) and ``Q = G H0`` (computed once per frequency set in numpy)::
+The car without HIS, ``D0(s) = s^2 M + s C + K``, does not depend on the design. With the
+design-independent ``H0 = D0^-1 B``, ``R = D0^-1 G^T``, ``P = G R`` (the car's stroke
+receptance) and ``Q = G H0`` (computed once per frequency set in numpy)::
 
-    X = H0 z_g - R Z delta,   delta = G X   =>   (P^-1 + Z) delta = P^-1 Q z_g
+    X = H0 z_g - R D delta,   delta = G X   =>   (P^-1 + D) delta = P^-1 Q z_g
 
-so each node of the graph solves a 4 x 4 complex symmetric system (the stroke dynamic
-stiffness ``S = P^-1 + Z``) instead of the 7 x 7 complex (14 x 14 real) one: a third of the
-operations. An output ``y = sum_p s^p (c_p X + d_p z_g)`` then has ``h_y = a_y - r_y Z delta``
-with ``a_y = sum_p s^p (c_p H0 + d_p)``, ``r_y = sum_p s^p c_p R``, and its one-sided PSD is
-the track model of :meth:`hisopt.evaluate.Evaluator.spectra`.
+so each node solves a 4 x 4 complex symmetric system (the stroke dynamic stiffness
+``S = P^-1 + D``) instead of the 7 x 7 one. An output ``y = sum_p s^p (c_p X + d_p z_g)`` then
+has ``h_y = a_y - r_y D delta`` with ``a_y = sum_p s^p (c_p H0 + d_p)``,
+``r_y = sum_p s^p c_p R``, and its one-sided PSD is the track kernel of
+:mod:`hisopt.psd`.
 
-Scope: the lumped circuit of DESIGN section 2 without pipes and without chamber compliance
-(``pipe_model = "lumped"``, no ``[his.pipes]``, ``chamber_volume = 0``), design variables
-among :data:`SUPPORTED_VARIABLES`. Other problems raise :class:`~hisopt.errors.ConfigError`
-from :func:`check_supported`: refinement needs this exact rational form.
-
-Layout (one section each below): design -> HIS matrices; numeric frequency data; the model
-(per-node PSD function in SX, mapped over the nodes; quantities: integrals by quadrature,
-maxima over the nodes, static roll gradient); compiled functions; the spectra as a CasADi
-callback with a cached Jacobian for IPOPT.
+Layout (one section each below): numeric frequency data; the model (per-node PSD function in
+SX, mapped over the nodes; quantities by the shared metric dispatch); compiled functions;
+the spectra as a CasADi callback with a cached Jacobian for IPOPT.
 """
 
 from __future__ import annotations
@@ -44,12 +39,10 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
-from hisopt.constants import G_MPS2, P_ATM_PA
-from hisopt.errors import ConfigError
-from hisopt.hydraulics.roll_plane import CIRCUIT_CHAMBERS
+from hisopt.hydraulics import backend as bk
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
+from hisopt.psd import comfort_gain_squared, reduce_metrics, roll_gradient, track_power
 from hisopt.road.spectra import isotropic_coherence
-from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
 from hisopt.vehicle import (
     damping_matrix,
@@ -64,71 +57,11 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
     from hisopt.response import Output
 
-SUPPORTED_VARIABLES = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma")
-"""Design variables the CasADi model can differentiate with respect to."""
+SX_MAX_UNKNOWNS = 8
+"""Largest circuit (unknowns) whose node function is expanded to scalar SX and compiled."""
 
 _HEADER = 5
 """Per-node parameters before the matrices: ``omega, cos(omega tau), sin(omega tau), G_road, coherence``."""
-
-
-def check_supported(problem: "Problem") -> None:
-    """Raise :class:`ConfigError` unless the problem fits the CasADi model's scope (module doc)."""
-    his = problem.spec.his
-    if his.pipes is not None or his.pipe_model != "lumped":
-        raise ConfigError(
-            "gradient refinement supports lumped circuits without pipes; remove [his.pipes] "
-            "and use pipe_model = \"lumped\" (or skip refinement)",
-            key="his.pipes",
-        )
-    if his.chamber_volume > 0:
-        raise ConfigError(
-            f"gradient refinement supports circuits without chamber compliance; expected "
-            f"his.chamber_volume = 0, got {his.chamber_volume}",
-            key="his.chamber_volume",
-        )
-    unknown = [n for n in problem.variable_names if n not in SUPPORTED_VARIABLES]
-    if unknown:
-        raise ConfigError(
-            f"gradient refinement cannot vary {unknown[0]!r}; expected variables among {', '.join(SUPPORTED_VARIABLES)}",
-            key=f"variables.{unknown[0]}",
-        )
-
-
-# --- design -> HIS matrices ----------------------------------------------------------------
-def his_parameters(problem: "Problem", x: Any) -> dict[str, Any]:
-    """HIS parameters with the design variables taken from ``x`` (CasADi or numpy vector).
-
-    Rear ``dA``, ``lam``, ``Rv`` follow the front ones unless given (as
-    :func:`hisopt.hydraulics.roll_plane.roll_plane_system`).
-    """
-    his = problem.spec.his
-    values: dict[str, Any] = {name: getattr(his, name) for name in SUPPORTED_VARIABLES}
-    for i, name in enumerate(problem.variable_names):
-        values[name] = x[i]
-    for key in ("dA", "lam", "Rv"):
-        if values[f"{key}_rear"] is None:
-            values[f"{key}_rear"] = values[key]
-    return values
-
-
-def his_matrices(problem: "Problem", x: Any) -> tuple[Any, Any]:
-    """``K_his`` (4 x 4) [N/m] and the diagonal of ``C_his`` (4,) [N s/m] in stroke coordinates.
-
-    DESIGN section 2: ``K_his = sum_circuits k_acc a a^T`` with ``a = +A_t`` (top chamber),
-    ``-A_b`` (bottom chamber); ``C_his = R_v diag(A_b^2)`` (valve on each bottom line, paper
-    Eq. 10). Works for CasADi symbols and plain floats alike.
-    """
-    v = his_parameters(problem, x)
-    a_b = [v["dA"] / (1 - v["lam"])] * 2 + [v["dA_rear"] / (1 - v["lam_rear"])] * 2
-    a_t = [v["lam"] * a_b[0]] * 2 + [v["lam_rear"] * a_b[2]] * 2
-    k_acc = v["gamma"] * (v["p0"] + P_ATM_PA) / v["V0"]
-    k_his = 0
-    for chambers in CIRCUIT_CHAMBERS.values():
-        a = ca.vertcat(*[a_t[w] if kind == "top" else -a_b[w] for w, kind in chambers])
-        k_his = k_his + k_acc * (a @ a.T)
-    rv = [v["Rv"]] * 2 + [v["Rv_rear"]] * 2
-    c_his = ca.vertcat(*[rv[w] * a_b[w] ** 2 for w in range(4)])
-    return k_his, c_his
 
 
 # --- numeric frequency data ----------------------------------------------------------------
@@ -142,7 +75,7 @@ class FrequencySet:
     weight_hz : [Hz] quadrature weights, shape ``(F,)`` (0 for nodes used only by maxima)
     params : [mixed SI] per-node parameters of :meth:`CasadiModel.psd_function`,
         shape ``(n_par, F)``
-    comfort_weight : [Hz] ``weight * k_axis^2 * |W_axis(f)|^2`` per comfort output, dict of ``(F,)``
+    comfort_weight : [Hz] ``weight * |W(f)|^2`` per comfort output (its weighting), dict of ``(F,)``
     """
 
     f_hz: np.ndarray
@@ -211,7 +144,7 @@ class CasadiModel:
 
     Parameters
     ----------
-    problem : a problem within the scope of :func:`check_supported`
+    problem : any problem the evaluator accepts (any layout, pipes lumped or distributed)
     compile : compile the per-node functions the refinement evaluates (:func:`compiled`)
 
     Attributes
@@ -223,7 +156,6 @@ class CasadiModel:
     def __init__(self, problem: "Problem", compile: bool = True):
         from hisopt.evaluate import Evaluator
 
-        check_supported(problem)
         self.compile = compile
         self.problem = problem
         ev = Evaluator(problem)
@@ -281,73 +213,78 @@ class CasadiModel:
                 a_y += (s**k)[:, None] * (np.einsum("j,fjw->fw", out.c[k], h0) + out.d[k])
                 r_y += (s**k)[:, None] * np.einsum("j,fjw->fw", out.c[k], r)
             rows += [a_y.real.T, a_y.imag.T, r_y.real.T, r_y.imag.T]
-        comfort = spec.comfort
-        gains: dict[str, np.ndarray] = {}
-        for axis, name in COMFORT_OUTPUTS.items():
-            if name not in self.outputs:
-                continue
-            weighting = self.outputs[name].weighting
-            gain = (
-                iso2631.band_gain_squared(f[None], weighting, spec.band.f_min_hz, spec.band.f_max_hz)[0]
-                if comfort.method == "band"
-                else iso2631.weighting_gain_squared(f, weighting)
-            )
-            gains[name] = w * getattr(comfort, f"k_{axis}") ** 2 * gain
+        gains = {
+            name: w * comfort_gain_squared(f, self.outputs[name].weighting, spec.comfort, spec.band.f_min_hz, spec.band.f_max_hz)  # type: ignore[arg-type]
+            for name in COMFORT_OUTPUTS.values()
+            if name in self.outputs
+        }
         return FrequencySet(f, w, np.vstack(rows), gains)
 
-    # -- per-frequency PSD function (SX) --------------------------------------------------------
+    # -- per-frequency functions ----------------------------------------------------------------
+    def stroke_stiffness(self, x: Any, omega: Any) -> bk.Complex:
+        """[N/m] The HIS's ``D(j omega)`` (4 x 4) at design ``x`` (CasADi), from the physics core."""
+        params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
+        return bk.as_complex(self.problem.hydraulic_system(params).stroke_impedance(bk.jomega(omega)))
+
+    @property
+    def symbolic(self) -> Any:
+        """``ca.SX`` for small networks (expanded, compiled to C), ``ca.MX`` for large ones.
+
+        A network's linear solve is expanded into scalar operations in ``SX``, which is
+        fastest for the paper's circuit (five unknowns per circuit) but grows with the cube of
+        the unknowns; pipes give a circuit 13 to 17 unknowns, which ``MX`` keeps as one
+        numeric solve per node (and CasADi differentiates through it).
+        """
+        net = self.problem.network()
+        largest = max(int(np.sum(net.circuit == c)) for c in range(net.n_circuits))
+        return ca.SX if largest <= SX_MAX_UNKNOWNS else ca.MX
+
     def psd_function(self) -> "ca.Function":
-        """``psd(k_his 4x4, c_his 4, p n_par) -> (n_out,)`` one-sided output PSDs at one node.
+        """``psd(d_re 4x4, d_im 4x4, p n_par) -> (n_out,)`` output PSDs at one node from the HIS's
+        stroke dynamic stiffness ``D`` (SX).
 
         ``p`` is one column of :attr:`FrequencySet.params` (not differentiated). Solves
-        ``S delta = Q'`` with the stroke dynamic stiffness ``S = P^-1 + Z`` by a complex
-        ``L D L^T`` factorisation without pivoting: ``S`` is complex symmetric with a positive
-        definite imaginary part (every stroke carries a damper), for which Gaussian
-        elimination without pivoting is stable (Higham 1998). Then forms each output's
-        track PSD (paper Eq. 24, DESIGN section 3).
+        ``S delta = Q'`` with the stroke dynamic stiffness ``S = P^-1 + D`` by a complex
+        ``L D L^T`` factorisation without pivoting: ``S`` is complex symmetric (reciprocity)
+        with a positive definite imaginary part (every stroke carries a damper), for which
+        Gaussian elimination without pivoting is stable (Higham 1998). Then forms each
+        output's track PSD (:func:`hisopt.psd.track_power`).
         """
         if self._psd is not None:
             return self._psd
-        kh = ca.SX.sym("k_his", 4, 4)
-        ch = ca.SX.sym("c_his", 4)
+        dr, di = ca.SX.sym("d_re", 4, 4), ca.SX.sym("d_im", 4, 4)
         p = ca.SX.sym("p", self.n_par)
         omega, cos_t, sin_t, g_road, coh = (p[i] for i in range(_HEADER))
         s_re, s_im, q_re, q_im = (ca.reshape(p[_HEADER + 16 * i : _HEADER + 16 * (i + 1)], 4, 4) for i in range(4))
-        s_re = s_re + kh
-        s_im = s_im + omega * ca.diag(ch)  # Z = K_his + j omega C_his
-        d_re, d_im = _ldlt_solve(s_re, s_im, q_re, q_im)
-        zd_re = kh @ d_re - omega * ca.diag(ch) @ d_im  # Z delta
-        zd_im = kh @ d_im + omega * ca.diag(ch) @ d_re
+        del omega
+        delta = bk.Complex(*_ldlt_solve(s_re + dr, s_im + di, q_re, q_im))
+        zd = bk.matmul(bk.Complex(dr, di), delta)  # D delta
         psd = []
         base = _HEADER + 64
         for i in range(len(self.outputs)):
             ar, ai, rr, ri = (p[base + 16 * i + 4 * k : base + 16 * i + 4 * (k + 1)].T for k in range(4))
-            h_re = ar - (rr @ zd_re - ri @ zd_im)
-            h_im = ai - (rr @ zd_im + ri @ zd_re)
-            # tracks: front wheel plus the rear wheel delayed by tau, e = exp(-j omega tau)
-            l_re = h_re[0] + cos_t * h_re[2] + sin_t * h_im[2]
-            l_im = h_im[0] + cos_t * h_im[2] - sin_t * h_re[2]
-            r_re = h_re[1] + cos_t * h_re[3] + sin_t * h_im[3]
-            r_im = h_im[1] + cos_t * h_im[3] - sin_t * h_re[3]
-            power = l_re**2 + l_im**2 + r_re**2 + r_im**2 + 2 * coh * (l_re * r_re + l_im * r_im)
-            psd.append(g_road * power)
+            h_re = ar - (rr @ zd.re - ri @ zd.im)
+            h_im = ai - (rr @ zd.im + ri @ zd.re)
+            wheel = [(h_re[k], h_im[k]) for k in range(4)]
+            psd.append(g_road * track_power(*wheel, cos_t, sin_t, coh))
         self._psd = ca.Function(
-            "psd", [kh, ch, p], [ca.vertcat(*psd)], ["k_his", "c_his", "p"], ["psd"], {"is_diff_in": [True, True, False]}
+            "psd", [dr, di, p], [ca.vertcat(*psd)], ["d_re", "d_im", "p"], ["psd"], {"is_diff_in": [True, True, False]}
         )
         return self._psd
 
     def node_function(self, jacobian: bool = False) -> "ca.Function":
         """``node(x, p) -> psd (n_out,)[, dpsd_dx (n_out, n_var)]`` at one node, design ``x``.
 
-        The HIS matrices are formed inside, so the Jacobian (forward AD, ``n_var``
-        directions) is with respect to the design variables [variable units] directly.
+        The Jacobian (forward AD, ``n_var`` directions) is with respect to the design
+        variables [variable units].
         """
         key = "node_jac" if jacobian else "node"
         if key not in self._nodes:
-            x = ca.SX.sym("x", self.n_var)
-            p = ca.SX.sym("p", self.n_par)
-            kh, ch = his_matrices(self.problem, x)
-            psd = self.psd_function()(kh, ch, p)
+            sym = self.symbolic
+            x = sym.sym("x", self.n_var)
+            p = sym.sym("p", self.n_par)
+            d = self.stroke_stiffness(x, p[0])
+            psd = self.psd_function()(d.re, d.im, p)
             outs = [psd, ca.jacobian(psd, x)] if jacobian else [psd]
             self._nodes[key] = ca.Function(key, [x, p], outs, {"is_diff_in": [True, False]})
         return self._nodes[key]
@@ -360,7 +297,8 @@ class CasadiModel:
         """
         key = "fast_jac" if jacobian else "fast"
         if key not in self._nodes:
-            self._nodes[key] = compiled(self.node_function(jacobian)) if self.compile else self.node_function(jacobian)
+            fn = self.node_function(jacobian)
+            self._nodes[key] = compiled(fn) if self.compile and self.symbolic is ca.SX else fn
         return self._nodes[key]
 
     def spectra(self, x: "ca.MX", params: "ca.MX | np.ndarray") -> "ca.MX":
@@ -373,44 +311,44 @@ class CasadiModel:
         """
         n = params.shape[1]
         if n not in self._mapped:
-            self._mapped[n] = self.psd_function().map(n, "serial")
-        kh, ch = his_matrices(self.problem, x)
-        return self._mapped[n](kh, ch, params)
+            self._mapped[n] = self.node_function().map(n, "serial")
+        return self._mapped[n](x, params)
 
     # -- quantities -----------------------------------------------------------------------------
     def roll_gradient(self, x: "ca.MX") -> "ca.MX":
         """[rad/g] Static roll angle under the moment ``m_s g h_0s`` (``K + G^T K_his G``)."""
         veh = self.problem.spec.vehicle
-        kh, _ = his_matrices(self.problem, x)
+        params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
+        k_his = self.problem.hydraulic_system(params).static_stiffness()
         g = stroke_matrix(veh)
-        k = ca.DM(stiffness_matrix(veh)) + ca.DM(g.T) @ kh @ ca.DM(g)
-        load = np.zeros(7)
-        load[1] = veh.m_s * G_MPS2 * veh.h_0s
-        return ca.solve(k, ca.DM(load))[1]
+        return roll_gradient(ca.DM(stiffness_matrix(veh)) + ca.DM(g.T) @ k_his @ ca.DM(g), veh)
+
+    def _reduce(self, x: "ca.MX", fs: FrequencySet, psd: "ca.MX", with_maxima: bool) -> dict[str, "ca.MX"]:
+        def integral(output: str, weighting: str | None) -> "ca.MX":
+            weights = fs.weight_hz if weighting is None else fs.comfort_weight[output]
+            return psd[self.output_index[output], :] @ ca.DM(weights)
+
+        def maximum(output: str) -> "ca.MX":
+            return ca.mmax(psd[self.output_index[output], :])
+
+        metrics = [m for m in self.metrics if with_maxima or m.kind != "max"]
+        return reduce_metrics(
+            metrics,
+            self.problem.spec.comfort,
+            lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
+            integral,
+            maximum,
+            lambda name: self.roll_gradient(x),
+        )
 
     def integrals(self, x: "ca.MX", fs: FrequencySet, spectra: "ca.MX | None" = None) -> dict[str, "ca.MX"]:
         """Quadrature quantities (``sigma_aw``, ``rms_*``) and ``roll_gradient`` on ``fs``."""
         psd = self.spectra(x, fs.params) if spectra is None else spectra
-        out: dict[str, ca.MX] = {}
-        for m in self.metrics:
-            if m.kind == "comfort":
-                total = 0
-                for name in COMFORT_OUTPUTS.values():
-                    total = total + psd[self.output_index[name], :] @ ca.DM(fs.comfort_weight[name])
-                out[m.name] = ca.sqrt(total)
-            elif m.kind == "rms":
-                out[m.name] = ca.sqrt(psd[self.output_index[m.output], :] @ ca.DM(fs.weight_hz))
-            elif m.kind == "static":
-                out[m.name] = self.roll_gradient(x)
-        return out
+        return self._reduce(x, fs, psd, with_maxima=False)
 
     def quantities(self, x: "ca.MX", fs: FrequencySet) -> dict[str, "ca.MX"]:
         """Every objective and constraint on ``fs``: integrals by quadrature, maxima over all nodes."""
-        psd = self.spectra(x, fs.params)
-        out = self.integrals(x, fs, psd)
-        for m in self.metrics:
-            if m.kind == "max":
-                out[m.name] = ca.mmax(psd[self.output_index[m.output], :])
+        out = self._reduce(x, fs, self.spectra(x, fs.params), with_maxima=True)
         return {name: out[name] for name in self.names}
 
     def function(self, fs: FrequencySet) -> "ca.Function":

@@ -243,23 +243,21 @@ class NodePlan:
 
 
 def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, steps: int = 12, points: int = 9) -> float:
-    """[Hz] Location of the PSD maximum of ``output`` in ``[lo_hz, hi_hz]`` by repeated zooming.
+    """[Hz] Location of the PSD maximum of ``output`` in ``[lo_hz, hi_hz]`` by repeated zooming
+    (:func:`hisopt.psd.zoom_maximum`).
 
     Parameters
     ----------
     frf : output FRF function of one design, as :class:`hisopt.evaluate.DirectOutputs`
     ev : the problem's evaluator (for its road spectra)
     """
-    t = np.linspace(0.0, 1.0, points)
-    best_f, best = lo_hz, -np.inf
-    for _ in range(steps):
-        pts = (lo_hz + (hi_hz - lo_hz) * t)[None, :]
-        vals = ev.spectra(pts, frf(2j * np.pi * pts, output))[0, :, 0]
-        j = int(np.argmax(vals))
-        if vals[j] > best:
-            best_f, best = float(pts[0, j]), float(vals[j])
-        lo_hz, hi_hz = float(pts[0, max(j - 1, 0)]), float(pts[0, min(j + 1, points - 1)])
-    return best_f
+    from hisopt.psd import zoom_maximum
+
+    def values_at(pts: np.ndarray) -> np.ndarray:
+        return ev.spectra(pts, frf(2j * np.pi * pts, output))[..., 0]
+
+    f = np.linspace(lo_hz, hi_hz, points)[None, :]
+    return float(zoom_maximum(values_at, f, values_at(f), steps - 1, points)[0][0])
 
 
 def node_plan(problem: "Problem", model: "CasadiModel", x: np.ndarray, settings: RefineSettings) -> NodePlan:
@@ -529,7 +527,7 @@ def refine_front(
 
     Parameters
     ----------
-    problem : the problem the front belongs to (lumped circuit without pipes)
+    problem : the problem the front belongs to
     front : [physical units] the front: the variable columns and objective columns (and any
         constraint columns), one row per design, as ``front.csv``
     max_points : [-] most start designs
@@ -547,12 +545,10 @@ def refine_front(
         The problem is outside the CasADi model's scope, ``max_points < 1``, ``workers < 1``,
         or the front lacks a variable or objective column.
     """
-    from hisopt.optim.casadi_model import check_supported
     from hisopt.optim.decision import hypervolume, reference_point
 
     started = time.perf_counter()
     settings = settings or RefineSettings()
-    check_supported(problem)
     names = list(problem.objective_names)
     var_names = list(problem.variable_names)
     missing = [c for c in var_names + names if c not in front.columns]

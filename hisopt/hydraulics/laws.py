@@ -1,0 +1,170 @@
+"""Constitutive laws of the HIS, each written once (docs/model.md §3).
+
+Every function is arithmetic on its arguments (plus :mod:`hisopt.hydraulics.backend` for the
+few operations numpy and CasADi spell differently), so the numpy evaluator, the CasADi
+refinement and the time-domain simulator all evaluate the same expressions: floats, numpy
+arrays of any (broadcast) shape, or CasADi symbols.
+
+Units are SI: pressures in Pa (``p_abs`` absolute, otherwise gauge), volumes in m^3, flows in
+m^3/s, areas in m^2, lengths in m.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+from hisopt.constants import P_ATM_PA
+from hisopt.hydraulics import backend as bk
+
+Chamber = Literal["top", "bottom"]
+
+
+# --- cylinders ---------------------------------------------------------------------------------
+def cylinder_areas(dA: Any, lam: Any) -> tuple[Any, Any]:
+    """Top (annulus) and bottom (bore) areas from the paper's design variables.
+
+    ``dA = A_b - A_t`` and ``lam = A_t / A_b`` give ``A_b = dA / (1 - lam)`` and
+    ``A_t = lam A_b``.
+
+    Parameters
+    ----------
+    dA : [m^2] bore minus annulus area, > 0
+    lam : [-] annulus over bore area, in (0, 1)
+
+    Returns
+    -------
+    (A_t, A_b) : [m^2]
+    """
+    a_b = dA / (1.0 - lam)
+    return lam * a_b, a_b
+
+
+def chamber_area(a_top: Any, a_bottom: Any, chamber: Chamber) -> Any:
+    """[m^2] Signed area ``a`` of a chamber: the flow it pushes into its circuit per unit
+    stroke extension (``q = a d(delta)/dt``): ``+A_t`` for the top (rod-side annulus, which
+    shrinks as the strut extends), ``-A_b`` for the bottom (bore) chamber."""
+    return a_top if chamber == "top" else -a_bottom
+
+
+# --- gas-charged accumulator -------------------------------------------------------------------
+def absolute_pressure(p_gauge: Any) -> Any:
+    """[Pa] Absolute pressure of a gauge pressure [Pa]."""
+    return p_gauge + P_ATM_PA
+
+
+def gas_pressure_rise(dv: Any, v0: Any, p_abs0: Any, gamma: Any) -> Any:
+    """[Pa] Pressure rise above the operating point when oil takes ``dv`` of the gas volume.
+
+    Polytropic law ``p_abs = p_abs0 (V0 / (V0 - dV))^gamma``; its slope at ``dV = 0`` is the
+    linear stiffness ``gamma p_abs0 / V0``.
+
+    Parameters
+    ----------
+    dv : [m^3] oil stored (gas volume lost), < V0
+    v0 : [m^3] gas volume at the operating point
+    p_abs0 : [Pa] absolute gas pressure at the operating point
+    gamma : [-] polytropic exponent
+    """
+    return p_abs0 * ((v0 / (v0 - dv)) ** gamma - 1.0)
+
+
+def gas_volume(p: Any, v0: Any, p_abs0: Any, gamma: Any) -> Any:
+    """[m^3] Oil stored at a pressure rise ``p`` [Pa] above the operating point (inverse of
+    :func:`gas_pressure_rise`): ``dV = V0 (1 - (p_abs0 / (p_abs0 + p))^(1/gamma))``."""
+    return v0 * (1.0 - (p_abs0 / (p_abs0 + p)) ** (1.0 / gamma))
+
+
+def gas_compliance(p: Any, v0: Any, p_abs0: Any, gamma: Any) -> Any:
+    """[m^3/Pa] Tangent compliance ``d(dV)/dp`` at a pressure rise ``p`` [Pa]:
+    ``V0 / (gamma p_abs) (p_abs0 / p_abs)^(1/gamma)``; ``V0 / (gamma p_abs0)`` at ``p = 0``."""
+    p_abs = p_abs0 + p
+    return v0 / (gamma * p_abs) * (p_abs0 / p_abs) ** (1.0 / gamma)
+
+
+def accumulator_compliance(v_gas: Any, p_abs: Any, gamma: Any) -> Any:
+    """[m^3/Pa] Small-signal compliance ``V / (gamma p_abs)`` of a gas volume ``V`` [m^3] at
+    absolute pressure ``p_abs`` [Pa] (the linearised polytropic law)."""
+    return v_gas / (gamma * p_abs)
+
+
+def accumulator_stiffness(v_gas: Any, p_abs: Any, gamma: Any) -> Any:
+    """[Pa/m^3] Small-signal stiffness ``gamma p_abs / V``, the inverse of
+    :func:`accumulator_compliance`."""
+    return gamma * p_abs / v_gas
+
+
+# --- oil volumes -------------------------------------------------------------------------------
+def oil_compliance(volume: Any, beta: Any) -> Any:
+    """[m^3/Pa] Compressibility ``V / beta`` of an oil volume ``V`` [m^3], bulk modulus [Pa]."""
+    return volume / beta
+
+
+# --- valves ------------------------------------------------------------------------------------
+def valve_pressure_drop(q: Any, r: Any, kq: Any = 0.0) -> Any:
+    """[Pa] Damper valve law ``dp = R q + K_q q |q|`` (paper Eq. 10 plus a turbulent term).
+
+    Parameters
+    ----------
+    q : [m^3/s] flow in the direction of the drop
+    r : [Pa s m^-3] linear (laminar) coefficient; 0 is a short
+    kq : [Pa s^2 m^-6] orifice coefficient; a sharp-edged orifice of area ``A_o`` and
+        discharge coefficient ``C_d`` has ``K_q = rho / (2 C_d^2 A_o^2)``
+    """
+    return r * q + kq * q * bk.fabs(q)
+
+
+def valve_tangent_resistance(q: Any, r: Any, kq: Any = 0.0) -> Any:
+    """[Pa s m^-3] ``d(dp)/dq = R + 2 K_q |q|`` of :func:`valve_pressure_drop`."""
+    return r + 2.0 * kq * bk.fabs(q)
+
+
+# --- pipes -------------------------------------------------------------------------------------
+def pipe_area(diameter: Any) -> Any:
+    """[m^2] Bore area of a circular pipe of inner diameter [m]."""
+    return math.pi * diameter**2 / 4.0
+
+
+def pipe_resistance_per_m(mu: Any, diameter: Any) -> Any:
+    """[Pa s m^-4] Laminar (Hagen-Poiseuille) resistance per metre ``128 mu / (pi d^4)``."""
+    return 128.0 * mu / (math.pi * diameter**4)
+
+
+def pipe_inertance_per_m(rho: Any, diameter: Any) -> Any:
+    """[Pa s^2 m^-4] Fluid inertance per metre ``rho / A``."""
+    return rho / pipe_area(diameter)
+
+
+def pipe_compliance_per_m(beta: Any, diameter: Any) -> Any:
+    """[m^2/Pa] Volume compliance per metre ``A / beta``."""
+    return pipe_area(diameter) / beta
+
+
+def pipe_series_impedance_per_m(s: Any, rho: Any, mu: Any, diameter: Any) -> Any:
+    """[Pa s m^-4] Series impedance per metre ``z = s rho / A + 128 mu / (pi d^4)``."""
+    return s * pipe_inertance_per_m(rho, diameter) + pipe_resistance_per_m(mu, diameter)
+
+
+def pipe_shunt_admittance_per_m(s: Any, beta: Any, diameter: Any) -> Any:
+    """[m^2 Pa^-1 s^-1] Shunt admittance per metre ``y = s A / beta``."""
+    return s * pipe_compliance_per_m(beta, diameter)
+
+
+def line_transfer_matrix(z: Any, y: Any, length: Any) -> tuple[Any, Any, Any, Any]:
+    """Uniform line with series impedance ``z`` and shunt admittance ``y`` per metre.
+
+    ``Gamma = l sqrt(z y)``, ``Z_c = sqrt(z / y)`` and, with the flow positive from end 1 to
+    end 2, ``[p, q]_2 = T [p, q]_1``,
+    ``T = [[cosh Gamma, -Z_c sinh Gamma], [-sinh Gamma / Z_c, cosh Gamma]]`` (``det T = 1``).
+    Both square roots take the principal branch, which for ``s = j omega`` puts ``Gamma`` in
+    the first and ``Z_c`` in the fourth quadrant, as ``sqrt(z) sqrt(y)`` and
+    ``sqrt(z) / sqrt(y)`` would.
+
+    Returns
+    -------
+    (T11, T12, T21, T22), complex
+    """
+    gamma = bk.sqrt(z * y) * length
+    zc = bk.sqrt(z / y)
+    ch, sh = bk.cosh(gamma), bk.sinh(gamma)
+    return ch, -zc * sh, -sh / zc, ch

@@ -1,0 +1,141 @@
+"""HIS layouts as data: circuits of elements between named nodes, fed by cylinder chambers.
+
+A layout is pure structure. Every element parameter is a :data:`ParamRef`: a number [SI] or
+the name of a parameter (a ``[his]`` value or a design variable), resolved per design when a
+model is built (:mod:`hisopt.hydraulics.network`). So one layout serves every design of a
+problem and every engine (numpy, CasADi, time domain).
+
+Wheels are 0 FL, 1 FR, 2 RL, 3 RR; each carries a double-acting cylinder with a ``top``
+(annulus, rod side) and a ``bottom`` (bore) chamber; a :class:`Port` connects one chamber to
+a node of a circuit (docs/model.md §3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Union
+
+Chamber = Literal["top", "bottom"]
+
+ParamRef = Union[float, str]
+"""A parameter value [SI] or the name of a parameter resolved per design."""
+
+WHEEL_LABELS = ("1", "2", "3", "4")
+
+
+@dataclass(frozen=True)
+class Accumulator:
+    """Gas-charged accumulator at ``node`` (a shunt compliance, docs/model.md §3.3)."""
+
+    node: str
+    volume: ParamRef = "V0"
+    precharge: ParamRef = "p0"
+    gamma: ParamRef = "gamma"
+
+
+@dataclass(frozen=True)
+class ChamberCompliance:
+    """Oil compressibility of the volume at ``node`` (a shunt compliance ``V / beta``)."""
+
+    node: str
+    volume: ParamRef = "chamber_volume"
+
+
+@dataclass(frozen=True)
+class Valve:
+    """Linear damper valve from node ``a`` to node ``b`` (``p_a - p_b = R q``); ``R = 0`` is a
+    short."""
+
+    a: str
+    b: str
+    resistance: ParamRef = "Rv"
+
+
+@dataclass(frozen=True)
+class Pipe:
+    """Circular pipe with laminar friction from node ``a`` to node ``b`` (lumped pi-section or
+    distributed line, docs/model.md §3.4)."""
+
+    a: str
+    b: str
+    length: ParamRef
+    diameter: ParamRef
+
+
+Element = Union[Accumulator, ChamberCompliance, Valve, Pipe]
+SeriesElement = Union[Valve, Pipe]
+ShuntElement = Union[Accumulator, ChamberCompliance]
+
+
+PARAMETER_FIELDS: dict[type, tuple[str, ...]] = {
+    Accumulator: ("volume", "precharge", "gamma"),
+    ChamberCompliance: ("volume",),
+    Valve: ("resistance",),
+    Pipe: ("length", "diameter"),
+}
+"""The fields of each element type that hold a :data:`ParamRef`."""
+
+
+def element_nodes(element: Element) -> tuple[str, ...]:
+    """The nodes an element touches (series: ``(a, b)``; shunt: ``(node,)``)."""
+    if isinstance(element, (Valve, Pipe)):
+        return (element.a, element.b)
+    return (element.node,)
+
+
+@dataclass(frozen=True)
+class Port:
+    """Chamber ``chamber`` of the cylinder at ``wheel`` (0 FL, 1 FR, 2 RL, 3 RR) feeding ``node``."""
+
+    node: str
+    wheel: int
+    chamber: Chamber
+
+    @property
+    def label(self) -> str:
+        """``"1t"``, ``"2b"``, ...: wheel number (1-4) and chamber letter."""
+        return f"{WHEEL_LABELS[self.wheel]}{'t' if self.chamber == 'top' else 'b'}"
+
+
+@dataclass(frozen=True)
+class Circuit:
+    """One closed hydraulic circuit: its elements and the chambers (ports) that feed it."""
+
+    name: str
+    elements: tuple[Element, ...]
+    ports: tuple[Port, ...]
+
+    @property
+    def nodes(self) -> tuple[str, ...]:
+        """Node names in first-use order (ports first, then elements)."""
+        names: dict[str, None] = {}
+        for p in self.ports:
+            names.setdefault(p.node)
+        for e in self.elements:
+            for n in element_nodes(e):
+                names.setdefault(n)
+        return tuple(names)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Circuits of a HIS (any interconnection of the eight chambers)."""
+
+    circuits: tuple[Circuit, ...]
+    name: str = "custom"
+
+    @property
+    def ports(self) -> tuple[Port, ...]:
+        """Every port, circuit by circuit."""
+        return tuple(p for c in self.circuits for p in c.ports)
+
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names the elements refer to, in first-use order."""
+        names: dict[str, None] = {}
+        for c in self.circuits:
+            for e in c.elements:
+                for field in PARAMETER_FIELDS[type(e)]:
+                    value = getattr(e, field)
+                    if isinstance(value, str):
+                        names.setdefault(value)
+        return tuple(names)

@@ -1,0 +1,510 @@
+"""A layout's network structure, computed once, and its assembly for any backend.
+
+:func:`compile_network` turns a :class:`~hisopt.hydraulics.layout.Layout` into a
+:class:`Network`: the unknowns of modified nodal analysis (one pressure per node, one flow per
+series branch, two for a distributed pipe), which are pressures and which flows, which carry
+storage (the lumped model's dynamic states), where each port, accumulator and valve sits.
+Nothing downstream recovers this structure from labels.
+
+Assembly is one stamp table per element (docs/model.md §3.5). With ``s`` the Laplace
+variable, the network equations are ``M(s) h = P q_port`` with
+
+- ``M(s) = K0 + s K1`` for lumped elements: a node row reads ``s C p + (flows leaving) -
+  (flows arriving) = injected flow``; a branch row ``s L q + R q - p_a + p_b = 0``;
+- rows of the distributed pipe's transfer matrix (transcendental in ``s``) for distributed
+  pipes: ``T11 p_a + T12 q_1 - p_b = 0``, ``T21 p_a + T22 q_1 - q_2 = 0``.
+
+The lumped descriptor ``E dh/dt = A h + P q_port`` is ``E = K1`` (diagonal) and ``A = -K0``;
+the port impedance is ``Z_port(s) = P^T M(s)^-1 P``. Values may be floats, numpy arrays with
+batch shape ``B`` (one value per design) or CasADi expressions (:mod:`hisopt.hydraulics.backend`).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
+
+import numpy as np
+
+from hisopt.errors import ConfigError, ModelError
+from hisopt.hydraulics import backend as bk
+from hisopt.hydraulics import laws
+from hisopt.hydraulics.layout import (
+    Accumulator,
+    ChamberCompliance,
+    Circuit,
+    Element,
+    Layout,
+    ParamRef,
+    Pipe,
+    Port,
+    Valve,
+)
+
+PipeModel = Literal["lumped", "distributed"]
+
+FLUID_PARAMETERS = ("rho", "mu", "beta")
+"""Parameters every network reads besides its elements' own: oil density [kg/m^3],
+viscosity [Pa s] and effective bulk modulus [Pa]."""
+
+
+@dataclass(frozen=True)
+class Network:
+    """The compiled structure of a layout at one pipe fidelity (see the module docstring).
+
+    Unknowns are ordered circuit by circuit: the circuit's node pressures (first-use order),
+    then its branch flows (element order).
+
+    Attributes
+    ----------
+    layout, fidelity : what was compiled
+    labels : ``"<circuit>:p[<node>]"`` or ``"<circuit>:q[<a>-><b>]"`` per unknown
+    is_flow : [-] per unknown, shape ``(n,)``
+    circuit : [-] circuit index per unknown, ``(n,)``
+    dynamic : [-] unknowns with storage in the lumped model (nodes with a compliance, pipe
+        flows with inertance), ``(n,)``; the rest are algebraic
+    elements : ``(circuit index, element)`` for every element, circuit by circuit
+    element_rows : unknown rows of each element: ``(node,)`` for shunts, ``(a, b, q)`` for
+        valves and lumped pipes, ``(a, b, q1, q2)`` for distributed pipes
+    ports : every port, circuit by circuit; ``port_rows`` its node's row; ``port_circuit``
+    """
+
+    layout: Layout
+    fidelity: PipeModel
+    labels: tuple[str, ...]
+    is_flow: np.ndarray
+    circuit: np.ndarray
+    dynamic: np.ndarray
+    elements: tuple[tuple[int, Element], ...]
+    element_rows: tuple[tuple[int, ...], ...]
+    ports: tuple[Port, ...]
+    port_rows: np.ndarray
+    port_circuit: np.ndarray
+    _injection: np.ndarray = field(repr=False, compare=False)
+
+    @property
+    def size(self) -> int:
+        """[-] Number of unknowns."""
+        return len(self.labels)
+
+    @property
+    def n_circuits(self) -> int:
+        return len(self.layout.circuits)
+
+    @property
+    def injection(self) -> np.ndarray:
+        """``P``: unknowns x ports, 1 where a port's flow enters its node, ``(n, n_ports)``."""
+        return self._injection
+
+    def circuit_rows(self, c: int) -> np.ndarray:
+        """[-] The unknown rows of circuit ``c`` (a contiguous block)."""
+        return np.flatnonzero(self.circuit == c)
+
+    def accumulators(self) -> list[tuple[int, Accumulator, int]]:
+        """``(element index, accumulator, node row)`` of every accumulator, in element order."""
+        return [(k, e, self.element_rows[k][0]) for k, (_, e) in enumerate(self.elements) if isinstance(e, Accumulator)]
+
+    def valves(self) -> list[tuple[int, Valve, tuple[int, ...]]]:
+        """``(element index, valve, (a, b, q) rows)`` of every valve, in element order."""
+        return [(k, e, self.element_rows[k]) for k, (_, e) in enumerate(self.elements) if isinstance(e, Valve)]
+
+
+def _branch_rows(element: Element, fidelity: PipeModel) -> int:
+    if isinstance(element, Valve):
+        return 1
+    if isinstance(element, Pipe):
+        return 2 if fidelity == "distributed" else 1
+    return 0
+
+
+@functools.lru_cache(maxsize=64)
+def compile_network(layout: Layout, fidelity: PipeModel = "lumped") -> Network:
+    """Compile ``layout``'s structure at a pipe fidelity (``"lumped"`` or ``"distributed"``).
+
+    Raises
+    ------
+    ModelError
+        A circuit has no compliance (an incompressible closed circuit locks the cylinders).
+    """
+    labels: list[str] = []
+    is_flow: list[bool] = []
+    circuit_of: list[int] = []
+    dynamic: list[bool] = []
+    elements: list[tuple[int, Element]] = []
+    element_rows: list[tuple[int, ...]] = []
+    port_rows: list[int] = []
+    port_circuit: list[int] = []
+    for c, circuit in enumerate(layout.circuits):
+        start = len(labels)
+        index = {name: start + i for i, name in enumerate(circuit.nodes)}
+        labels += [f"{circuit.name}:p[{n}]" for n in circuit.nodes]
+        is_flow += [False] * len(index)
+        dynamic += [False] * len(index)
+        row = len(labels)
+        for element in circuit.elements:
+            elements.append((c, element))
+            if isinstance(element, (Accumulator, ChamberCompliance)):
+                element_rows.append((index[element.node],))
+                dynamic[index[element.node]] = True
+                continue
+            a, b = index[element.a], index[element.b]
+            n_rows = _branch_rows(element, fidelity)
+            rows = tuple(range(row, row + n_rows))
+            element_rows.append((a, b, *rows))
+            arrow = f"{element.a}->{element.b}"
+            labels += [f"{circuit.name}:q[{arrow}]"] if n_rows == 1 else [f"{circuit.name}:q1[{arrow}]", f"{circuit.name}:q2[{arrow}]"]
+            is_flow += [True] * n_rows
+            dynamic += [isinstance(element, Pipe) and fidelity == "lumped"] * n_rows
+            if isinstance(element, Pipe) and fidelity == "lumped":
+                dynamic[a] = dynamic[b] = True  # half the pipe's compliance at each end
+            row += n_rows
+        circuit_of += [c] * (len(labels) - start)
+        has_storage = any(isinstance(e, (Accumulator, ChamberCompliance, Pipe)) for e in circuit.elements)
+        if not has_storage:
+            raise ModelError(
+                f"circuit {circuit.name!r} has no compliance (accumulator, chamber or pipe): "
+                "an incompressible closed circuit locks the cylinders; add an accumulator"
+            )
+        for port in circuit.ports:
+            port_rows.append(index[port.node])
+            port_circuit.append(c)
+    injection = np.zeros((len(labels), len(port_rows)))
+    injection[port_rows, np.arange(len(port_rows))] = 1.0
+    return Network(
+        layout=layout,
+        fidelity=fidelity,
+        labels=tuple(labels),
+        is_flow=np.array(is_flow, dtype=bool),
+        circuit=np.array(circuit_of, dtype=int),
+        dynamic=np.array(dynamic, dtype=bool),
+        elements=tuple(elements),
+        element_rows=tuple(element_rows),
+        ports=layout.ports,
+        port_rows=np.array(port_rows, dtype=int),
+        port_circuit=np.array(port_circuit, dtype=int),
+        _injection=injection,
+    )
+
+
+# --- parameter values --------------------------------------------------------------------------
+def resolve(ref: ParamRef, params: Mapping[str, Any], where: str = "") -> Any:
+    """The value of a parameter reference: ``params[ref]`` for a name, the number itself."""
+    if isinstance(ref, str):
+        if ref not in params:
+            raise ConfigError(f"unknown parameter {ref!r}{where}; expected one of {', '.join(sorted(params))}")
+        return params[ref]
+    return float(ref)
+
+
+@dataclass(frozen=True)
+class ElementValues:
+    """Resolved element parameters of one network for a batch of designs (any backend).
+
+    ``shunt``: [m^3/Pa] compliance of each accumulator and chamber element; ``resistance``
+    [Pa s m^-3], ``inertance`` [Pa s^2 m^-3] and ``compliance`` [m^3/Pa] of each valve or
+    lumped pipe; ``line``: per-metre series impedance and shunt admittance coefficients
+    ``(R', L', C', length)`` of each pipe; ``gas``: ``(V, p_abs, gamma)`` of each accumulator at
+    its operating point. Keys are element indices of :attr:`Network.elements`.
+    """
+
+    shunt: dict[int, Any]
+    resistance: dict[int, Any]
+    inertance: dict[int, Any]
+    compliance: dict[int, Any]
+    line: dict[int, tuple[Any, Any, Any, Any]]
+    gas: dict[int, tuple[Any, Any, Any]]
+
+
+def element_values(network: Network, params: Mapping[str, Any]) -> ElementValues:
+    """Apply the constitutive laws to every element (see :class:`ElementValues`).
+
+    ``params`` maps every name the layout refers to, and ``rho``, ``mu``, ``beta``, to a value
+    (float, numpy array of batch shape ``B`` or CasADi expression). An accumulator is
+    linearised about its precharge: gas volume ``V0`` at absolute pressure ``p0 + p_atm``.
+    """
+    rho, mu, beta = (resolve(name, params) for name in FLUID_PARAMETERS)
+    out = ElementValues({}, {}, {}, {}, {}, {})
+    for k, (c, e) in enumerate(network.elements):
+        where = f" (circuit {network.layout.circuits[c].name!r})"
+        if isinstance(e, Accumulator):
+            v0 = resolve(e.volume, params, where)
+            p_abs = laws.absolute_pressure(resolve(e.precharge, params, where))
+            gamma = resolve(e.gamma, params, where)
+            out.gas[k] = (v0, p_abs, gamma)
+            out.shunt[k] = laws.accumulator_compliance(v0, p_abs, gamma)
+        elif isinstance(e, ChamberCompliance):
+            out.shunt[k] = laws.oil_compliance(resolve(e.volume, params, where), beta)
+        elif isinstance(e, Valve):
+            out.resistance[k] = resolve(e.resistance, params, where)
+        else:
+            length = resolve(e.length, params, where)
+            d = resolve(e.diameter, params, where)
+            r_m, l_m = laws.pipe_resistance_per_m(mu, d), laws.pipe_inertance_per_m(rho, d)
+            c_m = laws.pipe_compliance_per_m(beta, d)
+            out.line[k] = (r_m, l_m, c_m, length)
+            out.resistance[k], out.inertance[k], out.compliance[k] = r_m * length, l_m * length, c_m * length
+    return out
+
+
+# --- stamps and assembly -----------------------------------------------------------------------
+Entry = bk.Entry
+
+
+def stamps(network: Network, values: ElementValues) -> tuple[list[Entry], list[Entry]]:
+    """``(K0, K1)`` entries of the lumped elements: ``M(s) = K0 + s K1`` (module docstring).
+
+    Distributed pipes are left out (see :func:`line_entries`).
+    """
+    k0: list[Entry] = []
+    k1: list[Entry] = []
+    for k, (_, e) in enumerate(network.elements):
+        rows = network.element_rows[k]
+        if isinstance(e, (Accumulator, ChamberCompliance)):
+            k1.append((rows[0], rows[0], values.shunt[k]))
+            continue
+        if isinstance(e, Pipe) and network.fidelity == "distributed":
+            continue
+        a, b, q = rows
+        k0 += [(a, q, 1.0), (b, q, -1.0), (q, a, -1.0), (q, b, 1.0), (q, q, values.resistance[k])]
+        if isinstance(e, Pipe):
+            half = 0.5 * values.compliance[k]
+            k1 += [(a, a, half), (b, b, half), (q, q, values.inertance[k])]
+    return k0, k1
+
+
+def line_entries(network: Network, values: ElementValues, s: Any) -> list[Entry]:
+    """Entries of the distributed pipes at the Laplace variable ``s`` (module docstring)."""
+    out: list[Entry] = []
+    if network.fidelity != "distributed":
+        return out
+    for k, (_, e) in enumerate(network.elements):
+        if not isinstance(e, Pipe):
+            continue
+        a, b, q1, q2 = network.element_rows[k]
+        r_m, l_m, c_m, length = values.line[k]
+        t11, t12, t21, t22 = laws.line_transfer_matrix(s * l_m + r_m, s * c_m, length)
+        out += [(a, q1, 1.0), (b, q2, -1.0)]
+        out += [(q1, a, t11), (q1, b, -1.0), (q1, q1, t12)]
+        out += [(q2, a, t21), (q2, q1, t22), (q2, q2, -1.0)]
+    return out
+
+
+def network_matrix(network: Network, values: ElementValues, s: Any) -> Any:
+    """``M(s)`` of the whole network (block diagonal by circuit).
+
+    ``s`` [rad/s]: numpy shape ``(F,)`` or ``B + (F,)`` (result ``B + (F, n, n)``, complex),
+    or a CasADi complex value (result a :class:`~hisopt.hydraulics.backend.Complex` matrix).
+    """
+    k0, k1 = stamps(network, values)
+    if bk.is_casadi(s):
+        entries = k0 + [(i, j, s * v) for i, j, v in k1] + line_entries(network, values, s)
+        return bk.assemble((network.size, network.size), entries, like=bk.Complex(0.0, 0.0))
+    s = np.asarray(s)
+    col = lambda v: np.asarray(v)[..., None] if np.ndim(v) else v  # noqa: E731  per-design value x frequency
+    entries = [(i, j, col(v)) for i, j, v in k0] + [(i, j, s * col(v)) for i, j, v in k1]
+    lines = replace(values, line={k: tuple(col(x) for x in v) for k, v in values.line.items()})  # type: ignore[misc]
+    entries += line_entries(network, lines, s)
+    return bk.assemble((network.size, network.size), entries, batch=s.shape, like=0j)
+
+
+def lumped_descriptor(network: Network, values: ElementValues) -> tuple[Any, Any]:
+    """``(e, A)`` of the lumped descriptor ``diag(e) dh/dt = A h + P q_port``.
+
+    numpy: ``e`` has shape ``B + (n,)`` and ``A`` ``B + (n, n)``.
+    """
+    if network.fidelity != "lumped":
+        raise ModelError("the descriptor (state space) needs lumped pipes; distributed lines have none")
+    k0, k1 = stamps(network, values)
+    if any(i != j for i, j, _ in k1):
+        raise ModelError("lumped storage must be diagonal")  # a stamp table error, not a user error
+    n = network.size
+    a = bk.assemble((n, n), [(i, j, -v) for i, j, v in k0])
+    e = bk.assemble((n, 1), [(i, 0, v) for i, _, v in k1])
+    if bk.is_casadi(e):
+        return e, a
+    return e[..., 0], a
+
+
+def port_impedance(network: Network, values: ElementValues, s: Any) -> Any:
+    """``Z_port(s) = P^T M(s)^-1 P``: chamber pressures per port flow (block diagonal).
+
+    numpy: shape ``B + (F, n_ports, n_ports)``, NaN where ``M(s)`` is singular; CasADi: a
+    complex matrix. Solved circuit by circuit.
+    """
+    m = network_matrix(network, values, s)
+    n_ports = len(network.ports)
+    if bk.is_casadi(m):
+        blocks = []
+        for c in range(network.n_circuits):
+            rows = [int(r) for r in network.circuit_rows(c)]
+            ports = np.flatnonzero(network.port_circuit == c)
+            p = network.injection[np.ix_(rows, ports)]
+            sub = bk.Complex(m.re[rows, rows], m.im[rows, rows])
+            blocks.append((ports, bk.matmul(p.T, bk.solve(sub, p))))
+        return _block_diag_casadi(blocks, n_ports)
+    out = np.zeros(m.shape[:-2] + (n_ports, n_ports), dtype=complex)
+    for c in range(network.n_circuits):
+        rows = network.circuit_rows(c)
+        ports = np.flatnonzero(network.port_circuit == c)
+        p = network.injection[np.ix_(rows, ports)]
+        sub = m[..., rows[:, None], rows[None, :]]
+        with np.errstate(all="ignore"):
+            sol = _solve_or_nan(sub, np.broadcast_to(p, sub.shape[:-2] + p.shape))
+        out[..., ports[:, None], ports[None, :]] = p.T @ sol
+    return out
+
+
+def _block_diag_casadi(blocks: list[tuple[np.ndarray, Any]], n: int) -> Any:
+    kind = type(blocks[0][1].re)
+    re, im = kind.zeros(n, n), kind.zeros(n, n)
+    for ports, z in blocks:
+        idx = [int(i) for i in ports]
+        re[idx, idx] = z.re
+        im[idx, idx] = z.im
+    return bk.Complex(re, im)
+
+
+def _solve_or_nan(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched solve; systems that are singular (or numerically so) give NaN."""
+    try:
+        return np.linalg.solve(a, b)
+    except np.linalg.LinAlgError:
+        pass
+    flat_a = a.reshape((-1,) + a.shape[-2:])
+    flat_b = b.reshape((-1,) + b.shape[-2:])
+    out = np.full(flat_b.shape, np.nan, dtype=np.result_type(a, b))
+    ok = np.abs(np.linalg.det(flat_a)) > 0
+    if ok.any():
+        cond = np.linalg.cond(flat_a[ok])
+        good = np.flatnonzero(ok)[np.isfinite(cond) & (cond < 1e15)]
+        if good.size:
+            out[good] = np.linalg.solve(flat_a[good], flat_b[good])
+    return out.reshape(b.shape)
+
+
+# --- coupling to the strokes ---------------------------------------------------------------------
+def incidence(network: Network, top_area: Any, bottom_area: Any) -> Any:
+    """``N``: ports x wheels signed chamber areas [m^2] (docs/model.md §3.2).
+
+    ``top_area``, ``bottom_area``: [m^2] per wheel; numpy arrays of shape ``B + (4,)`` (result
+    ``B + (n_ports, 4)``) or sequences of four CasADi expressions (result a matrix).
+    """
+
+    def wheel(x: Any, w: int) -> Any:
+        return x[..., w] if isinstance(x, np.ndarray) else x[w]
+
+    entries = [
+        (k, port.wheel, laws.chamber_area(wheel(top_area, port.wheel), wheel(bottom_area, port.wheel), port.chamber))
+        for k, port in enumerate(network.ports)
+    ]
+    return bk.assemble((len(network.ports), 4), entries)
+
+
+def total_compliance(network: Network, values: ElementValues, c: int) -> Any:
+    """[m^3/Pa] All compliance of circuit ``c``: accumulators, chambers, pipe volumes."""
+    total: Any = 0.0
+    for k, (circuit, e) in enumerate(network.elements):
+        if circuit != c:
+            continue
+        if isinstance(e, (Accumulator, ChamberCompliance)):
+            total = total + values.shunt[k]
+        elif isinstance(e, Pipe):
+            total = total + values.line[k][2] * values.line[k][3]
+    return total
+
+
+def static_stiffness(network: Network, values: ElementValues, n_ports: Any) -> Any:
+    """[N/m] Static stroke stiffness ``K_his = sum_c a_c a_c^T / C_c`` (4 x 4).
+
+    At rest no flow passes a valve or pipe, so every node of a circuit holds one pressure:
+    the circuit is one compliance ``C_c`` (:func:`total_compliance`) filled by the strokes
+    through ``a_c = sum of its ports' rows of N``. This is ``lim_{s->0} D(s)`` exactly.
+
+    Parameters
+    ----------
+    n_ports : [m^2] incidence ``N`` from :func:`incidence`
+    """
+    total: Any = 0.0
+    for c in range(network.n_circuits):
+        ports = [int(k) for k in np.flatnonzero(network.port_circuit == c)]
+        if bk.is_casadi(n_ports):
+            import casadi as ca
+
+            a_c = ca.sum1(n_ports[ports, :]).T
+            total = total + (a_c @ a_c.T) / total_compliance(network, values, c)
+        else:
+            a_c = np.sum(np.asarray(n_ports)[..., ports, :], axis=-2)
+            comp = np.asarray(total_compliance(network, values, c))[..., None, None]
+            total = total + a_c[..., :, None] * a_c[..., None, :] / comp
+    return total
+
+
+def singular_shorts(network: Network, shorted: frozenset[int]) -> frozenset[int]:
+    """The shorted valves (element indices, ``R = 0``) the lumped model cannot keep.
+
+    A short leaves the descriptor's algebraic part regular unless shorts join two nodes that
+    store oil (their pressures would be equal, with the flow between them undetermined) or
+    close a loop. Those shorts, every short of such a group of nodes, must be contracted
+    (:func:`contract_shorts`); the others are exact as they are.
+    """
+    parent = list(range(network.size))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    loops: set[int] = set()
+    for k in sorted(shorted):
+        a, b = network.element_rows[k][:2]
+        ra, rb = root(a), root(b)
+        if ra == rb:
+            loops.add(ra)
+        else:
+            parent[rb] = ra
+    storing: dict[int, int] = {}
+    for i in np.flatnonzero(network.dynamic & ~network.is_flow):
+        storing[root(int(i))] = storing.get(root(int(i)), 0) + 1
+    bad = {r for r, count in storing.items() if count > 1} | {root(r) for r in loops}
+    return frozenset(k for k in shorted if root(network.element_rows[k][0]) in bad)
+
+
+def contract_shorts(layout: Layout, shorted: frozenset[int]) -> Layout:
+    """``layout`` with the valves of element indices ``shorted`` (``R = 0``) removed and
+    their end nodes merged: compliances joined by a short are one compliance.
+
+    Element indices count across circuits, as :attr:`Network.elements`.
+    """
+    out = []
+    k = 0
+    for circuit in layout.circuits:
+        alias: dict[str, str] = {}
+
+        def root(name: str) -> str:
+            while name in alias:
+                name = alias[name]
+            return name
+
+        kept: list[Element] = []
+        for element in circuit.elements:
+            if k in shorted and isinstance(element, Valve):
+                a, b = root(element.a), root(element.b)
+                if a != b:
+                    alias[b] = a
+            else:
+                kept.append(element)
+            k += 1
+        renamed = [_rename(e, root) for e in kept]
+        renamed = [e for e in renamed if not (isinstance(e, Valve) and e.a == e.b)]
+        ports = tuple(replace(p, node=root(p.node)) for p in circuit.ports)
+        out.append(Circuit(circuit.name, tuple(renamed), ports))
+    return Layout(tuple(out), layout.name)
+
+
+def _rename(element: Element, root: Any) -> Element:
+    if isinstance(element, (Valve, Pipe)):
+        return replace(element, a=root(element.a), b=root(element.b))
+    return replace(element, node=root(element.node))

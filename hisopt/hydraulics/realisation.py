@@ -1,0 +1,141 @@
+"""From a descriptor system to a minimal state space, and back (docs/model.md §3.7).
+
+The coupled car + lumped HIS is a descriptor system ``diag(e) dz/dt = A z + B0 u + B1 du/dt``
+whose unknowns ``z`` are of two kinds: *dynamic* ones with storage (``e > 0``: positions,
+velocities, pressures of nodes with a compliance, pipe flows) and *algebraic* ones (``e = 0``:
+pressures of nodes without compliance, valve flows). Two exact reductions give a minimal
+state space:
+
+1. **Algebraic elimination.** The algebraic rows ``0 = A_aa z_a + A_ad z_d`` (no input enters
+   them) give ``z_a = S z_d`` with ``S = -A_aa^-1 A_ad``, a Schur complement
+   ``A_dd + A_da S``; a zero-resistance valve between two storage nodes would make ``A_aa``
+   singular and is contracted beforehand (:func:`hisopt.hydraulics.network.contract_shorts`).
+2. **Invariant elimination.** A closed circuit conserves its oil: ``c^T z_d = 0`` with ``c``
+   the compliances on its pressures and minus the volume its ports displace per unit
+   position. Each invariant's pivot state ``z_r = -(1/c_r) sum_{j != r} c_j z_j`` is
+   dropped: ``z_d = T x``. The zero eigenvalue the invariant would leave is gone, and the
+   eigenvector basis stays well conditioned.
+
+The inverse, used by the time domain to report every pressure and flow, is ``z_d = T x`` and
+``z_a = S z_d``. All arrays are batched over designs (leading axes ``B``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hisopt.errors import ModelError
+
+
+@dataclass(frozen=True)
+class Descriptor:
+    """``diag(e) dz/dt = a z + b0 u + b1 du/dt`` with structure.
+
+    Attributes
+    ----------
+    e : storage coefficients, ``B + (n,)`` (0 on algebraic unknowns)
+    a : ``B + (n, n)``
+    b0, b1 : input maps, ``(n, m)`` or ``B + (n, m)``; zero on algebraic rows
+    dynamic : [-] unknowns with storage, ``(n,)``
+    invariants : per conserved quantity ``(pivot, c)``: unknown index of the state to drop
+        and the coefficients ``c`` over all unknowns, ``B + (n,)`` (zero on algebraic ones)
+    labels : name per unknown
+    """
+
+    e: np.ndarray
+    a: np.ndarray
+    b0: np.ndarray
+    b1: np.ndarray
+    dynamic: np.ndarray
+    invariants: tuple[tuple[int, np.ndarray], ...]
+    labels: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Realisation:
+    """A minimal state space ``dx/dt = a x + b0 u + b1 du/dt`` and the way back to ``z``.
+
+    Attributes
+    ----------
+    a : ``B + (n_x, n_x)``; ``b0``, ``b1``: ``B + (n_x, m)``
+    labels : the kept unknowns' labels, ``(n_x,)``
+    kept : unknown index of each state, ``(n_x,)``
+    expand : ``T``, dynamic unknowns from states, ``B + (n_d, n_x)``
+    recover : ``S``, algebraic unknowns from dynamic ones, ``B + (n_a, n_d)``
+    dynamic_index, algebraic_index : unknown indices of the dynamic and algebraic unknowns
+    """
+
+    a: np.ndarray
+    b0: np.ndarray
+    b1: np.ndarray
+    labels: tuple[str, ...]
+    kept: np.ndarray
+    expand: np.ndarray
+    recover: np.ndarray
+    dynamic_index: np.ndarray
+    algebraic_index: np.ndarray
+
+    def full_map(self) -> np.ndarray:
+        """Every unknown from the states: ``z = F x``, ``B + (n, n_x)``."""
+        n = self.dynamic_index.size + self.algebraic_index.size
+        batch = self.expand.shape[:-2]
+        out = np.zeros(batch + (n, self.a.shape[-1]))
+        out[..., self.dynamic_index, :] = self.expand
+        if self.algebraic_index.size:
+            out[..., self.algebraic_index, :] = self.recover @ self.expand
+        return out
+
+
+def realise(d: Descriptor) -> Realisation:
+    """The minimal realisation of a descriptor (module docstring).
+
+    Raises
+    ------
+    ModelError
+        The algebraic part is singular (a loop of zero resistance) or a storage coefficient
+        is not positive.
+    """
+    dyn = np.flatnonzero(d.dynamic)
+    alg = np.flatnonzero(~d.dynamic)
+    a_dd = d.a[..., dyn[:, None], dyn[None, :]]
+    batch = d.a.shape[:-2]
+    recover = np.zeros(batch + (alg.size, dyn.size))
+    if alg.size:
+        a_aa = d.a[..., alg[:, None], alg[None, :]]
+        a_ad = d.a[..., alg[:, None], dyn[None, :]]
+        a_da = d.a[..., dyn[:, None], alg[None, :]]
+        try:
+            recover = -np.linalg.solve(a_aa, a_ad)
+        except np.linalg.LinAlgError as exc:
+            raise ModelError("the hydraulic network has an algebraic loop with no resistance") from exc
+        a_dd = a_dd + a_da @ recover
+    e_d = d.e[..., dyn]
+    if np.any(~(e_d > 0)):
+        raise ModelError("a hydraulic storage element has zero compliance or inertance")
+    a_ss = a_dd / e_d[..., :, None]
+    b0 = np.broadcast_to(d.b0, batch + d.b0.shape[-2:])[..., dyn, :] / e_d[..., :, None]
+    b1 = np.broadcast_to(d.b1, batch + d.b1.shape[-2:])[..., dyn, :] / e_d[..., :, None]
+
+    position = {int(u): i for i, u in enumerate(dyn)}
+    expand = np.broadcast_to(np.eye(dyn.size), batch + (dyn.size, dyn.size)).copy()
+    keep = np.ones(dyn.size, dtype=bool)
+    for pivot, c in d.invariants:
+        r = position[pivot]
+        c_d = np.broadcast_to(c, batch + c.shape[-1:])[..., dyn]
+        expand[..., r, :] = -c_d / c_d[..., r, None]
+        expand[..., r, r] = 0.0
+        keep[r] = False
+    t = expand[..., :, keep]
+    return Realisation(
+        a=a_ss[..., keep, :] @ t,
+        b0=b0[..., keep, :],
+        b1=b1[..., keep, :],
+        labels=tuple(d.labels[u] for u, k in zip(dyn, keep) if k),
+        kept=dyn[keep],
+        expand=t,
+        recover=recover,
+        dynamic_index=dyn,
+        algebraic_index=alg,
+    )
