@@ -334,8 +334,21 @@ def study(
 
     p = load(problem, None)
     seed_list = parse_seeds(seeds)
+    finished: list[int] = []
+    k = len(p.objective_names)
+
+    def progress(run: dict) -> None:  # one stderr line per finished seed
+        finished.append(run["seed"])
+        typer.echo(
+            f"seed {run['seed']} done ({len(finished)} of {len(seed_list)}): front of {run['front_size']} designs, "
+            f"HV {run['hypervolume']:.6g} decades^{k}, {run['wall_time_s']:.1f} s",
+            err=True,
+        )
+
     with open_backend(workers, scheduler) as backend:
-        result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend)
+        where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
+        typer.echo(f"running {len(seed_list)} seeds {where}", err=True)
+        result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend, progress=progress)
     table = Table(title=f"{p.name}: {len(seed_list)} seeds, merged front of {len(result.front)} designs, HV {result.hypervolume:.6g}")
     for col in result.runs.columns:
         table.add_column(col, justify="right")
