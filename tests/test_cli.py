@@ -23,12 +23,11 @@ def test_modes_prints_table_with_and_without_his():
 def test_modes_compares_the_same_mode_without_and_with_his():
     # issue 12: at p0 = 3 MPa the unchanged 11.08 Hz wheel warp had a different name with HIS
     # than without, so the change column compared different modes
-    for p0 in ("2e6", "3e6"):
-        out = run("modes", str(DEFAULT_PROBLEM), "--set", f"p0={p0}")
-        assert out.returncode == 0, out.stderr
-        row = next(line for line in out.stdout.splitlines() if "rear_axle_tramp" in line)
-        cells = [c.strip() for c in row.strip("│ ").split("│")]
-        assert cells[2] == cells[4] == "11.078" and cells[6] == "+0.0 %", row
+    out = run("modes", str(DEFAULT_PROBLEM), "--set", "p0=3e6")
+    assert out.returncode == 0, out.stderr
+    row = next(line for line in out.stdout.splitlines() if "rear_axle_tramp" in line)
+    cells = [c.strip() for c in row.strip("│ ").split("│")]
+    assert cells[2] == cells[4] == "11.078" and cells[6] == "+0.0 %", row
 
 
 def test_modes_set_override_changes_result():
