@@ -60,11 +60,15 @@ def load(problem: Path, sets: list[str] | None):
 
 @app.command()
 def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
-    """Modal table without and with HIS (paper Table 1): frequency, damping, dominant motion."""
+    """Modal table without and with HIS (paper Table 1): frequency, damping, motion.
+
+    Modes are named by their shape (the same mode has the same name without and with HIS);
+    the older wheel-mode names are listed below the table as aliases.
+    """
     from rich.console import Console
     from rich.table import Table
 
-    from hisopt.modal import modal_analysis
+    from hisopt.modal import MODE_ALIASES, modal_analysis
 
     p = load(problem, set_)
     ref = modal_analysis(p, his=False)
@@ -75,7 +79,8 @@ def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
         table.add_column(col, justify="left" if col in ("mode", "motion") else "right")
     merged = his.merge(ref, on="mode", how="left", suffixes=("", "_ref"))
     for row in merged.itertuples():
-        change = f"{100 * (row.frequency_hz / row.frequency_hz_ref - 1):+.1f} %" if row.frequency_hz_ref == row.frequency_hz_ref else ""
+        rise = round(100 * (row.frequency_hz / row.frequency_hz_ref - 1), 1) + 0.0  # + 0.0: no "-0.0"
+        change = f"{rise:+.1f} %" if row.frequency_hz_ref == row.frequency_hz_ref else ""
         table.add_row(
             row.mode,
             row.motion,
@@ -85,7 +90,10 @@ def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
             f"{row.damping_ratio:.4f}",
             change,
         )
-    Console(width=120).print(table)
+    console = Console(width=132)
+    console.print(table)
+    old = "wheel_hop_" + "/".join(k.removeprefix("wheel_hop_") for k in MODE_ALIASES)
+    console.print(f"older names: {old} = {', '.join(MODE_ALIASES.values())}")
 
 
 @app.command()
@@ -326,8 +334,21 @@ def study(
 
     p = load(problem, None)
     seed_list = parse_seeds(seeds)
+    finished: list[int] = []
+    k = len(p.objective_names)
+
+    def progress(run: dict) -> None:  # one stderr line per finished seed
+        finished.append(run["seed"])
+        typer.echo(
+            f"seed {run['seed']} done ({len(finished)} of {len(seed_list)}): front of {run['front_size']} designs, "
+            f"HV {run['hypervolume']:.6g} decades^{k}, {run['wall_time_s']:.1f} s",
+            err=True,
+        )
+
     with open_backend(workers, scheduler) as backend:
-        result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend)
+        where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
+        typer.echo(f"running {len(seed_list)} seeds {where}", err=True)
+        result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend, progress=progress)
     table = Table(title=f"{p.name}: {len(seed_list)} seeds, merged front of {len(result.front)} designs, HV {result.hypervolume:.6g}")
     for col in result.runs.columns:
         table.add_column(col, justify="right")

@@ -44,17 +44,38 @@ class Backend:
             return 1
         return max(1, len(self.client.scheduler_info().get("workers", {})))
 
-    def map(self, fn: Callable[..., R], items: Sequence[T], *args: Any) -> list[R]:
-        """``[fn(item, *args) for item in items]``, in order; shared ``args`` are sent once."""
+    def map(
+        self, fn: Callable[..., R], items: Sequence[T], *args: Any, on_result: Callable[[int, R], None] | None = None
+    ) -> list[R]:
+        """``[fn(item, *args) for item in items]``, in order; shared ``args`` are sent once.
+
+        ``on_result(index, result)`` is called as each item finishes (in completion order on
+        Dask), e.g. to report progress; the returned list is in item order either way.
+        """
         if self.client is None:
-            return [fn(item, *args) for item in items]
+            results = []
+            for i, item in enumerate(items):
+                results.append(fn(item, *args))
+                if on_result is not None:
+                    on_result(i, results[-1])
+            return results
         # Unique keys (hash=False): a repeated scatter of the same object must not share a
         # key whose release by an earlier call would drop it from under the new tasks.
         shared = [self.client.scatter(a, broadcast=True, hash=False) for a in args]
         # Items are scattered too, so the task graph stays small whatever the data size.
         item_futures = self.client.scatter(list(items), hash=False)
         futures = self.client.map(fn, item_futures, *[[s] * len(items) for s in shared], pure=False)
-        return self.client.gather(futures)
+        if on_result is None:
+            return self.client.gather(futures)
+        from dask.distributed import as_completed
+
+        position = {f.key: i for i, f in enumerate(futures)}
+        done: dict[int, R] = {}
+        for future in as_completed(futures):
+            i = position[future.key]
+            done[i] = future.result()
+            on_result(i, done[i])
+        return [done[i] for i in range(len(futures))]
 
 
 @contextlib.contextmanager

@@ -1,9 +1,14 @@
 """Parameter sweeps and feasible regions (paper Section IV, Figs. 5-8, and Section V, Figs. 9-10).
 
 **Sweep** (:func:`sweep`): one design variable across its bounds, the others at the baseline
-design. For the roll, pitch and bounce modes: the modal frequency and damping ratio
-(:func:`hisopt.modal.modal_table`) and the peak of the mode's response PSD (its frequency and
-value); for the FL tyre force: the peak of its PSD. The responses are the paper's Fig. 4
+design. For the roll, pitch and bounce modes: the modal frequency and damping ratio and the
+peak of the mode's response PSD (its frequency and value); for the FL tyre force: the peak of
+its PSD. Each mode is followed continuously along the sweep (:func:`hisopt.modal.track_modes`:
+modes of neighbouring designs paired by their shapes), named as at the grid point nearest the
+baseline design, so a curve never jumps to another mode. Where two modes exchange character
+(the default car's bounce and pitch modes veer near p0 = 0.65 MPa and dA = 6e-4 m^2) a curve
+keeps its name and its ``<mode>_motion_share`` falls below 1/2; :func:`hisopt.modal_analysis`
+of a single design names modes by their character. The responses are the paper's Fig. 4
 indicators (:data:`SWEEP_RESPONSES`): roll and pitch angular accelerations, CG vertical
 acceleration, FL dynamic tyre load. A mode's peak is the continuous maximum of its response
 PSD within an octave of the modal frequency (so that, e.g., the wheel-hop hump of the roll
@@ -139,8 +144,11 @@ class SweepResult:
     variable : the swept design variable
     unit : its unit (SI)
     frame : one row per value: the variable, then ``<mode>_frequency_hz``,
-        ``<mode>_damping_ratio``, ``<mode>_peak_hz`` and ``<mode>_peak_psd`` for roll, pitch
-        and bounce, ``tire_peak_hz`` and ``tire_peak_psd`` for the FL tyre force
+        ``<mode>_damping_ratio``, ``<mode>_motion_share`` (share of the mode's kinetic energy
+        in the motion its name says, :func:`hisopt.modal.modal_table`), ``<mode>_peak_hz`` and
+        ``<mode>_peak_psd`` for roll, pitch and bounce (each mode followed continuously,
+        named as at the grid point nearest the baseline), ``tire_peak_hz`` and
+        ``tire_peak_psd`` for the FL tyre force
     responses : response of each key (:data:`SWEEP_RESPONSES`)
     units : PSD unit of each key
     baseline : the fixed values of the other variables
@@ -187,27 +195,30 @@ class SweepResult:
         return fig
 
 
-def _sweep_rows(x: np.ndarray, problem: "Problem", chosen: dict[str, str]) -> pd.DataFrame:
-    """Modal frequencies, damping and response peaks of the designs ``x`` (one row each)."""
-    from hisopt.modal import modal_analysis
+def _sweep_modes(problem: "Problem", x: np.ndarray, anchor: int, keys: list[str]) -> pd.DataFrame:
+    """Frequency, damping ratio and motion share of each mode of ``keys`` along the sweep.
 
-    records = []
-    for row in x:
-        modes = modal_analysis(problem, row).set_index("mode")
-        rec: dict[str, float] = {}
-        for mode in SWEEP_MODES:
-            rec[f"{mode}_frequency_hz"] = float(modes.loc[mode, "frequency_hz"])
-            rec[f"{mode}_damping_ratio"] = float(modes.loc[mode, "damping_ratio"])
-        records.append(rec)
-    modal = pd.DataFrame.from_records(records)
+    Each mode is followed continuously from design to design (:func:`hisopt.modal.track_modes`),
+    named as at design ``anchor``.
+    """
+    from hisopt.modal import track_modes
+
+    tracked = track_modes(problem, x, anchor=anchor)
+    frame = pd.DataFrame(index=range(len(x)))
+    for key in keys:
+        rows = tracked[tracked["mode"] == key].set_index("design")
+        for col in ("frequency_hz", "damping_ratio", "motion_share"):
+            frame[f"{key}_{col}"] = rows[col].to_numpy()
+    return frame
+
+
+def _sweep_peaks(item: tuple[np.ndarray, dict[str, np.ndarray]], problem: "Problem", chosen: dict[str, str]) -> pd.DataFrame:
+    """Response peaks of the designs ``item[0]``, each mode's sought near ``item[1][key]`` [Hz]."""
+    x, centers = item
     frame = pd.DataFrame(index=range(len(x)))
     for key, name in chosen.items():
-        near = {name: modal[f"{key}_frequency_hz"].to_numpy()} if key in SWEEP_MODES else None
-        peak_hz, peak_psd = response_peaks(problem, x, (name,), near)[name]
-        if key in SWEEP_MODES:
-            for col in ("frequency_hz", "damping_ratio"):
-                frame[f"{key}_{col}"] = modal[f"{key}_{col}"]
-        frame[f"{key}_peak_hz"], frame[f"{key}_peak_psd"] = peak_hz, peak_psd
+        near = {name: centers[key]} if key in centers else None
+        frame[f"{key}_peak_hz"], frame[f"{key}_peak_psd"] = response_peaks(problem, x, (name,), near)[name]
     return frame
 
 
@@ -226,7 +237,8 @@ def sweep(
     vary : a design variable of the problem
     points : [-] values, evenly spaced between the bounds (both included)
     responses : response per key (``roll``, ``pitch``, ``bounce``, ``tire``); default
-        :data:`SWEEP_RESPONSES`; e.g. ``{"roll": "roll"}`` for the roll angle
+        :data:`SWEEP_RESPONSES`; e.g. ``{"roll": "roll"}`` for the roll angle; a key that
+        is a mode name (:data:`hisopt.modal.MODE_NAMES`) gets that mode's modal columns
     backend : where to compute (default in-process; a Dask backend splits the points into
         chunks of :data:`hisopt.parallel.DEFAULT_CHUNK`)
 
@@ -235,6 +247,7 @@ def sweep(
     ConfigError
         ``vary`` is not a design variable, ``points < 2`` or a response is unknown.
     """
+    from hisopt.modal import MODE_NAMES
     from hisopt.parallel import Backend, chunks
 
     _check_variable(problem, vary, "--vary")
@@ -245,9 +258,19 @@ def sweep(
     x = np.repeat(problem.baseline[None, :], points, axis=0)
     x[:, j] = values
     backend = backend or Backend()
+    anchor = int(np.argmin(np.abs(values - problem.baseline[j])))
+    keys = [key for key in chosen if key in MODE_NAMES]
+    modal = _sweep_modes(problem, x, anchor, keys)  # sequential and cheap: in this process
+    centers = {key: modal[f"{key}_frequency_hz"].to_numpy() for key in keys}
     size = len(x) if not backend.is_distributed else max(1, -(-len(x) // (4 * backend.n_workers)))
-    parts = backend.map(_sweep_rows, [x[c] for c in chunks(len(x), size)], problem, chosen)
-    frame = pd.concat([pd.DataFrame({vary: values}), pd.concat(parts, ignore_index=True)], axis=1)
+    items = [(x[c], {k: v[c] for k, v in centers.items()}) for c in chunks(len(x), size)]
+    peaks = pd.concat(backend.map(_sweep_peaks, items, problem, chosen), ignore_index=True)
+    columns = {vary: values}
+    for key in chosen:
+        names = [f"{key}_{col}" for col in ("frequency_hz", "damping_ratio", "motion_share") if key in keys]
+        columns |= {n: modal[n].to_numpy() for n in names}
+        columns |= {n: peaks[n].to_numpy() for n in (f"{key}_peak_hz", f"{key}_peak_psd")}
+    frame = pd.DataFrame(columns)
     from hisopt.response import standard_outputs
 
     all_outputs = standard_outputs(problem.spec.vehicle)

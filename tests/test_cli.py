@@ -14,9 +14,20 @@ def run(*args: str) -> subprocess.CompletedProcess:
 def test_modes_prints_table_with_and_without_his():
     out = run("modes", str(DEFAULT_PROBLEM))
     assert out.returncode == 0, out.stderr
-    for word in ("bounce", "roll", "pitch", "wheel_hop_fl", "f ref [Hz]", "f HIS [Hz]"):
+    for word in ("bounce", "roll", "pitch", "front_axle_hop", "rear_axle_tramp", "f ref [Hz]", "f HIS [Hz]"):
         assert word in out.stdout
+    assert "wheel_hop_fl/fr/rl/rr = front_axle_hop, front_axle_tramp, rear_axle_hop, rear_axle_tramp" in out.stdout
     assert "2.744" in out.stdout  # baseline roll frequency with HIS
+
+
+def test_modes_compares_the_same_mode_without_and_with_his():
+    # issue 12: at p0 = 3 MPa the unchanged 11.08 Hz wheel warp had a different name with HIS
+    # than without, so the change column compared different modes
+    out = run("modes", str(DEFAULT_PROBLEM), "--set", "p0=3e6")
+    assert out.returncode == 0, out.stderr
+    row = next(line for line in out.stdout.splitlines() if "rear_axle_tramp" in line)
+    cells = [c.strip() for c in row.strip("│ ").split("│")]
+    assert cells[2] == cells[4] == "11.078" and cells[6] == "+0.0 %", row
 
 
 def test_modes_set_override_changes_result():

@@ -1,13 +1,16 @@
 """Modal analysis: paper Table 1 and the Section IV modal trends."""
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
 
 import hisopt
-from hisopt.modal import MODE_NAMES, modal_table
+from hisopt.modal import MODE_ALIASES, MODE_NAMES, canonical_mode_name, modal_table
 from hisopt.model import CoupledModel
 from hisopt.vehicle import VehicleParams
+from tests.conftest import random_designs
 
 
 def freq(problem, mode, **design):
@@ -26,6 +29,84 @@ def test_table_columns_and_names(problem):
     by_mode = table.set_index("mode")
     assert by_mode.loc["roll", "motion"] == "body roll"
     assert by_mode.loc["bounce", "dominant"] == "z_s"
+    assert by_mode.loc["rear_axle_tramp", "motion"] == "tramp: front 50 %, rear 50 %, axles opposed"
+    assert ((table["motion_share"] > 0) & (table["motion_share"] <= 1)).all()
+
+
+def test_aliases_name_the_same_modes():
+    assert MODE_ALIASES == {
+        "wheel_hop_fl": "front_axle_hop",
+        "wheel_hop_fr": "front_axle_tramp",
+        "wheel_hop_rl": "rear_axle_hop",
+        "wheel_hop_rr": "rear_axle_tramp",
+    }
+    assert [canonical_mode_name(n) for n in MODE_NAMES] == list(MODE_NAMES)
+    assert canonical_mode_name("wheel_hop_rr") == "rear_axle_tramp"
+    with pytest.raises(ValueError, match="front_axle_hop.*wheel_hop_fl"):
+        canonical_mode_name("wheel_hop")
+
+
+# --- names from shapes: the same physical mode keeps its name -----------------------------------
+def wheel_warp(v: VehicleParams, rv: float = 0.0, area_b: float = 0.0) -> tuple[float, float]:
+    """[Hz], [-] Closed form of the wheel warp (FL, RR up; FR, RL down) of a car with identical
+    wheel stations front and rear: the body and a roll-plane HIS's accumulators see no net
+    force or flow, so each wheel is a mass on spring plus tyre, damped by its damper and its
+    bottom-chamber valve (``R_v A_b^2``, DESIGN section 2)."""
+    k, m = v.k_sf + v.k_tf, v.m_uf
+    return np.sqrt(k / m) / (2 * np.pi), (v.c_sf + rv * area_b**2) / (2 * np.sqrt(k * m))
+
+
+def test_rear_axle_tramp_is_the_wheel_warp_for_every_design(problem, rng):
+    # the issue-12 swap: the unchanged 11.08 Hz warp mode was wheel_hop_fr at some designs and
+    # wheel_hop_rr at others; by shape it is always rear_axle_tramp, with or without HIS
+    v = problem.spec.vehicle
+    ref = modal_table(CoupledModel(v)).set_index("mode")
+    f, zeta = wheel_warp(v)
+    assert ref.loc["rear_axle_tramp", "frequency_hz"] == pytest.approx(f, rel=1e-9)
+    assert ref.loc["rear_axle_tramp", "damping_ratio"] == pytest.approx(zeta, rel=1e-9)
+    for x in random_designs(problem, 30, rng):
+        _, d_a, lam, rv = x
+        table = hisopt.modal_analysis(problem, x).set_index("mode")
+        f, zeta = wheel_warp(v, rv, d_a / (1 - lam))
+        warp = table.loc["rear_axle_tramp"]
+        assert warp["frequency_hz"] == pytest.approx(f, rel=1e-9), x
+        assert warp["damping_ratio"] == pytest.approx(zeta, rel=1e-9), x
+        shape = warp[["shape_z_u1", "shape_z_u2", "shape_z_u3", "shape_z_u4"]].to_numpy(float)
+        np.testing.assert_allclose(shape * shape[0], [1, -1, -1, 1], atol=1e-9)
+        # its partner: both axles tramp equally, in the same sense (the roll-coupled one)
+        partner = table.loc["front_axle_tramp", ["shape_z_u1", "shape_z_u2", "shape_z_u3", "shape_z_u4"]].to_numpy(float)
+        np.testing.assert_allclose(partner * partner[0], [1, -1, 1, -1], atol=1e-9)
+
+
+def mass_weighted_shapes(table: pd.DataFrame, vehicle: VehicleParams) -> pd.DataFrame:
+    m = np.sqrt([vehicle.m_s, vehicle.I_x, vehicle.I_y, vehicle.m_uf, vehicle.m_uf, vehicle.m_ur, vehicle.m_ur])
+    shapes = table.set_index("mode").filter(like="shape_") * m
+    return shapes.div(np.linalg.norm(shapes.to_numpy(), axis=1), axis=0)
+
+
+def test_wheel_modes_keep_their_names_with_and_without_his(problem, rng):
+    # each wheel mode's shape with HIS is closest (largest MAC) to the reference mode of the same name
+    v = problem.spec.vehicle
+    wheels = [n for n in MODE_NAMES if "axle" in n]
+    ref = mass_weighted_shapes(hisopt.modal_analysis(problem, his=False), v).loc[wheels]
+    for x in random_designs(problem, 20, rng):
+        his = mass_weighted_shapes(hisopt.modal_analysis(problem, x), v).loc[wheels]
+        mac = (ref.to_numpy() @ his.to_numpy().T) ** 2
+        assert np.array_equal(np.argmax(mac, axis=1), np.arange(len(wheels))), (x, mac.round(2))
+
+
+def test_front_and_rear_wheel_modes_of_a_car_with_different_axles(problem):
+    # heavier rear wheels on softer tyres: each wheel mode belongs mostly to one axle, and the
+    # names say which, without and with a HIS
+    v = VehicleParams(m_ur=70.0, k_tr=150_000.0)
+    for table in (modal_table(CoupledModel(v)), modal_table(replace(problem.model(), vehicle=v))):
+        t = table.set_index("mode")
+        front = t.loc[["front_axle_hop", "front_axle_tramp"]]
+        rear = t.loc[["rear_axle_hop", "rear_axle_tramp"]]
+        assert (front[["shape_z_u1", "shape_z_u2"]].abs().min(axis=1) > 0.9).all()
+        assert (rear[["shape_z_u3", "shape_z_u4"]].abs().min(axis=1) > 0.9).all()
+        assert (front[["shape_z_u3", "shape_z_u4"]].abs().max(axis=1) < 0.5).all()
+        assert (rear[["shape_z_u1", "shape_z_u2"]].abs().max(axis=1) < 0.5).all()
 
 
 def test_design_as_dict_or_sequence(problem):

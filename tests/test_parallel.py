@@ -61,8 +61,10 @@ def test_multi_seed_study_identical_serial_and_distributed(problem, dask_backend
 
     assert parse_seeds("1-3,7") == [1, 2, 3, 7]
     serial = study(problem, [1, 2], pop_size=12, generations=3, out=tmp_path / "serial")
-    dist = study(problem, [1, 2], pop_size=12, generations=3, backend=dask_backend)
+    reports: list[int] = []
+    dist = study(problem, [1, 2], pop_size=12, generations=3, backend=dask_backend, progress=lambda r: reports.append(r["seed"]))
     assert merged_front_equal(serial, dist)
+    assert sorted(reports) == [1, 2] and list(dist.runs["seed"]) == [1, 2]  # a report per seed; summary in seed order
     assert set(serial.front["seed"]) <= {1, 2} and len(serial.runs) == 2
     assert (tmp_path / "serial" / "seed-2" / "front.csv").is_file()
     # The merged front dominates-or-equals each seed's hypervolume.

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import moocore
 import numpy as np
 
 
@@ -45,15 +46,20 @@ def dominates(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def non_dominated_mask(f: np.ndarray) -> np.ndarray:
-    """[-] Rows of ``f`` (n, k) that no other row dominates; of equal rows only the first."""
+    """[-] Rows of ``f`` (n, k) that no other row dominates; of equal rows only the first.
+
+    Kung's dimension sweep (moocore, ``O(n log^(k-2) n)`` time, ``O(n k)`` memory), so a
+    study can merge fronts of any size. A row with a NaN compares with no other row: it is
+    kept, and never removes another.
+    """
+    f = np.asarray(f, dtype=float)
     n = len(f)
-    if n == 0:
-        return np.zeros(0, dtype=bool)
-    weak = weakly_dominates(f, f)
-    strict = weak & ~weak.T  # i dominates j
-    equal = weak & weak.T
-    earlier_equal = np.tril(equal, k=-1)  # j equals an earlier row i < j
-    return ~(strict.any(axis=0) | earlier_equal.any(axis=1))
+    if n == 0 or f.shape[1] == 0:
+        return np.arange(n) == 0
+    comparable = ~np.isnan(f).any(axis=1)
+    out = np.ones(n, dtype=bool)
+    out[comparable] = moocore.is_nondominated(f[comparable], keep_weakly=False)
+    return out
 
 
 def pareto_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

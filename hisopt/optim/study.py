@@ -7,6 +7,7 @@ the same merged front serially or on any Dask cluster.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -49,12 +50,24 @@ def parse_seeds(text: str) -> list[int]:
     return sorted(seeds)
 
 
+SUMMARY_COLUMNS = ("seed", "evaluations", "hypervolume", "wall_time_s", "front_size")
+"""Columns of :attr:`StudyResult.runs` (and of each progress report)."""
+
+
 def _run_seed(seed: int, problem: "Problem", out: str | None, pop_size: int | None, generations: int | None) -> dict[str, Any]:
     from hisopt.optim.run import optimize
 
     run_dir = None if out is None else str(Path(out) / f"seed-{seed}")
     result = optimize(problem, out=run_dir, seed=seed, pop_size=pop_size, generations=generations)
-    return {"seed": seed, "front": result.front, "hypervolume": result.hypervolume, "wall_time_s": result.wall_time_s, "evaluations": len(result.history)}
+    # only the front leaves the task: the run's history stays in its run directory
+    return {
+        "seed": seed,
+        "front": result.front,
+        "hypervolume": result.hypervolume,
+        "wall_time_s": result.wall_time_s,
+        "evaluations": len(result.history),
+        "front_size": len(result.front),
+    }
 
 
 def study(
@@ -65,8 +78,24 @@ def study(
     pop_size: int | None = None,
     generations: int | None = None,
     backend: "Backend | None" = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
 ) -> StudyResult:
-    """Run one optimisation per seed (one task each on ``backend``) and merge the fronts."""
+    """Run one optimisation per seed (one task each on ``backend``) and merge the fronts.
+
+    Parameters
+    ----------
+    problem : the problem
+    seeds : [-] one run per seed
+    out : study directory (``seed-<n>/`` run directories, merged ``front.csv``, ``runs.csv``)
+    pop_size, generations : [-] overrides of the problem file's optimizer settings
+    backend : where to run (default in-process, one seed after the other)
+    progress : called as each run finishes with its summary (:data:`SUMMARY_COLUMNS`: seed,
+        evaluations, hypervolume [decades^k], wall_time_s [s], front_size)
+
+    The merged front is the non-dominated set of the union of the runs' fronts (of equal
+    objective vectors the one of the lowest seed), by :func:`hisopt.optim.archive.non_dominated_mask`
+    in ``O(n log^2 n)`` time and ``O(n)`` memory for ``n`` designs in the union.
+    """
     from hisopt.io import ensure_writable_dir, write_csv
     from hisopt.optim.archive import non_dominated_mask
     from hisopt.optim.decision import hypervolume, reference_point
@@ -75,16 +104,18 @@ def study(
     backend = backend or Backend()
     if out is not None:
         ensure_writable_dir(out)
-    runs = backend.map(_run_seed, seeds, problem, None if out is None else str(out), pop_size, generations)
-    fronts = [r["front"].assign(seed=r["seed"]) for r in runs]
-    union = pd.concat(fronts, ignore_index=True)
+    def report(_: int, run: dict[str, Any]) -> None:
+        if progress is not None:
+            progress({k: run[k] for k in SUMMARY_COLUMNS})
+
+    runs = backend.map(_run_seed, seeds, problem, None if out is None else str(out), pop_size, generations, on_result=report)
+    summary = pd.DataFrame([{k: r[k] for k in SUMMARY_COLUMNS} for r in runs], columns=list(SUMMARY_COLUMNS))
+    union = pd.concat([r.pop("front").assign(seed=r["seed"]) for r in runs], ignore_index=True)
     objectives = list(problem.objective_names)
     merged = union[non_dominated_mask(union[objectives].to_numpy())]
+    del union
     merged = merged.sort_values(objectives + ["seed"], kind="stable").reset_index(drop=True)
     hv = hypervolume(merged[objectives].to_numpy(), reference_point(problem))
-    summary = pd.DataFrame(
-        [{k: r[k] for k in ("seed", "evaluations", "hypervolume", "wall_time_s")} | {"front_size": len(r["front"])} for r in runs]
-    )
     if out is not None:
         write_csv(merged, Path(out) / "front.csv")
         write_csv(summary, Path(out) / "runs.csv")
