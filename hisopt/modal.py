@@ -15,6 +15,7 @@ from scipy.optimize import linear_sum_assignment
 
 from hisopt.constants import DOF_NAMES, WHEEL_NAMES
 from hisopt.model import CoupledModel
+from hisopt.units import attach_units
 
 MODE_NAMES = ("bounce", "roll", "pitch") + tuple(f"wheel_hop_{w}" for w in WHEEL_NAMES)
 """Mode names, one per mechanical DOF, in DOF order (DESIGN section 6)."""
@@ -142,4 +143,4 @@ def modal_analysis(problem: Any, design: Any = None, his: bool = True) -> pd.Dat
     x = problem.design_matrix(problem.baseline if design is None else design)
     if x.shape[0] != 1:
         raise ValueError(f"modal_analysis takes one design, got {x.shape[0]}")
-    return modal_table(problem.model(x, his=his))
+    return attach_units(modal_table(problem.model(x, his=his)))  # units in attrs["units"]

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.evaluate import DirectOutputs, Evaluator
+from hisopt.units import psd_unit, with_units
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
@@ -21,7 +22,11 @@ FIG4_OUTPUTS = ("acc_z", "acc_roll", "acc_pitch", "tire_load_fl")
 
 @dataclass(frozen=True)
 class ResponseSpectra:
-    """PSDs on a frequency grid: column ``<output>_his`` and ``<output>_ref`` per output."""
+    """PSDs on a frequency grid: column ``<output>_his`` and ``<output>_ref`` per output.
+
+    ``frame`` has ``f_hz`` [Hz] and the PSDs [(output unit)^2/Hz] (``frame.attrs["units"]``);
+    ``units`` is each output's own unit.
+    """
 
     frame: pd.DataFrame
     outputs: tuple[str, ...]
@@ -80,4 +85,6 @@ def response_spectra(problem: "Problem", design: Any = None, outputs: tuple[str,
         for i, name in enumerate(outputs):
             frame[f"{name}_{suffix}"] = psd[0, :, i]
     units = {name: chosen[name].unit for name in outputs}
+    columns = {f"{name}_{suffix}": psd_unit(units[name]) for name in outputs for suffix in models}
+    with_units(frame, {"f_hz": "Hz"} | columns)
     return ResponseSpectra(frame, tuple(outputs), units, dict(zip(problem.variable_names, x[0])))

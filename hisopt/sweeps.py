@@ -155,8 +155,11 @@ class SweepResult:
     baseline: dict[str, float] = field(default_factory=dict)
 
     def to_frame(self) -> pd.DataFrame:
-        """The sweep as a table (a copy of :attr:`frame`)."""
-        return self.frame.copy()
+        """The sweep as a table (a copy of :attr:`frame`; units in ``attrs["units"]``)."""
+        from hisopt.units import attach_units
+
+        peaks = {f"{key}_peak_psd": unit for key, unit in self.units.items()}
+        return attach_units(self.frame.copy(), extra={self.variable: self.unit} | peaks)
 
     def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
         """Frequency (left axis) and peak PSD (right axis, log) against the variable, per mode."""
@@ -249,12 +252,12 @@ def sweep(
     parts = backend.map(_sweep_rows, [x[c] for c in chunks(len(x), size)], problem, chosen)
     frame = pd.concat([pd.DataFrame({vary: values}), pd.concat(parts, ignore_index=True)], axis=1)
     from hisopt.response import standard_outputs
+    from hisopt.units import psd_unit, variable_units
 
     all_outputs = standard_outputs(problem.spec.vehicle)
-    units = {key: f"({all_outputs[name].unit})²/Hz" for key, name in chosen.items()}
-    spec_var = problem.spec.variables[vary]
+    units = {key: psd_unit(all_outputs[name].unit) for key, name in chosen.items()}
     baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n != vary}
-    return SweepResult(problem.name, vary, spec_var.unit, frame, chosen, units, baseline)
+    return SweepResult(problem.name, vary, variable_units(problem)[vary], frame, chosen, units, baseline)
 
 
 # --- feasible regions -------------------------------------------------------------------------
@@ -296,14 +299,19 @@ class RegionsResult:
         return ok
 
     def to_frame(self) -> pd.DataFrame:
-        """One row per grid point: both variables, every quantity, ``valid``, ``feasible``."""
+        """One row per grid point: both variables, every quantity, ``valid``, ``feasible``.
+
+        Units in ``attrs["units"]``.
+        """
+        from hisopt.units import attach_units
+
         xx, yy = np.meshgrid(self.grid_x, self.grid_y)
         frame = pd.DataFrame({self.pair[0]: xx.ravel(), self.pair[1]: yy.ravel()})
         for name, v in self.values.items():
             frame[name] = v.ravel()
         frame["valid"] = self.valid.ravel()
         frame["feasible"] = self.feasible.ravel()
-        return frame
+        return attach_units(frame, extra=dict(zip(self.pair, self.units)))
 
     def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
         """Contours of log10 of each indicator; thresholds dashed, the infeasible set shaded."""
@@ -407,7 +415,9 @@ def regions(problem: "Problem", pair: tuple[str, str], points: int = 41, backend
         base = ev(problem.baseline[None, :])
         thresholds = {name: float(base[name][0]) for name in INDICATORS}
         source = "baseline"
-    units = (problem.spec.variables[a].unit, problem.spec.variables[b].unit)
+    from hisopt.units import variable_units
+
+    units = (variable_units(problem)[a], variable_units(problem)[b])
     baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n not in pair}
     return RegionsResult(
         problem.name, (a, b), units, grid_x, grid_y, values, np.asarray(q["valid"]).reshape(shape), thresholds, source, baseline

@@ -23,7 +23,10 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class StudyResult:
-    """Merged front (with a ``seed`` column), per-seed summary and merged hypervolume."""
+    """Merged front (with a ``seed`` column), per-seed summary and merged hypervolume.
+
+    ``front`` and ``runs`` carry their columns' units in ``attrs["units"]``.
+    """
 
     front: pd.DataFrame
     runs: pd.DataFrame
@@ -71,6 +74,7 @@ def study(
     from hisopt.optim.archive import non_dominated_mask
     from hisopt.optim.decision import hypervolume, reference_point
     from hisopt.parallel import Backend
+    from hisopt.units import attach_units
 
     backend = backend or Backend()
     if out is not None:
@@ -85,6 +89,8 @@ def study(
     summary = pd.DataFrame(
         [{k: r[k] for k in ("seed", "evaluations", "hypervolume", "wall_time_s")} | {"front_size": len(r["front"])} for r in runs]
     )
+    attach_units(merged, problem)
+    attach_units(summary, problem)
     if out is not None:
         write_csv(merged, Path(out) / "front.csv")
         write_csv(summary, Path(out) / "runs.csv")
