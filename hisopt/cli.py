@@ -416,7 +416,7 @@ def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, sche
     accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
     typer.echo(
         f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
-        f"{result.hypervolume_after:.6g} ({100 * result.hypervolume_gain:+.2f} %), "
+        f"{result.hypervolume_after:.6g} decades^{len(result.reference_point)} ({100 * result.hypervolume_gain:+.2f} %), "
         f"{result.seconds_per_point:.2f} s per design"
     )
     typer.echo(f"wrote {run_dir / FRONT_REFINED_CSV}")

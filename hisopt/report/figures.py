@@ -68,7 +68,7 @@ def front_scatter_matrix(
     n = max(len(objectives) - 1, 1)
     fig.update_layout(
         template=template(), title="Pareto front: objectives (hover for the design)", height=170 + 230 * n,
-        dragmode="select", margin={"t": 80, "b": 110},
+        dragmode="select", margin={"t": 60, "b": 110},
     )
     return fig
 

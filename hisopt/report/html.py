@@ -206,8 +206,10 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
 
     modes = modes_table(modal_analysis(problem, x, his=False), modal_analysis(problem, x))
     highlighted = {"knee": knee, "ASF pick": asf}
+    designs_caption = "Knee and ASF pick (closest to the ideal point)"
     if chosen_label not in highlighted:
         highlighted[chosen_label] = chosen
+        designs_caption += f", and {chosen_label}: the design of the spectra and modes"
     sections: list[tuple[str, Any]] = [
         ("Pareto front", figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)),
         ("Designs and objectives", figures.parallel_coordinates(front, variables, objectives, color_by, units)),
@@ -216,7 +218,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
          html_table(modes, "Modes without and with HIS (paper Table 1): undamped natural frequency f, damping ratio zeta",
                     text_columns=("mode", "motion"))),
         ("Highlighted designs",
-         html_table(designs_table(highlighted, units), "Knee and ASF pick (closest to the ideal point)", text_columns=("quantity [unit]",))),
+         html_table(designs_table(highlighted, units), designs_caption, text_columns=("quantity [unit]",))),
     ]
     if run["generations"] is not None:
         sections.insert(2, ("Convergence", figures.convergence(run["generations"], len(objectives))))
