@@ -67,27 +67,29 @@ def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
     """
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
     from hisopt.modal import MODE_ALIASES, modal_analysis
+    from hisopt.units import format_design, format_number, variable_units
 
     p = load(problem, set_)
     ref = modal_analysis(p, his=False)
     his = modal_analysis(p)
-    design = ", ".join(f"{n}={v:.4g}" for n, v in zip(p.variable_names, p.baseline))
+    design = format_design(dict(zip(p.variable_names, p.baseline)), variable_units(p))
     table = Table(title=f"Modes of {p.name} without and with HIS ({design})")
-    for col in ("mode", "motion", "f ref [Hz]", "zeta ref", "f HIS [Hz]", "zeta HIS", "change"):
-        table.add_column(col, justify="left" if col in ("mode", "motion") else "right")
+    for col in ("mode", "motion", "f ref [Hz]", "zeta ref [-]", "f HIS [Hz]", "zeta HIS [-]", "change [%]"):
+        table.add_column(Text(col), justify="left" if col in ("mode", "motion") else "right")
     merged = his.merge(ref, on="mode", how="left", suffixes=("", "_ref"))
     for row in merged.itertuples():
         rise = round(100 * (row.frequency_hz / row.frequency_hz_ref - 1), 1) + 0.0  # + 0.0: no "-0.0"
-        change = f"{rise:+.1f} %" if row.frequency_hz_ref == row.frequency_hz_ref else ""
+        change = f"{rise:+.1f}" if row.frequency_hz_ref == row.frequency_hz_ref else ""
         table.add_row(
             row.mode,
             row.motion,
-            f"{row.frequency_hz_ref:.3f}",
-            f"{row.damping_ratio_ref:.3f}",
-            f"{row.frequency_hz:.3f}",
-            f"{row.damping_ratio:.4f}",
+            format_number(row.frequency_hz_ref, trim=False),
+            format_number(row.damping_ratio_ref, trim=False),
+            format_number(row.frequency_hz, trim=False),
+            format_number(row.damping_ratio, trim=False),
             change,
         )
     console = Console(width=132)
@@ -129,6 +131,8 @@ def droptest(
 
     from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure
     from hisopt.errors import ConfigError
+    from hisopt.io import write_csv
+    from hisopt.units import display_for, format_number
 
     try:
         p0_values = [float(v) for v in p0.split(",") if v.strip()]
@@ -155,25 +159,28 @@ def droptest(
     frame = drop_table(tests)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        frame.to_csv(out / "droptest.csv", index=False)
+        write_csv(frame, out / "droptest.csv")
         spectra_figure(tests).write_html(out / "droptest.html", include_plotlyjs=True)
     except OSError as exc:
         raise ConfigError(f"cannot write the results ({exc.strerror}); expected a writable directory", key="--out") from exc
 
     sources = {(t.case, t.p0_pa): t.source for t in tests}
+    from rich.text import Text
+
     table = Table(title=f"Drop tests of {prob.name}, {height * 1000:g} mm (paper Table 3; damped frequencies)")
-    for col in ("case", "p0 [MPa]", "mode", "source", "f time [Hz]", "f model [Hz]", "error [%]", "damping"):
-        table.add_column(col, justify="left" if col in ("case", "mode", "source") else "right")
+    pressure = display_for("Pa", frame["p0"].to_numpy())
+    for col in ("case", pressure.label("p0"), "mode", "source", "f time [Hz]", "f model [Hz]", "error [%]", "damping [-]"):
+        table.add_column(Text(col), justify="left" if col in ("case", "mode", "source") else "right")
     for row in frame.itertuples():
         table.add_row(
             row.case,
-            f"{row.p0 / 1e6:g}",
+            pressure.number(row.p0),
             row.mode,
             sources[(row.case, row.p0)],
-            f"{row.frequency_time_hz:.3f}",
-            f"{row.frequency_model_hz:.3f}",
+            format_number(row.frequency_time_hz, trim=False),
+            format_number(row.frequency_model_hz, trim=False),
             f"{row.error_pct:+.2f}",
-            f"{row.damping:.3f}",
+            format_number(row.damping, trim=False),
         )
     Console(width=120).print(table)
     typer.echo(f"wrote {out / 'droptest.csv'} and {out / 'droptest.html'}")
@@ -194,14 +201,14 @@ def evaluate(
     from rich.table import Table
 
     from hisopt.errors import ConfigError
-    from hisopt.io import write_csv
+    from hisopt.io import read_csv, write_csv
 
     p = load(problem, set_)
     if designs is not None:
         if not designs.is_file():
             raise ConfigError(f"designs file not found (expected a CSV with columns {', '.join(p.variable_names)})", file=str(designs))
         try:
-            frame = pd.read_csv(designs)
+            frame = read_csv(designs)  # a units row, as hisopt writes, is skipped
         except (ValueError, pd.errors.ParserError) as exc:
             raise ConfigError(f"unreadable CSV ({exc})", file=str(designs)) from None
         missing = [n for n in p.variable_names if n not in frame.columns]
@@ -221,12 +228,32 @@ def evaluate(
         write_csv(result, out)
         typer.echo(f"wrote {len(result)} designs to {out}")
     if designs is None or out is None:
-        table = Table(title=f"{p.name}: {len(result)} design(s)")
-        for col in result.columns:
-            table.add_column(col, justify="right")
-        for row in result.head(20).itertuples(index=False):
-            table.add_row(*[f"{v:.5g}" if isinstance(v, float) else str(v) for v in row])
-        Console(width=160).print(table)
+        from hisopt.units import display_frame
+
+        Console(width=200).print(_units_table(display_frame(result.head(20)), f"{p.name}: {len(result)} design(s)"))
+
+
+def _units_table(shown, title: str):
+    """A rich table of :func:`hisopt.units.display_frame` strings (headers ``name [unit]``).
+
+    Up to four rows print transposed, one line per quantity, so that nothing is cut.
+    """
+    from rich.table import Table
+    from rich.text import Text
+
+    table = Table(title=Text(title))
+    if len(shown) <= 4:
+        table.add_column(Text("quantity [unit]"))
+        for i in range(len(shown)):
+            table.add_column("value" if len(shown) == 1 else f"design {i + 1}", justify="right")
+        for col in shown.columns:
+            table.add_row(Text(col), *[Text(v) for v in shown[col]])
+        return table
+    for col in shown.columns:
+        table.add_column(Text(col.replace(" [", "\n[")), justify="right", overflow="fold")  # unit under the name
+    for row in shown.itertuples(index=False):
+        table.add_row(*[Text(v) for v in row])
+    return table
 
 
 @app.command()
@@ -326,7 +353,6 @@ def study(
 ) -> None:
     """Independent optimisations for several seeds (in parallel on Dask), fronts merged."""
     from rich.console import Console
-    from rich.table import Table
 
     from hisopt.optim.study import parse_seeds
     from hisopt.optim.study import study as run_study
@@ -349,12 +375,11 @@ def study(
         where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
         typer.echo(f"running {len(seed_list)} seeds {where}", err=True)
         result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend, progress=progress)
-    table = Table(title=f"{p.name}: {len(seed_list)} seeds, merged front of {len(result.front)} designs, HV {result.hypervolume:.6g}")
-    for col in result.runs.columns:
-        table.add_column(col, justify="right")
-    for row in result.runs.itertuples(index=False):
-        table.add_row(*[f"{v:.6g}" if isinstance(v, float) else str(v) for v in row])
-    Console(width=120).print(table)
+    from hisopt.units import display_frame, hypervolume_unit
+
+    hv = f"{result.hypervolume:.6g} {hypervolume_unit(len(p.objective_names))}"
+    title = f"{p.name}: {len(seed_list)} seeds, merged front of {len(result.front)} designs, hypervolume {hv}"
+    Console(width=120).print(_units_table(display_frame(result.runs), title))
     if out is not None:
         typer.echo(f"wrote {out / 'front.csv'} and {out / 'runs.csv'}")
 
@@ -412,7 +437,7 @@ def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, sche
     accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
     typer.echo(
         f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
-        f"{result.hypervolume_after:.6g} ({100 * result.hypervolume_gain:+.2f} %), "
+        f"{result.hypervolume_after:.6g} decades^{len(result.reference_point)} ({100 * result.hypervolume_gain:+.2f} %), "
         f"{result.seconds_per_point:.2f} s per design"
     )
     typer.echo(f"wrote {run_dir / FRONT_REFINED_CSV}")

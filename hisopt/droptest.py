@@ -49,6 +49,7 @@ from hisopt.model import CoupledModel
 from hisopt.modal import modal_analysis
 from hisopt.road.profiles import step_profile
 from hisopt.timedomain import SimulationMode, TimeResponse, simulate
+from hisopt.units import attach_units
 from hisopt.vehicle import VehicleParams, body_to_corners
 
 if TYPE_CHECKING:
@@ -612,7 +613,7 @@ def run_drop_tests(
 
 
 def drop_table(tests: Sequence[DropTest]) -> pd.DataFrame:
-    """Table 3: one row per test, columns :data:`TABLE_COLUMNS`.
+    """Table 3: one row per test, columns :data:`TABLE_COLUMNS` (units in ``attrs["units"]``).
 
     A measured test replaces the simulated one of the same case and ``p0`` (its
     ``frequency_time_hz`` is the measured frequency); other measured tests are appended.
@@ -620,7 +621,7 @@ def drop_table(tests: Sequence[DropTest]) -> pd.DataFrame:
     rows: dict[tuple[str, float], dict[str, Any]] = {}
     for test in sorted(tests, key=lambda d: d.source == "measured"):
         rows[(test.case, test.p0_pa)] = test.row()
-    return pd.DataFrame(list(rows.values()), columns=list(TABLE_COLUMNS))
+    return attach_units(pd.DataFrame(list(rows.values()), columns=list(TABLE_COLUMNS)), extra={"p0": "Pa"})
 
 
 # --- measured records ----------------------------------------------------------------------

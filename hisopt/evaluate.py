@@ -27,6 +27,7 @@ from hisopt.quadrature import base_edges, panel_nodes, pole_edges
 from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
+from hisopt.units import attach_units
 
 if TYPE_CHECKING:
     from hisopt.model import CoupledModel
@@ -387,7 +388,8 @@ def results_frame(problem: "Problem", designs: Any, quantities: dict[str, np.nda
     """Designs and their quantities as a DataFrame.
 
     Columns: the variable names, the objective names, the constraint names (physical units,
-    each quantity once), ``feasible`` (all constraints met and the model valid).
+    each quantity once), ``feasible`` (all constraints met and the model valid); their units
+    in ``attrs["units"]``.
     """
     x = problem.design_matrix(designs)
     df = pd.DataFrame(x, columns=list(problem.variable_names))
@@ -397,7 +399,7 @@ def results_frame(problem: "Problem", designs: Any, quantities: dict[str, np.nda
     for c in problem.spec.constraints:
         feasible &= quantities[c.name] <= c.limit
     df["feasible"] = feasible
-    return df
+    return attach_units(df, problem)
 
 
 def grid_quantities(problem: "Problem", designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:

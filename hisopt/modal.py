@@ -36,6 +36,7 @@ from scipy.optimize import linear_sum_assignment
 
 from hisopt.constants import DOF_NAMES
 from hisopt.model import CoupledModel
+from hisopt.units import attach_units
 
 MODE_NAMES = ("bounce", "roll", "pitch", "front_axle_hop", "front_axle_tramp", "rear_axle_hop", "rear_axle_tramp")
 """Mechanical mode names, in table order (DESIGN section 6)."""
@@ -330,7 +331,7 @@ def modal_analysis(problem: Any, design: Any = None, his: bool = True) -> pd.Dat
     x = problem.design_matrix(problem.baseline if design is None else design)
     if x.shape[0] != 1:
         raise ValueError(f"modal_analysis takes one design, got {x.shape[0]}")
-    return modal_table(problem.model(x, his=his))
+    return attach_units(modal_table(problem.model(x, his=his)))  # units in attrs["units"]
 
 
 # --- following modes along a path of designs ---------------------------------------------------

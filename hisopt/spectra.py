@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from hisopt.evaluate import DirectOutputs, Evaluator
+from hisopt.units import psd_unit, variable_units, with_units
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
@@ -18,38 +19,63 @@ if TYPE_CHECKING:
 FIG4_OUTPUTS = ("acc_z", "acc_roll", "acc_pitch", "tire_load_fl")
 """Paper Fig. 4: CG vertical, roll and pitch accelerations and the FL tyre force."""
 
+OUTPUT_LABELS = {
+    "acc_z": "CG vertical acceleration",
+    "acc_x": "longitudinal acceleration at the occupant",
+    "acc_y": "lateral acceleration at the occupant",
+    "acc_roll": "roll acceleration",
+    "acc_pitch": "pitch acceleration",
+    "roll": "roll angle",
+    "pitch": "pitch angle",
+    "stroke_fl": "FL suspension stroke",
+    "tire_load_fl": "FL dynamic tyre load",
+}
+"""What each output of :func:`hisopt.response.standard_outputs` is, for figure titles."""
+
 
 @dataclass(frozen=True)
 class ResponseSpectra:
-    """PSDs on a frequency grid: column ``<output>_his`` and ``<output>_ref`` per output."""
+    """PSDs on a frequency grid: column ``<output>_his`` and ``<output>_ref`` per output.
+
+    ``frame`` has ``f_hz`` [Hz] and the PSDs [(output unit)^2/Hz] (``frame.attrs["units"]``);
+    ``units`` is each output's own unit.
+    """
 
     frame: pd.DataFrame
     outputs: tuple[str, ...]
     units: dict[str, str]
     design: dict[str, float]
+    design_units: dict[str, str] = field(default_factory=dict)
 
     def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
         """Log-log PSDs with and without HIS, one panel per output (plotly)."""
         from plotly.subplots import make_subplots
 
-        from hisopt.report.theme import use_theme
+        from hisopt.report.axes import log_axis
+        from hisopt.report.theme import WITH_HIS, WITHOUT_HIS, template
+        from hisopt.units import format_design
 
-        use_theme()
         cols = 2
         rows = (len(self.outputs) + 1) // cols
-        fig = fig or make_subplots(rows=rows, cols=cols, subplot_titles=[f"{o} [{self.units[o]}²/Hz]" for o in self.outputs])
+        titles = [f"{o}: {OUTPUT_LABELS.get(o, o)}" for o in self.outputs]
+        fig = fig or make_subplots(rows=rows, cols=cols, subplot_titles=titles, vertical_spacing=0.3 / rows, horizontal_spacing=0.1)
         f = self.frame["f_hz"]
+        x_axis = log_axis(f, pad=0.0, max_ticks=8)
         for k, name in enumerate(self.outputs):
             r, c = k // cols + 1, k % cols + 1
-            for suffix, label, dash in (("ref", "without HIS", "dash"), ("his", "with HIS", "solid")):
+            for suffix, label, dash, color in (("his", "with HIS", "solid", WITH_HIS), ("ref", "without HIS", "dash", WITHOUT_HIS)):
                 fig.add_scatter(
                     x=f, y=self.frame[f"{name}_{suffix}"], name=label, legendgroup=label, showlegend=k == 0,
-                    line={"dash": dash}, row=r, col=c,
+                    line={"dash": dash, "color": color, "width": 1.6}, row=r, col=c,
                 )
-            fig.update_xaxes(type="log", title_text="frequency [Hz]", row=r, col=c)
-            fig.update_yaxes(type="log", row=r, col=c)
-        design = ", ".join(f"{k}={v:.4g}" for k, v in self.design.items())
-        fig.update_layout(title=f"Response spectra with and without HIS ({design})")
+            psd = self.frame[[f"{name}_his", f"{name}_ref"]].to_numpy()
+            fig.update_xaxes(title_text="frequency [Hz]", row=r, col=c, **x_axis)
+            fig.update_yaxes(title_text=f"PSD [{psd_unit(self.units[name])}]", row=r, col=c, **log_axis(psd))
+        design = format_design(self.design, self.design_units)
+        fig.update_layout(
+            template=template(), title=f"Response spectra with and without HIS<br><sup>{design}</sup>",
+            height=130 + 360 * rows, margin={"t": 90, "b": 70},
+        )
         return fig
 
 
@@ -80,4 +106,7 @@ def response_spectra(problem: "Problem", design: Any = None, outputs: tuple[str,
         for i, name in enumerate(outputs):
             frame[f"{name}_{suffix}"] = psd[0, :, i]
     units = {name: chosen[name].unit for name in outputs}
-    return ResponseSpectra(frame, tuple(outputs), units, dict(zip(problem.variable_names, x[0])))
+    columns = {f"{name}_{suffix}": psd_unit(units[name]) for name in outputs for suffix in models}
+    with_units(frame, {"f_hz": "Hz"} | columns)
+    design = dict(zip(problem.variable_names, x[0]))
+    return ResponseSpectra(frame, tuple(outputs), units, design, variable_units(problem))

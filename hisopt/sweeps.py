@@ -152,6 +152,7 @@ class SweepResult:
     responses : response of each key (:data:`SWEEP_RESPONSES`)
     units : PSD unit of each key
     baseline : the fixed values of the other variables
+    baseline_units : their units
     """
 
     problem_name: str
@@ -161,37 +162,50 @@ class SweepResult:
     responses: dict[str, str]
     units: dict[str, str]
     baseline: dict[str, float] = field(default_factory=dict)
+    baseline_units: dict[str, str] = field(default_factory=dict)
 
     def to_frame(self) -> pd.DataFrame:
-        """The sweep as a table (a copy of :attr:`frame`)."""
-        return self.frame.copy()
+        """The sweep as a table (a copy of :attr:`frame`; units in ``attrs["units"]``)."""
+        from hisopt.units import attach_units
+
+        peaks = {f"{key}_peak_psd": unit for key, unit in self.units.items()}
+        return attach_units(self.frame.copy(), extra={self.variable: self.unit} | peaks)
 
     def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
         """Frequency (left axis) and peak PSD (right axis, log) against the variable, per mode."""
         from plotly.subplots import make_subplots
 
-        from hisopt.report.theme import use_theme
+        from hisopt.report.axes import log_axis
+        from hisopt.report.theme import COLORS, template
+        from hisopt.units import display_for, format_design
 
-        use_theme()
         keys = list(self.responses)
         titles = [f"{_LABELS.get(k, k)}: {self.responses[k]}" for k in keys]
-        fig = fig or make_subplots(rows=2, cols=2, subplot_titles=titles, specs=[[{"secondary_y": True}] * 2] * 2)
-        x = self.frame[self.variable]
+        rows = (len(keys) + 1) // 2
+        fig = fig or make_subplots(rows=rows, cols=2, subplot_titles=titles, specs=[[{"secondary_y": True}] * 2] * rows,
+                                   horizontal_spacing=0.16, vertical_spacing=0.3 / rows)
+        shown = display_for(self.unit, self.frame[self.variable].to_numpy())
+        x = shown.values(self.frame[self.variable])
         for n, key in enumerate(keys):
             r, c = n // 2 + 1, n % 2 + 1
             first = n == 0
             if f"{key}_frequency_hz" in self.frame:
                 fig.add_scatter(x=x, y=self.frame[f"{key}_frequency_hz"], name="modal frequency", legendgroup="f",
-                                showlegend=first, line={"color": "#1f4e79"}, row=r, col=c, secondary_y=False)
+                                showlegend=first, line={"color": COLORS[0]}, row=r, col=c, secondary_y=False)
             fig.add_scatter(x=x, y=self.frame[f"{key}_peak_hz"], name="frequency of the PSD peak", legendgroup="fp",
-                            showlegend=first, line={"color": "#1f4e79", "dash": "dot"}, row=r, col=c, secondary_y=False)
-            fig.add_scatter(x=x, y=self.frame[f"{key}_peak_psd"], name="peak PSD", legendgroup="a", showlegend=first,
-                            line={"color": "#d1495b"}, row=r, col=c, secondary_y=True)
-            fig.update_xaxes(title_text=f"{self.variable} [{self.unit}]", row=r, col=c)
+                            showlegend=first, line={"color": COLORS[0], "dash": "dot"}, row=r, col=c, secondary_y=False)
+            fig.add_scatter(x=x, y=self.frame[f"{key}_peak_psd"], name="peak PSD (right axis)", legendgroup="a", showlegend=first,
+                            line={"color": COLORS[1]}, row=r, col=c, secondary_y=True)
+            fig.update_xaxes(title_text=shown.label(self.variable), row=r, col=c)
             fig.update_yaxes(title_text="frequency [Hz]", row=r, col=c, secondary_y=False)
-            fig.update_yaxes(title_text=f"peak PSD [{self.units[key]}]", type="log", row=r, col=c, secondary_y=True)
-        fixed = ", ".join(f"{k}={v:.4g}" for k, v in self.baseline.items())
-        fig.update_layout(title=f"{self.problem_name}: sweep of {self.variable} ({fixed or 'no other variables'})")
+            fig.update_yaxes(title_text=f"peak PSD [{self.units[key]}]", row=r, col=c, secondary_y=True, showgrid=False,
+                             title_font={"color": COLORS[1]}, tickfont={"color": COLORS[1]},
+                             **log_axis(self.frame[f"{key}_peak_psd"]))
+        fixed = format_design(self.baseline, self.baseline_units) or "no other variables"
+        fig.update_layout(
+            template=template(), title=f"{self.problem_name}: sweep of {self.variable}<br><sup>{fixed}</sup>",
+            height=130 + 360 * rows, margin={"t": 90, "b": 70},
+        )
         return fig
 
 
@@ -272,12 +286,13 @@ def sweep(
         columns |= {n: peaks[n].to_numpy() for n in (f"{key}_peak_hz", f"{key}_peak_psd")}
     frame = pd.DataFrame(columns)
     from hisopt.response import standard_outputs
+    from hisopt.units import psd_unit, variable_units
 
     all_outputs = standard_outputs(problem.spec.vehicle)
-    units = {key: f"({all_outputs[name].unit})²/Hz" for key, name in chosen.items()}
-    spec_var = problem.spec.variables[vary]
+    units = {key: psd_unit(all_outputs[name].unit) for key, name in chosen.items()}
     baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n != vary}
-    return SweepResult(problem.name, vary, spec_var.unit, frame, chosen, units, baseline)
+    var_units = variable_units(problem)
+    return SweepResult(problem.name, vary, var_units[vary], frame, chosen, units, baseline, var_units)
 
 
 # --- feasible regions -------------------------------------------------------------------------
@@ -297,6 +312,7 @@ class RegionsResult:
     threshold_source : ``"constraints"`` (the problem's) or ``"baseline"`` (the baseline
         design's indicator values, for a problem without constraints)
     baseline : the fixed values of the other variables
+    baseline_units : their units
     """
 
     problem_name: str
@@ -309,6 +325,7 @@ class RegionsResult:
     thresholds: dict[str, float]
     threshold_source: Literal["constraints", "baseline"]
     baseline: dict[str, float] = field(default_factory=dict)
+    baseline_units: dict[str, str] = field(default_factory=dict)
 
     @property
     def feasible(self) -> np.ndarray:
@@ -319,37 +336,53 @@ class RegionsResult:
         return ok
 
     def to_frame(self) -> pd.DataFrame:
-        """One row per grid point: both variables, every quantity, ``valid``, ``feasible``."""
+        """One row per grid point: both variables, every quantity, ``valid``, ``feasible``.
+
+        Units in ``attrs["units"]``.
+        """
+        from hisopt.units import attach_units
+
         xx, yy = np.meshgrid(self.grid_x, self.grid_y)
         frame = pd.DataFrame({self.pair[0]: xx.ravel(), self.pair[1]: yy.ravel()})
         for name, v in self.values.items():
             frame[name] = v.ravel()
         frame["valid"] = self.valid.ravel()
         frame["feasible"] = self.feasible.ravel()
-        return frame
+        return attach_units(frame, extra=dict(zip(self.pair, self.units)))
 
     def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
         """Contours of log10 of each indicator; thresholds dashed, the infeasible set shaded."""
         from plotly.subplots import make_subplots
 
         from hisopt.metrics import METRICS
-        from hisopt.report.theme import use_theme
+        from hisopt.report.axes import log_ticks, tick_label
+        from hisopt.report.theme import template
+        from hisopt.units import display_for, format_design, format_quantity
 
-        use_theme()
-        titles = [f"{n} [{METRICS[n].unit}] (log10)" for n in INDICATORS]
-        fig = fig or make_subplots(rows=2, cols=2, subplot_titles=titles, horizontal_spacing=0.16, vertical_spacing=0.14)
+        titles = [f"{n} (log colour scale)" for n in INDICATORS]
+        fig = fig or make_subplots(rows=2, cols=2, subplot_titles=titles, horizontal_spacing=0.2, vertical_spacing=0.16)
         feasible = self.feasible.astype(float)
         dashes = ["dash", "dot", "dashdot", "longdash", "longdashdot"]
+        sx, sy = (display_for(u, g) for u, g in zip(self.units, (self.grid_x, self.grid_y)))
+        gx, gy = sx.values(self.grid_x), sy.values(self.grid_y)
         for n, name in enumerate(INDICATORS):
             r, c = n // 2 + 1, n % 2 + 1
-            z = np.log10(np.where(self.valid, self.values[name], np.nan))
+            values = np.where(self.valid, self.values[name], np.nan)
+            finite = values[np.isfinite(values) & (values > 0)]
+            ticks = log_ticks(float(finite.min()), float(finite.max()), 5) if finite.size else []
+            scientific = not all(1e-2 <= t < 1e4 for t in ticks)
+            cell = fig.get_subplot(r, c)
+            x_dom, y_dom = cell.xaxis.domain, cell.yaxis.domain
             fig.add_contour(
-                x=self.grid_x, y=self.grid_y, z=z, colorscale="Viridis", ncontours=18, showlegend=False, name=name,
-                colorbar={"len": 0.4, "thickness": 12, "x": 0.44 if c == 1 else 1.0, "y": 0.79 if r == 1 else 0.21},
-                contours={"showlabels": False}, row=r, col=c,
+                x=gx, y=gy, z=np.log10(values), colorscale="Viridis", ncontours=18, showlegend=False, name=name,
+                colorbar={"len": y_dom[1] - y_dom[0], "thickness": 12, "x": x_dom[1] + 0.015, "xanchor": "left",
+                          "y": (y_dom[0] + y_dom[1]) / 2, "yanchor": "middle", "title": {"text": f"[{METRICS[name].unit}]", "side": "top"},
+                          "tickvals": np.log10(ticks) if ticks else None, "ticktext": [tick_label(t, scientific) for t in ticks] or None},
+                contours={"showlabels": False}, hovertemplate=f"{name} = 10^%{{z:.3f}} {METRICS[name].unit}<extra></extra>",
+                row=r, col=c,
             )
             fig.add_contour(  # shades where the feasibility indicator is below 1/2
-                x=self.grid_x, y=self.grid_y, z=feasible, contours={"type": "constraint", "operation": ">=", "value": 0.5},
+                x=gx, y=gy, z=feasible, contours={"type": "constraint", "operation": ">=", "value": 0.5},
                 fillcolor="rgba(60,60,60,0.35)", line={"width": 0}, hoverinfo="skip", name="infeasible",
                 legendgroup="infeasible", showlegend=n == 0, row=r, col=c,
             )
@@ -357,21 +390,25 @@ class RegionsResult:
                 if np.all(np.isnan(np.where(self.valid, self.values[q], np.nan))):
                     continue
                 fig.add_contour(
-                    x=self.grid_x, y=self.grid_y, z=np.where(self.valid, self.values[q], np.nan), showscale=False,
+                    x=gx, y=gy, z=np.where(self.valid, self.values[q], np.nan), showscale=False,
                     contours={"start": limit, "end": limit, "size": 1.0, "coloring": "lines"},
                     line={"color": "black", "dash": dashes[k % len(dashes)], "width": 2},
-                    colorscale=[[0, "black"], [1, "black"]], name=f"{q} = {limit:.4g}", legendgroup=q,
-                    showlegend=n == 0, row=r, col=c,
+                    colorscale=[[0, "black"], [1, "black"]], name=f"{q} <= {format_quantity(limit, METRICS[q].unit)}",
+                    legendgroup=q, showlegend=n == 0, hoverinfo="skip", row=r, col=c,
                 )
-            fig.update_xaxes(title_text=f"{self.pair[0]} [{self.units[0]}]", row=r, col=c)
-            fig.update_yaxes(title_text=f"{self.pair[1]} [{self.units[1]}]", row=r, col=c)
-        fixed = ", ".join(f"{k}={v:.4g}" for k, v in self.baseline.items())
+            fig.update_xaxes(title_text=sx.label(self.pair[0]), row=r, col=c)
+            fig.update_yaxes(title_text=sy.label(self.pair[1]), row=r, col=c)
+        fixed = format_design(self.baseline, self.baseline_units)
         source = (
             "thresholds: the problem's constraints"
             if self.threshold_source == "constraints"
             else "no constraints: thresholds are the baseline design's values"
         )
-        fig.update_layout(title=f"{self.problem_name}: feasible region over {self.pair[0]}, {self.pair[1]} ({fixed}); {source}; shaded: infeasible")
+        subtitle = "; ".join(part for part in (fixed, source, "shaded: infeasible") if part)
+        fig.update_layout(
+            template=template(), title=f"{self.problem_name}: feasible region over {self.pair[0]}, {self.pair[1]}<br><sup>{subtitle}</sup>",
+            height=900, margin={"t": 90, "b": 80, "r": 110},
+        )
         return fig
 
 
@@ -430,8 +467,12 @@ def regions(problem: "Problem", pair: tuple[str, str], points: int = 41, backend
         base = ev(problem.baseline[None, :])
         thresholds = {name: float(base[name][0]) for name in INDICATORS}
         source = "baseline"
-    units = (problem.spec.variables[a].unit, problem.spec.variables[b].unit)
+    from hisopt.units import variable_units
+
+    var_units = variable_units(problem)
+    units = (var_units[a], var_units[b])
     baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n not in pair}
     return RegionsResult(
-        problem.name, (a, b), units, grid_x, grid_y, values, np.asarray(q["valid"]).reshape(shape), thresholds, source, baseline
+        problem.name, (a, b), units, grid_x, grid_y, values, np.asarray(q["valid"]).reshape(shape), thresholds, source, baseline,
+        var_units,
     )

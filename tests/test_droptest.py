@@ -35,6 +35,7 @@ from hisopt.droptest import (
     spectra_figure,
 )
 from hisopt.errors import ConfigError
+from hisopt.io import read_csv
 from tests.conftest import DEFAULT_PROBLEM
 
 P0_PA = (1.0e6, 2.0e6, 3.0e6)
@@ -178,10 +179,15 @@ def _synthetic_measurement(problem: hisopt.Problem, case: str, path: Path, noise
 def test_cli_droptest_writes_table3_and_spectra(tmp_path):
     out = run_cli("droptest", str(DEFAULT_PROBLEM), "--p0", "1e6,3e6", "--out", str(tmp_path))
     assert out.returncode == 0, out.stderr
-    table = pd.read_csv(tmp_path / "droptest.csv")
+    table = read_csv(tmp_path / "droptest.csv")
     assert tuple(table.columns) == TABLE_COLUMNS and len(table) == 6
+    assert table.attrs["units"] == {
+        "case": "-", "p0": "Pa", "mode": "-", "frequency_time_hz": "Hz", "frequency_model_hz": "Hz", "error_pct": "%", "damping": "-"
+    }  # fmt: skip
     assert table["error_pct"].abs().max() < 3.0
     assert "left_side" in out.stdout and "simulated" in out.stdout
+    for header in ("p0 [MPa]", "f time [Hz]", "error [%]", "damping [-]"):
+        assert header in out.stdout
     html = (tmp_path / "droptest.html").read_text(encoding="utf-8")
     assert "Plotly.newPlot" in html and 'src="https://cdn.plot.ly' not in html  # offline
     assert len(html) > 1_000_000  # plotly.js is embedded
@@ -195,7 +201,7 @@ def test_cli_extracts_the_frequency_of_a_measured_record(problem, tmp_path, cli)
         "--measured", str(path), "--case", "left_side", "--measured-p0", "2e6",
     )  # fmt: skip
     assert code == 0, stderr
-    table = pd.read_csv(tmp_path / "out" / "droptest.csv")
+    table = read_csv(tmp_path / "out" / "droptest.csv")
     assert len(table) == 3  # the measured row replaced the simulated left-side row
     row = table[table["case"] == "left_side"].iloc[0]
     assert row["frequency_time_hz"] == pytest.approx(clean, rel=0.01)

@@ -368,9 +368,15 @@ def test_cli_optimize_writes_run_and_prints_summary(tmp_path):
     assert out.returncode == 0, out.stderr
     for word in ("front size", "evaluations", "hypervolume", "knee", "ASF pick", "max_tire_load_psd"):
         assert word in out.stdout
+    for shown in ("p0 [MPa]", "dA [cm^2]", "sigma_aw [m/s^2]", "max_roll_psd [rad^2/Hz]", "roll_gradient [deg/g]", "decades^4"):
+        assert shown in out.stdout  # the picks and the hypervolume with their units
     assert "gen    3/3" in out.stderr and "feasible" in out.stderr
     lib = optimize(hisopt.load_problem(HANDLING_PROBLEM), pop_size=12, generations=3, seed=4)
-    assert read_front(tmp_path / "run" / "front.csv").equals(lib.front)
+    front = read_front(tmp_path / "run" / "front.csv")
+    assert front.equals(lib.front)
+    assert front.attrs["units"] == lib.front.attrs["units"] and front.attrs["units"]["rms_stroke"] == "m"
+    generations = read_csv(tmp_path / "run" / "generations.csv")
+    assert generations.attrs["units"]["hypervolume"] == "decades^4" and generations.attrs["units"]["elapsed_s"] == "s"
 
 
 def test_cli_user_errors_are_one_line(tmp_path):

@@ -1,13 +1,18 @@
 """`hisopt report`: a self-contained HTML report that renders in headless Chromium."""
 
+import html as html_lib
+import json
 import os
 import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
+import numpy as np
 import pytest
 
+from hisopt.problem import load_problem
 from tests.conftest import DEFAULT_PROBLEM
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -34,9 +39,17 @@ def test_report_is_self_contained(run_dir):
     html = _report(run_dir, "--color-by", "max_roll_psd")
     assert 'src="http' not in html  # no CDN or remote script: works offline
     assert len(html) > 2_000_000  # plotly.js embedded once
-    assert html.count("Plotly.newPlot") >= 6
+    assert html.count("Plotly.newPlot") >= 4
     for title in ("Pareto front", "Designs and objectives", "Convergence", "Response spectra", "Modes of the knee design", "Run settings"):
         assert title in html
+    # Tables are HTML tables with units in their headers; names keep their underscores.
+    assert html.count('<table class="data">') == 3 and '<td class="text">front_axle_hop</td>' in html
+    for header in ("f with HIS<span class=\"unit\">[Hz]</span>", "zeta with HIS<span class=\"unit\">[-]</span>"):
+        assert header in html
+    for row in ("sigma_aw [m/s^2]", "max_roll_psd [rad^2/Hz]", "max_tire_load_psd [N^2/Hz]", "lam [-]", "decades^4", " s</td>"):
+        assert row in html
+    for row in (r"p0 \[(k|M)Pa\]", r"dA \[(cm|mm)\^2\]", r"Rv \[(k|M)?Pa s/m\^3\]"):  # prefixes follow the values
+        assert re.search(row, html), row
 
 
 def test_report_bad_options_are_user_errors(run_dir):
@@ -44,26 +57,207 @@ def test_report_bad_options_are_user_errors(run_dir):
     assert proc.returncode == 2 and "nope" in proc.stderr and "Traceback" not in proc.stderr
 
 
-def test_report_renders_in_headless_chromium(run_dir, tmp_path):
+# --- layout, checked as a person would see it ---------------------------------------------------
+LAYOUT_CHECK_JS = r"""
+(function () {
+  // Corners of a text's own box on the screen: rotated text stays a rotated rectangle.
+  function corners(t) {
+    const b = t.getBBox(), m = t.getScreenCTM(), svg = t.ownerSVGElement;
+    return [[b.x, b.y], [b.x + b.width, b.y], [b.x + b.width, b.y + b.height], [b.x, b.y + b.height]].map(function (c) {
+      const p = svg.createSVGPoint(); p.x = c[0]; p.y = c[1];
+      const q = p.matrixTransform(m); return [q.x, q.y];
+    });
+  }
+  // Separating-axis test of two convex quadrilaterals: do they overlap by more than tol px?
+  function overlap(a, b, tol) {
+    const polys = [a, b];
+    for (let k = 0; k < 2; k++) {
+      const p = polys[k];
+      for (let i = 0; i < 4; i++) {
+        const e = [p[(i + 1) % 4][0] - p[i][0], p[(i + 1) % 4][1] - p[i][1]];
+        const len = Math.hypot(e[0], e[1]);
+        if (len < 1e-9) continue;
+        const n = [-e[1] / len, e[0] / len];
+        const pa = a.map(function (c) { return c[0] * n[0] + c[1] * n[1]; });
+        const pb = b.map(function (c) { return c[0] * n[0] + c[1] * n[1]; });
+        const depth = Math.min(Math.max.apply(null, pa), Math.max.apply(null, pb)) - Math.max(Math.min.apply(null, pa), Math.min.apply(null, pb));
+        if (depth <= tol) return false;
+      }
+    }
+    return true;
+  }
+  function visible(el) {
+    for (let e = el; e && e.nodeType === 1; e = e.parentNode) {
+      const cs = getComputedStyle(e);
+      if (cs.display === 'none' || cs.visibility === 'hidden' || parseFloat(cs.opacity) === 0) return false;
+    }
+    return true;
+  }
+  function run() {
+    const out = {figures: 0, texts: 0, overlaps: [], clipped: [], axis_titles: [], cells: 0};
+    document.querySelectorAll('.js-plotly-plot').forEach(function (plot) {
+      out.figures += 1;
+      const items = [];
+      plot.querySelectorAll('svg text').forEach(function (t) {
+        const s = (t.textContent || '').trim();
+        if (!s || t.closest('.hoverlayer') || !visible(t)) return;
+        const r = t.getBoundingClientRect();
+        if (r.width < 1 || r.height < 1) return;
+        items.push({s: s, c: corners(t)});
+      });
+      out.texts += items.length;
+      for (let i = 0; i < items.length; i++) {
+        for (let j = i + 1; j < items.length; j++) {
+          if (overlap(items[i].c, items[j].c, 1.0)) out.overlaps.push([plot.id, items[i].s, items[j].s]);
+        }
+      }
+      // Axis titles: cartesian (g-xtitle, g-y2title, ...), parcoords, colour bars; not the
+      // figure's title or subplot titles (annotations).
+      plot.querySelectorAll('[class*="title"] text, text[class*="title"]').forEach(function (t) {
+        const g = t.closest('[class]');
+        const cls = (t.getAttribute('class') || '') + ' ' + (g ? g.getAttribute('class') : '');
+        const s = (t.textContent || '').trim();
+        if (!/gtitle|annotation|legendtitle/.test(cls) && s && visible(t)) out.axis_titles.push(s);
+      });
+    });
+    document.querySelectorAll('table td, table th').forEach(function (cell) {
+      out.cells += 1;
+      const range = document.createRange();
+      range.selectNodeContents(cell);
+      const t = range.getBoundingClientRect(), c = cell.getBoundingClientRect();
+      const outside = t.left < c.left - 0.5 || t.right > c.right + 0.5 || t.top < c.top - 0.5 || t.bottom > c.bottom + 0.5;
+      if (cell.scrollWidth > cell.clientWidth + 1 || outside) out.clipped.push(cell.textContent);
+    });
+    const pre = document.createElement('pre');
+    pre.id = 'layout-check';
+    pre.textContent = JSON.stringify(out);
+    document.body.appendChild(pre);
+  }
+  window.addEventListener('load', function () { setTimeout(run, 1000); });
+})();
+"""
+
+
+def _chromium_or_skip() -> str:
     if CHROMIUM is None:
         if os.environ.get("CI"):
             pytest.fail("chromium is not installed (.ci/run installs Debian's chromium package)")
         pytest.skip("chromium not installed")
-    html = _report(run_dir)
-    n_figures = html.count("Plotly.newPlot")
+    return CHROMIUM
+
+
+def render(page: str, folder: Path, width: int = 1400) -> tuple[dict, str, str]:
+    """Render the HTML ``page`` in headless Chromium and measure its text: overlaps of SVG text
+    (plotly titles, axis titles, tick labels, legends, colour bars), clipped table cells and
+    axis titles. Returns ``(measurements, dom, stderr)``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    probe = folder / f"probe-{width}.html"
+    probe.write_text(page.replace("</body>", f"<script>{LAYOUT_CHECK_JS}</script></body>"), encoding="utf-8")
     proc = subprocess.run(
         [
-            CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-quic",
-            "--no-first-run", "--disable-component-update", "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}",
-            "--enable-logging=stderr", "--v=0", "--virtual-time-budget=20000", "--dump-dom", (run_dir / "report.html").as_uri(),
+            _chromium_or_skip(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-quic",
+            "--no-first-run", "--disable-component-update", "--disable-sync", f"--user-data-dir={folder / 'profile'}",
+            "--enable-logging=stderr", "--v=0", f"--window-size={width},1000", "--virtual-time-budget=20000", "--dump-dom",
+            probe.as_uri(),
         ],
         capture_output=True, text=True, timeout=300,
-    )
+    )  # fmt: skip
     assert proc.returncode == 0, proc.stderr[-2000:]
-    console = [line for line in proc.stderr.splitlines() if ":CONSOLE" in line]
+    found = re.search(r'<pre id="layout-check">(.*?)</pre>', proc.stdout, re.S)
+    assert found, "the layout check did not run"
+    return json.loads(html_lib.unescape(found.group(1))), proc.stdout, proc.stderr
+
+
+UNIT_IN_BRACKETS = re.compile(r"\[[^\]]+\]")
+
+
+def assert_clean_layout(result: dict, figures: int) -> None:
+    assert result["figures"] == figures and result["texts"] > 20 * figures  # everything was drawn and measured
+    assert result["overlaps"] == [], result["overlaps"][:10]
+    assert result["clipped"] == [], result["clipped"][:10]
+    assert result["axis_titles"], "no axis titles found"
+    assert [t for t in result["axis_titles"] if not UNIT_IN_BRACKETS.search(t)] == []
+
+
+@pytest.fixture(scope="module")
+def default_report(run_dir) -> str:
+    return _report(run_dir)
+
+
+@pytest.fixture(scope="module")
+def rendered_report(default_report, tmp_path_factory):
+    return render(default_report, tmp_path_factory.mktemp("chromium"))
+
+
+def test_report_renders_in_headless_chromium(default_report, rendered_report):
+    _, dom, stderr = rendered_report
+    console = [line for line in stderr.splitlines() if ":CONSOLE" in line]
     errors = [line for line in console if re.search(r"Uncaught|Error:|TypeError|ReferenceError", line)]
     assert not errors, errors
-    dom = proc.stdout
     # Every figure was drawn: plotly replaced each placeholder div by a rendered plot.
+    n_figures = default_report.count("Plotly.newPlot")
     assert dom.count('class="plot-container plotly"') == n_figures
     assert dom.count('class="main-svg"') >= n_figures
+
+
+def test_report_layout_has_no_overlapping_text_and_units_on_every_axis(rendered_report):
+    result = rendered_report[0]
+    assert_clean_layout(result, figures=4)
+    assert result["cells"] > 60  # the three tables were measured too
+    titles = set(result["axis_titles"])
+    for title in ("frequency [Hz]", "PSD [(m/s^2)^2/Hz]", "generation [-]", "hypervolume [decades^4]", "sigma_aw [m/s^2]"):
+        assert title in titles
+
+
+def test_report_layout_holds_in_a_narrow_window(default_report, tmp_path):
+    assert_clean_layout(render(default_report, tmp_path, width=900)[0], figures=4)
+
+
+@pytest.fixture(scope="module")
+def small_figures(problem):
+    from hisopt.spectra import response_spectra
+    from hisopt.sweeps import regions, sweep
+
+    handling = load_problem(DEFAULT_PROBLEM.with_name("roll_plane_his_handling.toml"))
+    return {
+        "sweep": sweep(problem, "p0", 5).plot(),
+        "regions": regions(handling, ("dA", "lam"), 5).plot(),
+        "response": response_spectra(problem).plot(),
+    }
+
+
+def test_sweep_region_and_response_figures_have_no_overlapping_text(small_figures, tmp_path):
+    import plotly.offline
+
+    body = "".join(f"<h2>{name}</h2>" + fig.to_html(full_html=False, include_plotlyjs=False) for name, fig in small_figures.items())
+    page = f"<!doctype html><html><head><meta charset='utf-8'><script>{plotly.offline.get_plotlyjs()}</script></head><body>{body}</body></html>"
+    result = render(page, tmp_path)[0]
+    assert_clean_layout(result, figures=3)
+    for title in ("p0 [MPa]", "peak PSD [(rad/s^2)^2/Hz]", "dA [cm^2]", "lam [-]", "[N^2/Hz]", "PSD [N^2/Hz]"):
+        assert title in result["axis_titles"]
+
+
+def _tick_value(label: str) -> float:
+    """``0.04``, ``10<sup>-5</sup>``, ``2.5×10<sup>4</sup>`` -> float."""
+    match = re.fullmatch(r"(?:([\d.]+)×)?10<sup>(-?\d+)</sup>", label)
+    if match:
+        return float(match.group(1) or 1.0) * 10.0 ** int(match.group(2))
+    return float(label)
+
+
+@pytest.mark.parametrize("name", ["sweep", "response"])
+def test_log_axes_tick_decades_or_round_values_labelled_in_full(small_figures, name):
+    """No more ``1, 4, 1.089826, 3`` on a log axis: explicit ticks whose labels are their values."""
+    figures = small_figures
+    layout = figures[name].layout
+    log_axes = [layout[k] for k in layout if k.startswith(("xaxis", "yaxis")) and layout[k].type == "log"]
+    assert len(log_axes) >= 4
+    for axis in log_axes:
+        values, labels = list(axis.tickvals), list(axis.ticktext)
+        assert len(values) >= 2 and values == sorted(values)
+        for value, label in zip(values, labels):
+            assert _tick_value(label) == pytest.approx(value, rel=1e-9)
+            mantissa = f"{value:.6e}".split("e")[0].rstrip("0")
+            assert len(re.sub(r"[^0-9]", "", mantissa)) <= 3  # round values: 2, 0.0375, 5e-5
+        low, high = 10 ** np.array(axis.range)  # every tick is inside the shown range
+        assert low <= values[0] and values[-1] <= high

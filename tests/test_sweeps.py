@@ -307,10 +307,15 @@ def test_cli_sweep_and_regions_write_csv_and_html(tmp_path):
     assert out.returncode == 0, out.stderr
     frame = read_csv(tmp_path / "sweep_lam.csv")
     assert len(frame) == 5 and "roll_frequency_hz" in frame and "tire_peak_psd" in frame
+    units = frame.attrs["units"]
+    assert set(units) == set(frame.columns) and units["lam"] == "-" and units["roll_frequency_hz"] == "Hz"
+    assert units["roll_peak_psd"] == "(rad/s^2)^2/Hz" and units["tire_peak_psd"] == "N^2/Hz" and units["roll_damping_ratio"] == "-"
     assert "plotly" in (tmp_path / "sweep_lam.html").read_text()[:20000].lower()
     out = run("regions", str(DEFAULT_PROBLEM), "--pair", "p0,Rv", "--points", "4", "--out", str(tmp_path))
     assert out.returncode == 0, out.stderr
-    assert len(read_csv(tmp_path / "regions_p0_Rv.csv")) == 16
+    grid = read_csv(tmp_path / "regions_p0_Rv.csv")
+    assert len(grid) == 16 and set(grid.attrs["units"]) == set(grid.columns)
+    assert grid.attrs["units"]["p0"] == "Pa" and grid.attrs["units"]["Rv"] == "Pa s m^-3" and grid.attrs["units"]["sigma_aw"] == "m/s^2"
     assert (tmp_path / "regions_p0_Rv.html").stat().st_size > 1_000_000  # plotly.js embedded: offline
     bad = run("regions", str(DEFAULT_PROBLEM), "--pair", "p0")
     assert bad.returncode == 2 and "--pair" in bad.stderr and "Traceback" not in bad.stderr

@@ -565,8 +565,10 @@ def refine_front(
     tasks = [(int(i), x[i], f[i]) for i in chosen]
     results = _run_tasks(problem, tasks, weights, settings, workers, client, progress)
 
-    points = _points_frame(problem, results)
-    refined = _refined_front(problem, front, results)
+    from hisopt.units import attach_units
+
+    points = attach_units(_points_frame(problem, results), problem)
+    refined = attach_units(_refined_front(problem, front, results), problem)
     return RefineResult(
         front=refined,
         points=points,

@@ -56,6 +56,7 @@ from hisopt.optim import runio
 from hisopt.optim.archive import Archive
 from hisopt.optim.decision import asf_index, hypervolume, knee_index, reference_point
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
+from hisopt.units import attach_units
 
 if TYPE_CHECKING:
     from hisopt.problem import Problem
@@ -462,7 +463,7 @@ class _Engine:
         df = pd.DataFrame(self.archive.x[order], columns=list(self.problem.variable_names))
         for j, name in enumerate(self.quantity_names):
             df[name] = self.archive.q[order, j]
-        return df
+        return attach_units(df, self.problem)
 
     def history(self) -> pd.DataFrame:
         """Every evaluated design with its generation, quantities, validity and feasibility."""
@@ -478,12 +479,12 @@ class _Engine:
             df["feasible"] = feasible_mask(g)
         else:
             df["feasible"] = np.zeros(0, dtype=bool)
-        return df
+        return attach_units(df, self.problem)
 
     def generations_table(self) -> pd.DataFrame:
         """Per-generation statistics as a table."""
         columns = [f.name for f in GenerationStats.__dataclass_fields__.values()]
-        return pd.DataFrame([asdict(s) for s in self.stats], columns=columns)
+        return attach_units(pd.DataFrame([asdict(s) for s in self.stats], columns=columns), self.problem)
 
     def result(self, run_dir: Path | None) -> OptimizationResult:
         """The result so far."""
@@ -861,32 +862,37 @@ def run_with_console(
 
 
 def summary_tables(result: OptimizationResult) -> list[Any]:
-    """Rich tables summarising a run: totals, then the knee design and the ASF pick."""
+    """Rich tables summarising a run: totals, then the knee design and the ASF pick (with units)."""
     from rich.table import Table
+    from rich.text import Text
+
+    from hisopt.units import display_for, hypervolume_unit
 
     totals = Table(title=f"{result.problem.name}: {result.settings.algorithm.upper()} run summary", show_header=False)
     totals.add_column("item")
     totals.add_column("value", justify="right")
     rows = [
-        ("front size", f"{len(result.front)}"),
+        ("front size", f"{len(result.front)} designs"),
         ("evaluations", f"{len(result.history)}"),
         ("generations", f"{len(result.generations)} of {result.settings.generations}"),
         ("population / seed", f"{result.settings.pop_size} / {result.settings.seed}"),
         ("wall time", f"{result.wall_time_s:.1f} s"),
-        ("hypervolume (log10 objectives)", f"{result.hypervolume:.6g}"),
+        ("hypervolume (log10 objectives)", f"{result.hypervolume:.6g} {hypervolume_unit(len(result.problem.objective_names))}"),
         ("run directory", str(result.run_dir) if result.run_dir else "-"),
     ]
-    for row in rows:
-        totals.add_row(*row)
+    for item, value in rows:
+        totals.add_row(item, Text(value))
     tables: list[Any] = [totals]
     if len(result.front):
         picks = Table(title="Knee and ASF pick (closest to the ideal)")
-        picks.add_column("quantity")
+        picks.add_column(Text("quantity [unit]"))  # Text: brackets are not rich markup
         picks.add_column("knee", justify="right")
         picks.add_column("ASF pick", justify="right")
         knee, asf = result.knee, result.asf_pick()
+        units = result.front.attrs.get("units", {})
         for name in result.front.columns:
-            picks.add_row(name, f"{knee[name]:.5g}", f"{asf[name]:.5g}")
+            shown = display_for(units.get(name, ""), [knee[name], asf[name]], trim=False)
+            picks.add_row(Text(shown.label(name)), shown.number(knee[name]), shown.number(asf[name]))
         tables.append(picks)
     return tables
 

@@ -24,7 +24,10 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class StudyResult:
-    """Merged front (with a ``seed`` column), per-seed summary and merged hypervolume."""
+    """Merged front (with a ``seed`` column), per-seed summary and merged hypervolume.
+
+    ``front`` and ``runs`` carry their columns' units in ``attrs["units"]``.
+    """
 
     front: pd.DataFrame
     runs: pd.DataFrame
@@ -100,10 +103,12 @@ def study(
     from hisopt.optim.archive import non_dominated_mask
     from hisopt.optim.decision import hypervolume, reference_point
     from hisopt.parallel import Backend
+    from hisopt.units import attach_units
 
     backend = backend or Backend()
     if out is not None:
         ensure_writable_dir(out)
+
     def report(_: int, run: dict[str, Any]) -> None:
         if progress is not None:
             progress({k: run[k] for k in SUMMARY_COLUMNS})
@@ -116,6 +121,8 @@ def study(
     del union
     merged = merged.sort_values(objectives + ["seed"], kind="stable").reset_index(drop=True)
     hv = hypervolume(merged[objectives].to_numpy(), reference_point(problem))
+    attach_units(merged, problem)
+    attach_units(summary, problem)
     if out is not None:
         write_csv(merged, Path(out) / "front.csv")
         write_csv(summary, Path(out) / "runs.csv")

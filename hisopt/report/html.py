@@ -1,9 +1,15 @@
-"""``hisopt report RUN_DIR``: one self-contained, offline HTML file of a run."""
+"""``hisopt report RUN_DIR``: one self-contained, offline HTML file of a run.
+
+Figures are plotly (their JavaScript embedded once); tables are plain HTML tables, so that
+they size to their content, wrap instead of clipping and copy into a spreadsheet. Every
+number is shown in engineering units (:mod:`hisopt.units`).
+"""
 
 from __future__ import annotations
 
 import html
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -11,8 +17,32 @@ import pandas as pd
 
 from hisopt.errors import RunError
 from hisopt.io import read_csv
+from hisopt.units import (
+    column_units,
+    display_for,
+    display_frame,
+    format_number,
+    format_quantity,
+    hypervolume_unit,
+)
 
 RUN_FILES = {"front": "front.csv", "refined": "front_refined.csv", "generations": "generations.csv", "run": "run.json"}
+
+_CSS = """
+body{font-family:Inter,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1280px;padding:0 16px;color:#1d2330}
+h1{margin-bottom:4px} h2{margin-top:40px;margin-bottom:12px;border-bottom:1px solid #e3e6ea;padding-bottom:4px}
+.meta{color:#556;line-height:1.5}
+.figure{margin:0 0 8px 0}
+table.data{border-collapse:collapse;font-size:14px;margin:8px 0 4px 0;font-variant-numeric:tabular-nums}
+table.data caption{caption-side:top;text-align:left;font-weight:600;padding:0 0 6px 0;color:#1d2330}
+table.data th,table.data td{padding:5px 12px;border-bottom:1px solid #e3e6ea;text-align:right;white-space:nowrap}
+table.data th{background:#eef1f5;font-weight:600;vertical-align:bottom}
+table.data th .unit{display:block;font-weight:400;color:#556}
+table.data td.text,table.data th.text{text-align:left}
+table.data td.wrap{white-space:normal;max-width:640px;overflow-wrap:anywhere}
+table.data tbody tr:nth-child(even){background:#fafbfc}
+p.note{color:#556;font-size:13px;margin:4px 0 0 0}
+"""
 
 
 def load_run_files(run_dir: str | Path) -> dict[str, Any]:
@@ -36,21 +66,100 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
     return out
 
 
-def _settings_frame(record: dict[str, Any]) -> pd.DataFrame:
+# --- tables ------------------------------------------------------------------------------------
+def html_table(
+    shown: pd.DataFrame, caption: str = "", text_columns: tuple[str, ...] = (), wrap_columns: tuple[str, ...] = ()
+) -> str:
+    """An HTML table of strings; a header ``name [unit]`` shows the unit on a line of its own.
+
+    Parameters
+    ----------
+    shown : cells as text (e.g. :func:`hisopt.units.display_frame`)
+    text_columns : left-aligned columns (labels); numbers are right-aligned
+    wrap_columns : columns whose long text wraps
+    """
+
+    def header(col: str) -> str:
+        name, sep, unit = col.partition(" [")
+        cls = ' class="text"' if col in text_columns else ""
+        unit_html = f'<span class="unit">[{html.escape(unit)}</span>' if sep else ""
+        return f"<th{cls}>{html.escape(name)}{unit_html}</th>"
+
+    def cell(col: str, value: Any) -> str:
+        classes = " ".join(c for c, on in (("text", col in text_columns), ("wrap", col in wrap_columns)) if on)
+        return f'<td{f" class={chr(34)}{classes}{chr(34)}" if classes else ""}>{html.escape(str(value))}</td>'
+
+    head = "".join(header(str(c)) for c in shown.columns)
+    body = "".join("<tr>" + "".join(cell(str(c), v) for c, v in zip(shown.columns, row)) + "</tr>" for row in shown.itertuples(index=False))
+    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+    return f'<table class="data">{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def modes_table(modes_ref: pd.DataFrame, modes_his: pd.DataFrame) -> pd.DataFrame:
+    """Paper Table 1 as display strings: frequencies [Hz] and damping ratios [-] without and with HIS."""
+    merged = modes_ref[["mode", "motion", "frequency_hz", "damping_ratio"]].merge(
+        modes_his[["mode", "frequency_hz", "damping_ratio"]], on="mode", suffixes=("_ref", "_his")
+    )
+    frame = pd.DataFrame(
+        {
+            "mode": merged["mode"],
+            "motion": merged["motion"],
+            "f without HIS": merged["frequency_hz_ref"],
+            "zeta without HIS": merged["damping_ratio_ref"],
+            "f with HIS": merged["frequency_hz_his"],
+            "zeta with HIS": merged["damping_ratio_his"],
+        }
+    )
+    frame.attrs["units"] = {"mode": "", "motion": "", "f without HIS": "Hz", "zeta without HIS": "-", "f with HIS": "Hz",
+                            "zeta with HIS": "-"}
+    shown = display_frame(frame)
+    change = 100.0 * (merged["frequency_hz_his"] / merged["frequency_hz_ref"] - 1.0)
+    shown["change of f [%]"] = [f"{round(v, 1) + 0.0:+.1f}" for v in change]  # + 0.0: no "-0.0"
+    return shown
+
+
+def designs_table(designs: Mapping[str, pd.Series], units: Mapping[str, str]) -> pd.DataFrame:
+    """One row per quantity (``name [unit]``), one column per design, engineering units."""
+    names = list(next(iter(designs.values())).index)
     rows = []
-    for key, value in record.get("settings", {}).items():
-        rows.append(("setting", key, json.dumps(value) if isinstance(value, (list, dict)) else value))
+    for name in names:
+        values = [float(d[name]) for d in designs.values()]
+        shown = display_for(units.get(name, ""), values, trim=False)
+        rows.append([shown.label(name), *[shown.number(v) for v in values]])
+    return pd.DataFrame(rows, columns=["quantity [unit]", *designs])
+
+
+def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
+    """Settings, timings, result and versions of a run, each value with its unit."""
+    from hisopt.metrics import METRICS
+
+    settings = record.get("settings", {})
+    rows: list[tuple[str, str, str]] = []
+    for key, value in settings.items():
+        if key == "constraints":
+            text = "; ".join(f"{c['name']} <= {format_quantity(float(c['limit']), METRICS[c['name']].unit)}"
+                             if c.get("name") in METRICS else json.dumps(c) for c in value) or "none"
+        elif key == "hypervolume_reference_log10":
+            text = ", ".join(format_number(float(v)) for v in value) + " decades (log10 of each objective in SI units)"
+        elif isinstance(value, list):
+            text = ", ".join(map(str, value))
+        else:
+            text = format_number(value)
+        rows.append(("setting", key, text))
     for key, value in record.get("timings", {}).items():
-        rows.append(("timing", key, value))
+        rows.append(("timing", key, format_quantity(float(value), "s")))
+    result_units = {"hypervolume": hypervolume_unit(n_objectives)}
     for key in ("generations", "evaluations", "front_size", "hypervolume"):
         if key in record.get("result", {}):
-            rows.append(("result", key, record["result"][key]))
+            value = record["result"][key]
+            rows.append(("result", key, format_quantity(value, result_units[key]) if key in result_units else format_number(value)))
     rows.append(("problem", "sha256", record["problem"]["sha256"][:16]))
     for key, value in record.get("versions", {}).items():
-        rows.append(("version", key, value))
+        rows.append(("version", key, str(value)))
     return pd.DataFrame(rows, columns=["group", "item", "value"])
 
 
+# --- the report --------------------------------------------------------------------------------
 def build_report(run_dir: str | Path, color_by: str | None = None, design: str = "knee") -> Path:
     """Write ``RUN_DIR/report.html`` and return its path.
 
@@ -78,6 +187,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         raise ConfigError(f"unknown column {color_by!r}; expected one of {', '.join(objectives)}", key="--color-by")
     if not len(front):
         raise RunError(f"{run_dir}: the front is empty (no feasible design yet)")
+    units = column_units(front.columns, problem) | dict(front.attrs.get("units", {}))
     f = front[objectives].to_numpy()
     knee = front.iloc[knee_index(f)]
     asf = front.iloc[asf_index(f)]
@@ -94,34 +204,44 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
             raise ConfigError(f"expected knee, asf or a row index below {len(front)}, got {design!r}", key="--design") from None
     x = chosen[variables].to_numpy(dtype=float)
 
-    modes_ref = modal_analysis(problem, x, his=False)[["mode", "motion", "frequency_hz", "damping_ratio"]]
-    modes_his = modal_analysis(problem, x)[["mode", "frequency_hz", "damping_ratio"]]
-    modes = modes_ref.merge(modes_his, on="mode", suffixes=(" without HIS", " with HIS"))
-    highlights = {"knee": knee, "ASF pick": asf}
-    sections = [
-        ("Pareto front", figures.front_scatter_matrix(front, objectives, variables, highlights, run["refined"])),
-        ("Designs and objectives", figures.parallel_coordinates(front, variables, objectives, color_by)),
+    modes = modes_table(modal_analysis(problem, x, his=False), modal_analysis(problem, x))
+    highlighted = {"knee": knee, "ASF pick": asf}
+    designs_caption = "Knee and ASF pick (closest to the ideal point)"
+    if chosen_label not in highlighted:
+        highlighted[chosen_label] = chosen
+        designs_caption += f", and {chosen_label}: the design of the spectra and modes"
+    sections: list[tuple[str, Any]] = [
+        ("Pareto front", figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)),
+        ("Designs and objectives", figures.parallel_coordinates(front, variables, objectives, color_by, units)),
         (f"Response spectra of the {chosen_label} design against the car without HIS", response_spectra(problem, x).plot()),
-        (f"Modes of the {chosen_label} design", figures.table_figure(modes, "Modes without and with HIS (paper Table 1)")),
-        ("Highlighted designs", figures.table_figure(pd.DataFrame([knee, asf], index=["knee", "ASF pick"]).reset_index(names="design"), "Knee and ASF pick")),
+        (f"Modes of the {chosen_label} design",
+         html_table(modes, "Modes without and with HIS (paper Table 1): undamped natural frequency f, damping ratio zeta",
+                    text_columns=("mode", "motion"))),
+        ("Highlighted designs",
+         html_table(designs_table(highlighted, units), designs_caption, text_columns=("quantity [unit]",))),
     ]
     if run["generations"] is not None:
-        sections.insert(2, ("Convergence", figures.convergence(run["generations"])))
-    sections.append(("Run settings and timings", figures.table_figure(_settings_frame(run["record"]), "Settings, timings, versions")))
+        sections.insert(2, ("Convergence", figures.convergence(run["generations"], len(objectives))))
+    sections.append(("Run settings and timings",
+                     html_table(settings_table(run["record"], len(objectives)), "Settings, timings, versions",
+                                text_columns=("group", "item", "value"), wrap_columns=("value",))))
 
     parts = []
-    for i, (title, fig) in enumerate(sections):
+    for i, (title, content) in enumerate(sections):
         parts.append(f"<h2>{html.escape(title)}</h2>")
-        parts.append(fig.to_html(full_html=False, include_plotlyjs=False, div_id=f"fig{i}"))
+        if isinstance(content, str):
+            parts.append(content)
+        else:
+            parts.append('<div class="figure">' + content.to_html(full_html=False, include_plotlyjs=False, div_id=f"fig{i}") + "</div>")
     refined_note = "" if run["refined"] is None else f", refined front of {len(run['refined'])} designs"
     page = f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>hisopt report: {html.escape(problem.name)}</title>
-<style>body{{font-family:Inter,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1280px;color:#1d2330}}
-h1{{margin-bottom:4px}} h2{{margin-top:36px;border-bottom:1px solid #e3e6ea}} .meta{{color:#556}}</style>
+<style>{_CSS}</style>
 <script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
 <body><h1>hisopt report: {html.escape(problem.name)}</h1>
 <p class="meta">{html.escape(str(run_dir))}: front of {len(front)} designs{refined_note};
-objectives {html.escape(", ".join(objectives))}; knee and ASF pick highlighted.</p>
+objectives {html.escape(", ".join(objectives))}; knee and ASF pick highlighted. Values in engineering units
+(SI in the CSV files).</p>
 {''.join(parts)}
 </body></html>"""
     out = run_dir / "report.html"

@@ -1,29 +1,66 @@
-"""One registered plotly template for every hisopt figure."""
+"""One plotly template for every hisopt figure, passed to each figure (``template=``).
+
+:func:`template` returns it without touching plotly's global default; :func:`use_theme`
+(older figures) also makes it the default.
+"""
 
 from __future__ import annotations
 
+from typing import Any
+
 TEMPLATE_NAME = "hisopt"
 
+COLORS = ("#1f4e79", "#d1495b", "#edae49", "#00798c", "#66a182", "#8d6a9f", "#2e4057")
+"""Line colours in order (the template's colourway)."""
 
-def use_theme() -> str:
-    """Register the ``hisopt`` template (once) and make it the default; returns its name."""
+WITH_HIS, WITHOUT_HIS = "#1f4e79", "#8a94a6"
+"""Colours of a design with HIS and of the car without HIS, the same in every figure."""
+
+FONT = "Inter, Helvetica, Arial, sans-serif"
+
+
+def template() -> Any:
+    """The ``hisopt`` template on top of ``plotly_white`` (registered once, by name)."""
     import plotly.graph_objects as go
     import plotly.io as pio
 
     if TEMPLATE_NAME not in pio.templates:
-        pio.templates[TEMPLATE_NAME] = go.layout.Template(
+        axis = {
+            "gridcolor": "#e3e6ea",
+            "zeroline": False,
+            "automargin": True,  # tick labels and titles push the margin instead of overlapping
+            "exponentformat": "power",  # 10^-5, never SI letters (µ, M) beside a unit
+            "title": {"standoff": 8},
+            "ticks": "outside",
+            "ticklen": 4,
+            "tickcolor": "#b8bec8",
+            "linecolor": "#b8bec8",
+            "showline": True,
+        }
+        base = pio.templates["plotly_white"]
+        pio.templates[TEMPLATE_NAME] = go.layout.Template(base).update(
             layout={
-                "font": {"family": "Inter, Helvetica, Arial, sans-serif", "size": 13},
-                "colorway": ["#1f4e79", "#d1495b", "#edae49", "#00798c", "#66a182", "#8d6a9f", "#2e4057"],
+                "font": {"family": FONT, "size": 13, "color": "#1d2330"},
+                "title": {"font": {"size": 17}, "x": 0.01, "xanchor": "left", "xref": "container", "y": 1.0,
+                          "yanchor": "top", "yref": "container", "pad": {"t": 14}},
+                "colorway": list(COLORS),
                 "paper_bgcolor": "white",
                 "plot_bgcolor": "#fbfbfd",
-                "xaxis": {"gridcolor": "#e3e6ea", "zeroline": False},
-                "yaxis": {"gridcolor": "#e3e6ea", "zeroline": False},
-                "legend": {"orientation": "h", "y": -0.15},
-                "margin": {"l": 60, "r": 20, "t": 60, "b": 60},
+                "xaxis": axis,
+                "yaxis": axis,
+                "legend": {"orientation": "h", "x": 0.0, "xanchor": "left", "y": 0.0, "yanchor": "bottom", "yref": "container"},
+                "margin": {"l": 70, "r": 30, "t": 90, "b": 60},
             }
         )
-    pio.templates.default = "plotly_white+" + TEMPLATE_NAME
+    return pio.templates[TEMPLATE_NAME]
+
+
+def use_theme() -> str:
+    """Register the ``hisopt`` template and make it plotly's default; returns its name."""
+    import plotly.io as pio
+
+    template()
+    pio.templates.default = TEMPLATE_NAME
     return TEMPLATE_NAME
 
 
