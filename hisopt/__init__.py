@@ -1,6 +1,6 @@
 """hisopt: design optimiser for vehicles with roll-plane hydraulically interconnected suspension.
 
-Public API (DESIGN section 6)::
+Public API (docs/model.md §8)::
 
     import hisopt
     problem = hisopt.load_problem("problems/roll_plane_his.toml")

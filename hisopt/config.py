@@ -20,7 +20,7 @@ from hisopt.metrics import METRICS
 from hisopt.vehicle import VehicleParams
 
 OBJECTIVE_NAMES = tuple(METRICS)
-"""Names of every objective/constraint quantity (DESIGN section 5)."""
+"""Names of every objective/constraint quantity (docs/model.md §6)."""
 
 ROAD_CLASSES = ("A", "B", "C", "D", "E", "F", "G", "H")
 
@@ -45,7 +45,7 @@ class Variable(_Strict):
 
 
 class Road(_Strict):
-    """ISO 8608 road at constant speed (DESIGN section 3)."""
+    """ISO 8608 road at constant speed (docs/model.md §4)."""
 
     road_class: Literal["A", "B", "C", "D", "E", "F", "G", "H"] = Field("C", alias="class")
     speed: float = Field(10.0, gt=0, description="[m/s] vehicle speed")
@@ -68,7 +68,7 @@ class Band(_Strict):
 
 
 class Comfort(_Strict):
-    """ISO 2631-1 comfort evaluation (DESIGN section 4)."""
+    """ISO 2631-1 comfort evaluation (docs/model.md §5)."""
 
     k_x: float = Field(1.0, ge=0)
     k_y: float = Field(1.0, ge=0)

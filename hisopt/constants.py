@@ -1,7 +1,7 @@
 """Physical constants shared by every module (SI)."""
 
 P_ATM_PA = 101_325.0
-"""Standard atmospheric pressure [Pa]; gauge pressures are converted with it (DESIGN section 2)."""
+"""Standard atmospheric pressure [Pa]; gauge pressures are converted with it (docs/model.md §1.2)."""
 
 G_MPS2 = 9.81
 """Gravitational acceleration [m/s^2] (roll gradient: static roll per 1 g lateral acceleration)."""

@@ -1,4 +1,4 @@
-"""Batched, exact evaluation of objectives and constraints (DESIGN sections 3-6).
+"""Batched, exact evaluation of objectives and constraints (docs/model.md §6 and §10).
 
 Fast path (lumped circuits): one eigendecomposition of the state-space matrix per design gives
 the poles and residues, so the FRF at any frequency is a small matrix product
@@ -135,8 +135,7 @@ class Evaluator:
 
     def _solve(self, model: "CoupledModel") -> tuple[dict[str, np.ndarray], np.ndarray]:
         ss = model.state_space()
-        a = ss.a
-        lam, vec = np.linalg.eig(a)
+        lam, vec = np.linalg.eig(ss.a)
         scale = np.abs(lam).max(axis=1)
         stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1)
         if model.pipe_model == "distributed":
@@ -373,13 +372,20 @@ def _mixed_frf(fast: FrfFn, slow: FrfFn, use_slow: np.ndarray) -> FrfFn:
     return frf
 
 
+def poles(model: "CoupledModel") -> np.ndarray:
+    """[rad/s] Eigenvalues of the model's (lumped) state space, ``(n, n_states)``, computed as
+    the evaluator computes them (with eigenvectors: the same LAPACK path), so nodes placed
+    from them are the evaluator's own."""
+    return np.linalg.eig(model.state_space().a)[0]
+
+
 def roll_gradient(model: "CoupledModel") -> np.ndarray:
     """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.psd.roll_gradient`)."""
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
 def evaluate_problem(problem: "Problem", designs: Any) -> pd.DataFrame:
-    """DataFrame of designs with objective and constraint columns (DESIGN section 6)."""
+    """DataFrame of designs with objective and constraint columns (docs/model.md §8.1)."""
     x = problem.design_matrix(designs)
     return results_frame(problem, x, problem.evaluator()(x))
 

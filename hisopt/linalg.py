@@ -1,6 +1,6 @@
 """Small batched linear algebra for the evaluator, and the BLAS threading rule.
 
-Determinism contract (docs/model.md): a design's objectives may differ by rounding between
+Determinism contract (docs/model.md §9): a design's objectives may differ by rounding between
 batches (a BLAS kernel rounds a matrix product differently for other matrix sizes, and the
 evaluator pads each batch to its longest frequency grid), but never by more than 1e-12
 relative; and the same work in the same order gives the same numbers. The one thing that

@@ -1,4 +1,4 @@
-"""Registry of objective and constraint quantities (DESIGN section 5)."""
+"""Registry of objective and constraint quantities (docs/model.md §6)."""
 
 from __future__ import annotations
 

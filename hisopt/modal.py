@@ -4,7 +4,7 @@ Lumped circuits: exact, from the eigenvalues of the state-space realisation. Dis
 pipes: the lumped roots refined by Newton's method on ``det K_dyn(s) = 0`` using
 ``d ln det K / ds = tr(K^-1 dK/ds)``.
 
-Mode names (DESIGN section 6) come from the mode shape alone (:func:`name_modes`), so a
+Mode names (docs/model.md §8.2) come from the mode shape alone (:func:`name_modes`), so a
 physical mode keeps its name across designs and with or without HIS; along a sequence of
 designs (a sweep) :func:`track_modes` follows each mode continuously instead.
 
@@ -39,7 +39,7 @@ from hisopt.model import CoupledModel
 from hisopt.units import attach_units
 
 MODE_NAMES = ("bounce", "roll", "pitch", "front_axle_hop", "front_axle_tramp", "rear_axle_hop", "rear_axle_tramp")
-"""Mechanical mode names, in table order (DESIGN section 6)."""
+"""Mechanical mode names, in table order (docs/model.md §8.2)."""
 
 MODE_ALIASES: dict[str, str] = {
     "wheel_hop_fl": "front_axle_hop",
@@ -315,7 +315,7 @@ def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -
 
 
 def modal_analysis(problem: Any, design: Any = None, his: bool = True) -> pd.DataFrame:
-    """Modes of ``problem`` at ``design`` (DESIGN section 6; paper Table 1).
+    """Modes of ``problem`` at ``design`` (docs/model.md §8.2; paper Table 1).
 
     Parameters
     ----------

@@ -113,7 +113,7 @@ class CoupledModel:
         """The coupled lumped model ``diag(e) dz/dt = A z + B0 u + B1 du/dt``, ``z = [X, V, h]``.
 
         Port flows ``q = N G V`` enter the network, the fluid acts on the car with
-        ``-G^T N^T p_port``; each circuit's oil volume is an invariant (docs/model.md §3.7).
+        ``-G^T N^T p_port``; each circuit's oil volume is an invariant (docs/model.md §3.8).
         """
         if self.his is None:
             raise ModelError("the car without HIS has no hydraulic descriptor")

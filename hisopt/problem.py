@@ -134,13 +134,13 @@ class Problem:
         return self._cache["evaluator"]
 
     def results_frame(self, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
-        """Designs plus evaluated quantities as the DESIGN section 6 DataFrame."""
+        """Designs plus evaluated quantities as the docs/model.md §8.1 DataFrame."""
         from hisopt.evaluate import results_frame
 
         return results_frame(self, designs, quantities)
 
     def evaluate(self, designs: Any) -> pd.DataFrame:
-        """Objectives and constraints of many designs (DESIGN section 6)."""
+        """Objectives and constraints of many designs (docs/model.md §8.1)."""
         from hisopt.evaluate import evaluate_problem
 
         return evaluate_problem(self, designs)

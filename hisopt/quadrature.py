@@ -1,4 +1,4 @@
-"""Pole-aware frequency quadrature for response integrals and maxima (DESIGN section 5).
+"""Pole-aware frequency quadrature for response integrals and maxima (docs/model.md §10.3).
 
 Lightly damped modes (roll damping ratios near 1e-4 at the corners of the design box) make
 peaks far narrower than any plain grid resolves. The band is split into panels at fixed

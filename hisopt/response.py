@@ -1,4 +1,4 @@
-"""Response outputs and their road-induced PSDs (paper Eq. 22-24, DESIGN sections 3-4).
+"""Response outputs and their road-induced PSDs (paper Eq. 22-24, docs/model.md §4.4 and §5.1).
 
 An output is a polynomial in ``s`` of the car's motion and the road input:
 ``y(s) = sum_p s^p (c_p . X(s) + d_p . z_g(s))``. With the 4-wheel FRF ``H_X = X / z_g`` the
@@ -49,7 +49,7 @@ def _unit(i: int, n: int) -> np.ndarray:
 
 
 def standard_outputs(vehicle: VehicleParams) -> dict[str, Output]:
-    """Every output of DESIGN section 4, keyed by name.
+    """Every output of docs/model.md §5.1, keyed by name.
 
     ``acc_z`` (CG vertical), ``acc_x = h_0s theta''``, ``acc_y = -h_0s phi''`` (paper Eq. 26),
     ``acc_roll``/``acc_pitch`` (angular), ``roll``, ``pitch``, ``stroke_fl`` (``delta_1``,

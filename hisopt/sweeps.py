@@ -18,7 +18,7 @@ own: the largest value on the pole-aware nodes (:meth:`hisopt.evaluate.Evaluator
 then repeated zooming into its bracket.
 
 **Regions** (:func:`regions`): a 2-D grid over two variables' bounds, the others at the
-baseline, of the four indicators of DESIGN section 5 (paper Section V) and of the problem's
+baseline, of the four indicators of docs/model.md §6 (paper Section V) and of the problem's
 constraint quantities. The feasible region is where every constraint of the problem holds;
 a problem without constraints gets the baseline design's four indicator values as reference
 thresholds (the region then holds the designs no worse than the baseline in any indicator),
@@ -55,7 +55,7 @@ SWEEP_RESPONSES: dict[str, str] = {"roll": "acc_roll", "pitch": "acc_pitch", "bo
 """Response whose PSD peak characterises each mode (paper Fig. 4 (b), (c), (a), (d))."""
 
 INDICATORS: tuple[str, ...] = ("sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd")
-"""The paper's four indicators (DESIGN section 5; paper Section V, Figs. 9-10)."""
+"""The paper's four indicators (docs/model.md §6; paper Section V, Figs. 9-10)."""
 
 _LABELS = {"roll": "roll mode", "pitch": "pitch mode", "bounce": "bounce mode", "tire": "FL tyre force"}
 
@@ -98,7 +98,7 @@ def response_peaks(
     -------
     dict name -> ``(f_peak_hz (n,), psd_peak (n,))``
     """
-    from hisopt.evaluate import DirectOutputs, Evaluator
+    from hisopt.evaluate import DirectOutputs, Evaluator, poles
 
     ev = Evaluator(problem)
     unknown = [o for o in outputs if o not in ev.all_outputs]
@@ -106,7 +106,7 @@ def response_peaks(
         raise ConfigError(f"unknown response {unknown[0]!r}; expected one of {', '.join(ev.all_outputs)}")
     x = problem.design_matrix(designs)
     model = problem.model(x)
-    lam = np.linalg.eigvals(model.state_space().a)
+    lam = poles(model)
     f, _ = ev.nodes(lam)
     frf = DirectOutputs(model, {name: ev.all_outputs[name] for name in outputs})
     psd = ev.spectra(f, frf(2j * np.pi * f))

@@ -110,7 +110,7 @@ class TimeResponse:
     stroke_m: NDArray[np.float64]
     """[m] Suspension stroke ``delta = G X``, extension positive."""
     tyre_force_n: NDArray[np.float64]
-    """[N] Dynamic tyre load ``k_t (z_u - z_g) + c_t (dz_u - dz_g)`` (DESIGN section 4)."""
+    """[N] Dynamic tyre load ``k_t (z_u - z_g) + c_t (dz_u - dz_g)`` (docs/model.md §5.1)."""
     accumulator_pressure_pa: NDArray[np.float64]
     """[Pa] Gauge accumulator pressure, precharge plus dynamic rise."""
     accumulator_volume_m3: NDArray[np.float64]

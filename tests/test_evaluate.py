@@ -1,4 +1,4 @@
-"""Objectives: DESIGN section 5 references, converged accuracy over the box, exactness."""
+"""Objectives: docs/model.md §7 references, converged accuracy over the box, exactness."""
 
 import tracemalloc
 import warnings
@@ -14,7 +14,7 @@ from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
 from tests.conftest import random_designs
 
-REFERENCE = {  # DESIGN section 5 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
+REFERENCE = {  # docs/model.md §7.1 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
     (2.0e6, 10e-4, 0.5, 8e5): (0.5534, 8.4675e-05, 4.3444e-05, 4.7222e04),
     (0.0, 1e-4, 0.1, 0.0): (0.4599, 9.7622e-05, 4.0773e-05, 4.2293e04),
 }

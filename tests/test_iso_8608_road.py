@@ -1,7 +1,7 @@
 """ISO 8608 road spectra, four-wheel input CSD and road time histories.
 
 Class values: packaged ``hisopt/data/iso8608_classes.csv`` (provenance in its header and in
-``tests/data/README.md``); DESIGN section 3 lists the same geometric means.
+``tests/data/README.md``); docs/model.md §4.1 lists the same geometric means.
 """
 
 from __future__ import annotations

@@ -51,7 +51,7 @@ def wheel_warp(v: VehicleParams, rv: float = 0.0, area_b: float = 0.0) -> tuple[
     """[Hz], [-] Closed form of the wheel warp (FL, RR up; FR, RL down) of a car with identical
     wheel stations front and rear: the body and a roll-plane HIS's accumulators see no net
     force or flow, so each wheel is a mass on spring plus tyre, damped by its damper and its
-    bottom-chamber valve (``R_v A_b^2``, DESIGN section 2)."""
+    bottom-chamber valve (``R_v A_b^2``, docs/model.md §3.7)."""
     k, m = v.k_sf + v.k_tf, v.m_uf
     return np.sqrt(k / m) / (2 * np.pi), (v.c_sf + rv * area_b**2) / (2 * np.sqrt(k * m))
 

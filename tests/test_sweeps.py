@@ -19,7 +19,7 @@ Supported (tested):
 - tyre force: R_v has no great influence on its peak frequency or value; over dA its peak
   value passes through a minimum inside the range (``test_tire_*``).
 
-Not supported by the model (DESIGN sections 1-2 fix the physics; the reasons):
+Not supported by the model (docs/model.md §2 and §3 fix the physics; the reasons):
 
 - "Pitch frequency and amplitude remain constant as p0 increases": the HIS stiffens the sum
   of the four strokes, and body pitch about the CG changes that sum by ``2 (l_r - l_f) theta``
@@ -30,13 +30,13 @@ Not supported by the model (DESIGN sections 1-2 fix the physics; the reasons):
   acceleration falls about 17 % over p0.
 - "Pitch amplitude increases with dA" (the model's peak falls, then rises) and "pitch
   frequency and amplitude increase with R_v; pitch is most sensitive to dA and R_v": the valve
-  adds only ``R_v A_b^2`` (tens to a few hundred N s/m) beside 1500 N s/m dampers (DESIGN
-  section 2 note), so R_v changes every frequency and peak by well under 1 %.
+  adds only ``R_v A_b^2`` (tens to a few hundred N s/m) beside 1500 N s/m dampers (docs/model.md
+  §3.3, valve note), so R_v changes every frequency and peak by well under 1 %.
 - "Pitch frequency minimum at dA = 15e-4 m^2" and "tyre force minimum at dA = 15e-4 m^2":
   the shapes are there but the model's minima lie near 6e-4 m^2 (pitch frequency: there the
   pitch character passes from the upper to the lower of the two veering curves, both of which
   rise with dA) and 9e-4 m^2 (tyre force); the paper's vehicle data (Tables 4-5) did not
-  survive, and DESIGN's replacements move them.
+  survive, and the defaults of docs/model.md §2.5 move them.
 - "Bounce amplitude increases with dA" over the whole range: the peak vertical acceleration
   rises up to dA of about 15e-4 m^2, then falls as the bounce mode stiffens away from the road
   input's low-frequency energy.

@@ -1,4 +1,4 @@
-"""Vehicle matrices: symmetry, definiteness and the DESIGN section 1 structure."""
+"""Vehicle matrices: symmetry, definiteness and the docs/model.md §2.3 structure."""
 
 import numpy as np
 import pytest

@@ -7,7 +7,7 @@ pushes back on the strokes with ``f_delta = -N^T p_port``, so the strokes feel
 
     D(s) = s N^T Z_port(s) N            (force per stroke displacement, 4 x 4)
 
-and statically ``K_his = lim_{s->0} D(s)``; docs/model.md §3.6.
+and statically ``K_his = lim_{s->0} D(s)``; docs/model.md §3.7.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Hydraulic fluid properties (DESIGN section 2 defaults)."""
+"""Hydraulic fluid properties (defaults: docs/model.md §3.3)."""
 
 from __future__ import annotations
 

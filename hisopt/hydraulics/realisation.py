@@ -1,4 +1,4 @@
-"""From a descriptor system to a minimal state space, and back (docs/model.md §3.7).
+"""From a descriptor system to a minimal state space, and back (docs/model.md §3.8).
 
 The coupled car + lumped HIS is a descriptor system ``diag(e) dz/dt = A z + B0 u + B1 du/dt``
 whose unknowns ``z`` are of two kinds: *dynamic* ones with storage (``e > 0``: positions,

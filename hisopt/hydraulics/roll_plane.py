@@ -1,4 +1,4 @@
-"""Roll-plane HIS builder (paper Fig. 3, Eq. 15; DESIGN section 2).
+"""Roll-plane HIS builder (paper Fig. 3, Eq. 15; docs/model.md §3.6).
 
 Circuit A joins chambers 1t, 2b, 3t, 4b and circuit B joins 1b, 2t, 3b, 4t; one accumulator
 per circuit and one damper valve per cylinder on its bottom-chamber line. Optional pipes run
@@ -26,7 +26,7 @@ CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = 
 
 
 class PipeLayout(BaseModel):
-    """A pipe from every cylinder port to its circuit node (DESIGN example pipe set)."""
+    """A pipe from every cylinder port to its circuit node (example pipe set, docs/model.md §3.6)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 

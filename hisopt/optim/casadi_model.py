@@ -2,7 +2,7 @@
 
 The gradient refinement (:mod:`hisopt.optim.refine`) needs the objectives and constraints as
 CasADi expressions of the design variables. They are compiled from the same physics core as
-the numpy evaluator (docs/model.md §3.8): the problem's layout and laws with CasADi symbols as
+the numpy evaluator (docs/model.md §11): the problem's layout and laws with CasADi symbols as
 parameter values (:meth:`hisopt.problem.Problem.hydraulic_system`) give the HIS stroke
 dynamic stiffness ``D(j omega) = j omega N^T Z_port N`` of any network, lumped or
 distributed, solved node by node; CasADi has no complex type, so every complex quantity is a

@@ -1,7 +1,7 @@
 """pymoo adapter: a hisopt :class:`~hisopt.problem.Problem` as a vectorised pymoo ``Problem``.
 
 Objectives and constraints are the ones the problem file names (default: the paper's four
-indicators, DESIGN section 5). Following pymoo's contract (``pymoo/core/problem.py``):
+indicators, docs/model.md §6). Following pymoo's contract (``pymoo/core/problem.py``):
 
 - ``F`` (n, n_obj): the objectives in physical units (all are minimised);
 - ``G`` (n, n_con + 1), feasible when ``G <= 0``: each constraint normalised as

@@ -262,11 +262,11 @@ def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, st
 
 def node_plan(problem: "Problem", model: "CasadiModel", x: np.ndarray, settings: RefineSettings) -> NodePlan:
     """Nodes of the NLP at design ``x`` [variable units], ``(n_var,)`` (module docstring)."""
-    from hisopt.evaluate import DirectOutputs
+    from hisopt.evaluate import DirectOutputs, poles
 
     ev = problem.evaluator()
     coupled = problem.model(np.asarray(x, dtype=float)[None, :])
-    lam = np.linalg.eigvals(coupled.state_space().a)
+    lam = poles(coupled)
     f, w = ev.nodes(lam)
     f, inverse = np.unique(f[0], return_inverse=True)  # padding repeats the band limit
     w = np.bincount(inverse, weights=w[0], minlength=f.size)

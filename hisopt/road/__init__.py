@@ -1,4 +1,4 @@
-"""Road excitation: four-wheel input spectra and time histories (DESIGN section 3).
+"""Road excitation: four-wheel input spectra and time histories (docs/model.md §4).
 
 - :mod:`hisopt.road.spectra`: wheel cross-spectral matrix, track-to-wheel delay matrix,
   left-right coherence.

@@ -2,7 +2,7 @@
 
 Every function returns an array of shape ``(n_t, 4)`` [m], columns FL, FR, RL, RR
 (:data:`hisopt.constants.WHEEL_NAMES`). Rear wheels follow the front wheels of the same track
-delayed by ``tau = wheelbase / speed`` (DESIGN section 3).
+delayed by ``tau = wheelbase / speed`` (docs/model.md §4.3).
 """
 
 from __future__ import annotations

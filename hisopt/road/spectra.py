@@ -1,4 +1,4 @@
-"""Four-wheel road input spectra: wheelbase delay and left-right coherence (DESIGN section 3).
+"""Four-wheel road input spectra: wheelbase delay and left-right coherence (docs/model.md §4.3).
 
 Wheels are ordered FL, FR, RL, RR (:data:`hisopt.constants.WHEEL_NAMES`), tracks left, right.
 The rear wheels see the front input delayed by ``tau = wheelbase / v``; with
@@ -157,7 +157,7 @@ def wheel_input_csd(
     track_m
         [m] Track width (used by ``coherence="isotropic"``), scalar or batch shape ``(...)``.
     coherence
-        ``"independent"`` (DESIGN default) or ``"isotropic"`` (:func:`isotropic_coherence`).
+        ``"independent"`` (default, docs/model.md §4.3) or ``"isotropic"`` (:func:`isotropic_coherence`).
     waviness
         [-] ISO 8608 waviness w.
 
@@ -169,7 +169,7 @@ def wheel_input_csd(
 
     References
     ----------
-    Paper Eq. (24); ISO 8608:2016; DESIGN section 3.
+    Paper Eq. (24); ISO 8608:2016; docs/model.md §4.4.
     """
     _check_coherence(coherence)
     f = np.asarray(f_hz, dtype=float)

@@ -5,7 +5,7 @@ step) are evaluated in closed form, vectorised over any array of frequencies. Tw
 the weighted mean square of an acceleration PSD are offered:
 
 - :func:`weighted_mean_square`, the direct (filter) method ``a_w^2 = int |W(f)|^2 S_a(f) df``
-  (DESIGN section 4, the default);
+  (docs/model.md §5.3, the default);
 - :func:`band_weighted_mean_square`, the one-third-octave band method of the paper (Eq. 25-26),
   ``a_w^2 = sum_i w_i^2 sigma_i^2`` with ``w_i`` the weighting at the band's nominal centre.
 
@@ -91,7 +91,7 @@ Wf: motion sickness, vertical. Provenance of the values: ``tests/data/README.md`
 
 AXIS_FACTORS_COMFORT: dict[str, float] = {"x": 1.0, "y": 1.0, "z": 1.0}
 """Comfort multiplying factors k for seated translational axes (ISO 2631-1:1997, clause 8);
-``sigma_aw = sqrt(sum_axis k^2 a_w,axis^2)`` (DESIGN section 4)."""
+``sigma_aw = sqrt(sum_axis k^2 a_w,axis^2)`` (docs/model.md §5.3)."""
 
 _NOMINAL_MANTISSA = (1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0)
 """Nominal one-third-octave centre mantissas (ISO 266 R10 series, as used in Tables 3 and 4)."""
@@ -350,7 +350,7 @@ def weighted_mean_square(
 ) -> NDArray[np.float64]:
     """Weighted mean square by the direct (filter) method, ``sum |W(f)|^2 psd w``.
 
-    The frequency range is that of the nodes; DESIGN section 4 integrates over 0.5-80 Hz.
+    The frequency range is that of the nodes; docs/model.md §5.3 integrates over 0.5-80 Hz.
 
     Parameters
     ----------

@@ -2,7 +2,7 @@
 
 Single-track displacement PSD ``G_d(n) = G_d(n0) (n/n0)^-w`` in spatial frequency ``n``
 [cycle/m]; at constant speed ``v`` the one-sided temporal PSD is
-``G(f) = G_d(f/v) / v = G_d(n0) (f/(n0 v))^-w / v`` [m^2/Hz] (DESIGN section 3).
+``G(f) = G_d(f/v) / v = G_d(n0) (f/(n0 v))^-w / v`` [m^2/Hz] (docs/model.md §4.2).
 
 References
 ----------
@@ -121,7 +121,7 @@ def temporal_psd(
     """One-sided temporal displacement PSD seen by a wheel at constant speed.
 
     ``G(f) = G_d(f/v) / v = G_d(n0) (f/(n0 v))^-w / v``; for ``w = 2``,
-    ``G(f) = G_d(n0) n0^2 v / f^2`` (DESIGN section 3).
+    ``G(f) = G_d(n0) n0^2 v / f^2`` (docs/model.md §4.2).
 
     Parameters
     ----------

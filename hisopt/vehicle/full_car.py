@@ -1,4 +1,4 @@
-"""Matrices of the 7-DOF full car (paper Eq. 1-6, DESIGN section 1).
+"""Matrices of the 7-DOF full car (paper Eq. 1-6, docs/model.md §2).
 
 State ``X = [z_s, phi, theta, z_u1..z_u4]`` (wheels FL, FR, RL, RR, z up). Suspension stroke
 (extension positive) is ``delta = G X`` with ``G = [T_z, -I4]``.

@@ -1,4 +1,4 @@
-"""Validated parameters of the 7-DOF full car (DESIGN section 1, default vehicle table)."""
+"""Validated parameters of the 7-DOF full car (docs/model.md §2.5, default vehicle table)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field
 class VehicleParams(BaseModel):
     """Rigid body on four conventional suspensions and point-contact tyres.
 
-    Defaults are the DESIGN section 1 vehicle (an SUV-size car with HIS; they replace the
+    Defaults are the docs/model.md §2.5 vehicle (an SUV-size car with HIS; they replace the
     paper's Table 4, which did not survive). Front/rear values use suffixes ``f``/``r``.
     """
 

@@ -1,0 +1,264 @@
+"""The physics core (docs/model.md §11): every engine, built from the one core, agrees.
+
+On a matrix of problems (no pipes, lumped pipes, distributed pipes, chamber compliance, band
+and filter comfort):
+
+- numpy evaluator against the CasADi model within 1e-9 on every objective (same nodes);
+- state space against the direct solve of the network within 1e-9;
+- time-domain sine steady state against the FRF within 1e-6;
+- the reference evaluator honours the comfort method;
+- zero-resistance valves between oil volumes (chamber compliance with ``Rv = 0``) work, in
+  any batch, and a design the realisation cannot take gives NaN, never a stopped batch.
+Plus: no import cycles inside ``hisopt``.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hisopt
+from hisopt.evaluate import DirectOutputs, Evaluator, grid_quantities, poles
+from hisopt.optim.casadi_model import CasadiModel
+from hisopt.problem import problem_from_dict
+from hisopt.psd import comfort_gain_squared, reduce_metrics, zoom_maximum
+from hisopt.timedomain import simulate
+from tests.conftest import DEFAULT_PROBLEM, ROOT, random_designs
+
+PIPES = {"diameter": 0.012, "length_front": 1.5, "length_rear": 3.0}
+VARIANTS = {
+    "no_pipes": {},
+    "band_comfort": {"comfort": {"method": "band"}},
+    "lumped_pipes": {"his": {"pipes": PIPES}},
+    "distributed_pipes": {"his": {"pipes": PIPES, "pipe_model": "distributed"}},
+    "chamber": {"his": {"chamber_volume": 2e-4}},
+}
+ALL_QUANTITIES = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "rms_roll", "rms_stroke", "rms_tire_load", "roll_gradient"]
+
+
+def variant(name: str) -> hisopt.Problem:
+    data = json.loads(json.dumps(hisopt.load_problem(DEFAULT_PROBLEM).spec.model_dump(by_alias=True)))
+    for table, values in VARIANTS[name].items():
+        data[table].update(values)
+    data["objectives"] = ALL_QUANTITIES
+    return problem_from_dict(data, name)
+
+
+@pytest.fixture(scope="module", params=list(VARIANTS))
+def problem_variant(request) -> hisopt.Problem:
+    return variant(request.param)
+
+
+def designs(problem: hisopt.Problem, n: int = 3) -> np.ndarray:
+    x = random_designs(problem, n, np.random.default_rng(11), corners=False)
+    return np.vstack([x, problem.baseline])
+
+
+def evaluator_nodes(problem: hisopt.Problem, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
+    """The evaluator's nodes and weights at ``x``, plus the frequency of each continuous maximum."""
+    ev = problem.evaluator()
+    model = problem.model(x[None])
+    f, w = ev.nodes(poles(model))
+    frf = DirectOutputs(model, ev.outputs)
+    psd = ev.spectra(f, frf(2j * np.pi * f))
+    peaks = {}
+    for name, j in ev.output_index.items():
+        at = lambda pts, j=j: ev.spectra(pts, frf(2j * np.pi * pts, j))[..., 0]  # noqa: E731
+        peaks[name] = float(zoom_maximum(at, f, psd[..., j], ev.zoom_iterations)[0][0])  # as the evaluator zooms
+    f, inverse = np.unique(f[0], return_inverse=True)
+    return f, np.bincount(inverse, weights=w[0], minlength=f.size), peaks
+
+
+def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.ndarray) -> dict[str, float]:
+    """Every quantity with the numpy core on fixed nodes (maxima over the nodes)."""
+    ev = problem.evaluator()
+    model = problem.model(x[None])
+    psd = ev.spectra(f[None], DirectOutputs(model, ev.outputs)(2j * np.pi * f[None]))[0]
+    spec = problem.spec
+
+    def integral(output: str, weighting: str | None) -> float:
+        gain = 1.0 if weighting is None else comfort_gain_squared(f, weighting, spec.comfort, ev.f_lo, ev.f_hi)
+        return float(np.sum(w * gain * psd[:, ev.output_index[output]]))
+
+    values = reduce_metrics(
+        ev.metrics, spec.comfort, lambda n: ev.outputs[n].weighting, integral,
+        lambda output: float(psd[:, ev.output_index[output]].max()), lambda name: float(hisopt.evaluate.roll_gradient(model)[0]),
+    )
+    return {k: float(np.squeeze(v)) for k, v in values.items()}
+
+
+@pytest.mark.slow
+def test_numpy_and_casadi_engines_agree_within_1e9(problem_variant):
+    problem = problem_variant
+    model = CasadiModel(problem, compile=False)
+    evaluated = problem.evaluator()(designs(problem))
+    for k, x in enumerate(designs(problem)):
+        f, w, peaks = evaluator_nodes(problem, x)
+        f_all = np.unique(np.r_[f, list(peaks.values())])
+        w_all = np.zeros(f_all.size)
+        w_all[np.searchsorted(f_all, f)] = w
+        q = np.array(model.function(model.frequency_set(f_all, w_all))(x)[0]).ravel()
+        ref = numpy_on_nodes(problem, x, f_all, w_all)
+        for i, name in enumerate(model.names):
+            assert q[i] == pytest.approx(ref[name], rel=1e-9), (name, q[i], ref[name])
+            # and the evaluator's own value: integrals on its nodes, maxima at its peaks
+            assert q[i] == pytest.approx(evaluated[name][k], rel=1e-9), (name, q[i], evaluated[name][k])
+
+
+@pytest.mark.parametrize("name", [n for n in VARIANTS if n != "distributed_pipes"])
+def test_state_space_equals_direct_solve_within_1e9(name):
+    problem = variant(name)
+    x = designs(problem)
+    x[0, problem.variable_names.index("Rv")] = 0.0  # a short (between oil volumes with chambers)
+    model = problem.model(x)
+    f = np.geomspace(0.3, 150.0, 90)
+    direct = model.frequency_response(2j * np.pi * f)
+    for rows, group in model.groups():
+        ss = group.state_space().frequency_response(2j * np.pi * f)
+        scale = np.abs(direct[rows]).max(axis=(1, 2), keepdims=True)
+        np.testing.assert_allclose(ss, direct[rows], rtol=1e-9, atol=1e-9 * np.broadcast_to(scale, ss.shape).max())
+
+
+def steady_amplitude(t: np.ndarray, y: np.ndarray, w: float, poles: np.ndarray) -> complex:
+    """Sine amplitude ``c_sin + j c_cos`` of ``y(t)``, the free decay of every pole fitted out."""
+    columns = [np.sin(w * t), np.cos(w * t)]
+    t0 = t - t[0]
+    for p in poles:
+        if p.imag < 0 or -p.real * (t[-1] - t[0]) > 40:  # one of a pair, or decayed before the window
+            continue
+        decay = np.exp(p.real * t0)
+        columns += [decay * np.cos(p.imag * t0), decay * np.sin(p.imag * t0)] if p.imag > 0 else [decay]
+    coef, *_ = np.linalg.lstsq(np.stack(columns, axis=1), y, rcond=None)
+    return coef[0] + 1j * coef[1]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["no_pipes", "lumped_pipes", "chamber"])
+def test_time_domain_sine_steady_state_equals_frf_within_1e6(name):
+    problem = variant(name)
+    model = problem.model()
+    f_hz, amp = 2.3, 0.01
+    t = np.arange(0.0, 6.0, 1.0 / 400.0)
+    w = 2 * np.pi * f_hz
+    road = np.zeros((t.size, 4))
+    road[:, 0] = amp * np.sin(w * t)
+    res = simulate(model, t, road, interpolation="cubic", rtol=1e-11)
+    h = model.frequency_response(np.array([1j * w]))[0, 0]  # (7, 4)
+    poles = np.linalg.eigvals(model.state_space().a[0])
+    keep = t >= 1.0
+    frame = res.to_frame()
+    for j, dof in enumerate(("z_s", "phi", "theta", "z_u1")):
+        measured = steady_amplitude(t[keep], frame[dof].to_numpy()[keep], w, poles)
+        assert abs(measured - amp * h[j, 0]) <= 1e-6 * abs(amp * h[j, 0]), (dof, measured, amp * h[j, 0])
+
+
+def test_reference_evaluator_honours_the_comfort_method():
+    band, filt = variant("band_comfort"), variant("no_pipes")
+    x = designs(band, 2)
+    f = np.geomspace(0.5, 80.0, 40000)
+    for problem in (band, filt):
+        ref = grid_quantities(problem, x, f)["sigma_aw"]
+        np.testing.assert_allclose(problem.evaluator()(x)["sigma_aw"], ref, rtol=2e-3)
+    assert np.all(np.abs(grid_quantities(band, x, f)["sigma_aw"] / grid_quantities(filt, x, f)["sigma_aw"] - 1) > 1e-3)
+
+
+def test_chamber_compliance_with_rv_zero_is_the_limit_of_small_rv():
+    problem = variant("chamber")
+    base = problem.baseline
+    x = np.array([base, base, base, base])
+    # a short; a valve adding 0.04 N s/m (R A_b^2) per strut; the baseline
+    x[0, 3], x[1, 3], x[2, 3] = 0.0, 1e4, 8e5
+    together = problem.evaluator()(x)
+    assert together["valid"].all()
+    alone = problem.evaluator()(x[:1])
+    for name in problem.objective_names:
+        assert together[name][0] == pytest.approx(alone[name][0], rel=1e-12)
+    for name in ("sigma_aw", "rms_roll", "rms_stroke", "rms_tire_load"):  # R -> 0 is continuous
+        assert together[name][0] == pytest.approx(together[name][1], rel=2e-5), name
+    f = np.unique(np.r_[np.geomspace(0.5, 80.0, 20000), np.linspace(0.5, 80.0, 20000)])
+    direct = grid_quantities(problem, x[:1], f)  # the network's MNA takes R = 0 as it is
+    for name in ("sigma_aw", "rms_roll", "rms_stroke"):
+        assert together[name][0] == pytest.approx(direct[name][0], rel=2e-3), name
+
+
+def test_cli_evaluates_chamber_problem_with_rv_zero():
+    done = subprocess.run(
+        [sys.executable, "-m", "hisopt", "evaluate", str(ROOT / "problems" / "roll_plane_his_chamber.toml"), "--set", "Rv=0"],
+        capture_output=True, text=True, timeout=300, cwd=ROOT,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "sigma_aw" in done.stdout
+
+
+def test_a_design_the_model_cannot_take_is_nan_not_a_stopped_batch():
+    problem = variant("chamber")
+    x = np.vstack([problem.baseline, problem.baseline])
+    x[1, 2] = 1.0  # lam = 1: infinite bore area
+    q = Evaluator(problem)(x)
+    assert q["valid"].tolist() == [True, False]
+    assert np.isfinite(q["sigma_aw"][0]) and np.isnan(q["sigma_aw"][1])
+
+
+def _module_imports(root: Path) -> dict[str, set[str]]:
+    mods = {}
+    for path in root.rglob("*.py"):
+        name = ".".join(path.relative_to(root.parent).with_suffix("").parts).removesuffix(".__init__")
+        mods[name] = path
+    graph: dict[str, set[str]] = {m: set() for m in mods}
+    for mod, path in mods.items():
+        package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text())):  # function-level imports included
+            targets: list[str] = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    parts = package.split(".")
+                    base = ".".join(parts[: len(parts) - node.level + 1] + ([base] if base else []))
+                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in mods else base for a in node.names]
+            for target in targets:
+                while target and target not in mods:
+                    target = target.rpartition(".")[0]
+                if target and target != mod and not mod.startswith(target + "."):
+                    graph[mod].add(target)
+    return graph
+
+
+def test_no_import_cycles_inside_hisopt():
+    graph = _module_imports(ROOT / "hisopt")
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles = []
+
+    def visit(v: str) -> None:  # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    sys.setrecursionlimit(10_000)
+    for v in graph:
+        if v not in index:
+            visit(v)
+    assert not cycles, f"import cycles: {cycles}"
