@@ -1,5 +1,6 @@
 """CLI smoke tests through the real entry point (exit codes, output)."""
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -133,8 +134,10 @@ def test_every_help_reads_cleanly():
         assert out.returncode == 0, out.stderr
         for noise in ("<bool>", "list[str]", "{problem}", "{run_dir}", "a  value", "Error"):
             assert noise not in out.stdout, (name, noise)
-        description = out.stdout.split("Arguments:")[0].split("\n\n")[1:]
-        assert all(" ".join(par.split()).endswith((".", ")")) for par in description if par.strip()), (name, description)
+        description = re.split(r"\n(?:Arguments|Options):", out.stdout)[0].split("\n\n")[1:]
+        for par in filter(str.strip, description):
+            assert " ".join(par.split()).endswith((".", ")")), (name, par)
+            assert all(len(line.strip()) > 40 for line in par.strip().splitlines()[:-1]), (name, par)  # filled lines
 
 
 def test_set_help_names_every_key_set_accepts(problem):
