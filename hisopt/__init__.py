@@ -11,11 +11,15 @@ Public API (docs/model.md §8)::
 
 from __future__ import annotations
 
-from typing import Any
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
 
 from hisopt.errors import ConfigError, HisoptError, ModelError, ProblemFileNotFoundError, RunError
-from hisopt.modal import modal_analysis
-from hisopt.problem import Problem, load_problem
+
+if TYPE_CHECKING:
+    from hisopt.modal import modal_analysis
+    from hisopt.optim.run import optimize, resume
+    from hisopt.problem import Problem, load_problem
 
 __version__ = "0.1.0"
 
@@ -32,11 +36,24 @@ __all__ = [
     "resume",
 ]
 
+# The model pulls in scipy and pandas, optimisation pymoo: import them only when asked for,
+# so that `import hisopt.cli` (and `hisopt --help`) stays light.
+_LAZY = {
+    "Problem": "hisopt.problem",
+    "load_problem": "hisopt.problem",
+    "modal_analysis": "hisopt.modal",
+    "optimize": "hisopt.optim.run",
+    "resume": "hisopt.optim.run",
+}
+
 
 def __getattr__(name: str) -> Any:
-    # Optimisation pulls in pymoo; import it only when asked for.
-    if name in ("optimize", "resume"):
-        from hisopt.optim import run
-
-        return getattr(run, name)
+    if name in _LAZY:
+        value = getattr(import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'hisopt' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -12,24 +12,61 @@ from typing import Annotated, Optional
 
 import typer
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, help="Design optimiser for roll-plane HIS vehicles.")
+from hisopt.cli_usage import integer, number
 
-ProblemArg = Annotated[Path, typer.Argument(help="problem file (TOML), e.g. problems/roll_plane_his.toml")]
+# Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    rich_markup_mode=None,
+    context_settings={"help_option_names": ["-h", "--help"]},
+    help="Design optimiser for roll-plane HIS vehicles. Start with `hisopt init problem.toml`.",
+)
+
+# The scalar [his] keys --set accepts (RollPlaneHIS fields; tests/test_cli.py keeps them in step).
+# Listed here rather than read from the model so that `hisopt --help` need not import it.
+SET_KEYS = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "pipe_model")
+
+ProblemArg = Annotated[
+    Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
+]
 WorkersOpt = Annotated[
-    Optional[int], typer.Option("--workers", help="start a local Dask cluster with N worker processes")
+    Optional[int],
+    typer.Option("--workers", parser=integer, metavar="N", help="start a local Dask cluster with N worker processes"),
 ]
 SchedulerOpt = Annotated[
-    Optional[str], typer.Option("--scheduler", help="address of an existing Dask scheduler, e.g. tcp://host:8786")
+    Optional[str],
+    typer.Option("--scheduler", metavar="ADDRESS", help="address of an existing Dask scheduler, e.g. tcp://host:8786"),
 ]
 SetOpt = Annotated[
-    Optional[list[str]], typer.Option("--set", help="override a [his] value, e.g. --set p0=3e6 (repeatable)")
+    Optional[list[str]],
+    typer.Option(
+        "--set",
+        metavar="KEY=VALUE",
+        help="override a [his] value of the problem file, e.g. --set p0=3e6 (repeatable; SI units); "
+        f"KEY is one of {', '.join(SET_KEYS)}",
+    ),
 ]
 
 _DEBUG = {"on": False}
+PROBLEM_TEMPLATE = "roll_plane_his.toml"  # in hisopt/data/; the same file as problems/roll_plane_his.toml
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        from hisopt import __version__
+
+        typer.echo(f"hisopt {__version__}")
+        raise typer.Exit()
 
 
 @app.callback()
-def _main(debug: Annotated[bool, typer.Option("--debug", help="show tracebacks")] = False) -> None:
+def _main(
+    debug: Annotated[bool, typer.Option("--debug", help="show tracebacks of internal errors")] = False,
+    version: Annotated[
+        bool, typer.Option("--version", callback=_show_version, is_eager=True, help="print the version and exit")
+    ] = False,
+) -> None:
     _DEBUG["on"] = debug
 
 
@@ -60,10 +97,11 @@ def load(problem: Path, sets: list[str] | None):
 
 @app.command()
 def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
-    """Modal table without and with HIS (paper Table 1): frequency, damping, motion.
+    """Modes without and with HIS (paper Table 1).
 
-    Modes are named by their shape (the same mode has the same name without and with HIS);
-    the older wheel-mode names are listed below the table as aliases.
+    Natural frequency, damping ratio and motion of each mode of the baseline design, and how
+    the HIS shifts each frequency. Modes are named by their shape (the same mode has the same
+    name without and with HIS); the older wheel-mode names are listed below the table.
     """
     from rich.console import Console
     from rich.table import Table
@@ -103,7 +141,10 @@ def droptest(
     problem: ProblemArg,
     out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
     p0: Annotated[str, typer.Option("--p0", help="accumulator precharges in Pa (gauge), comma-separated")] = "1e6,2e6,3e6",
-    height: Annotated[float, typer.Option("--height", help="drop height in m (the wheels roll off blocks this high)")] = 0.05,
+    height: Annotated[
+        float,
+        typer.Option("--height", parser=number, metavar="METRES", help="drop height in m (the wheels roll off blocks this high)"),
+    ] = 0.05,
     measured: Annotated[
         Optional[Path],
         typer.Option(
@@ -117,14 +158,20 @@ def droptest(
         Optional[str], typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")
     ] = None,
     measured_p0: Annotated[
-        Optional[float], typer.Option("--measured-p0", help="precharge in Pa (gauge) of the measured test (default: the problem's p0)")
+        Optional[float],
+        typer.Option(
+            "--measured-p0", parser=number, metavar="PA", help="precharge in Pa (gauge) of the measured test (default: the problem's p0)"
+        ),
     ] = None,
     mode: Annotated[str, typer.Option("--mode", help="simulation model: linear or nonlinear (gas law, tyre lift-off)")] = "linear",
     set_: SetOpt = None,
 ) -> None:
-    """Drop tests (paper Section VI, Table 3, Fig. 13): simulated, optionally with a measured record.
+    """Drop tests, simulated and optionally measured (paper Table 3).
 
-    Writes OUT/droptest.csv (case, p0, mode, frequency_time_hz, frequency_model_hz, error_pct, damping; damped frequencies in Hz) and OUT/droptest.html (response spectra). A measured record replaces the simulated row of the same case and p0.
+    Repeats the paper's drop tests (Section VI, Table 3, Fig. 13) on the model. Writes
+    OUT/droptest.csv (case, p0, mode, frequency_time_hz, frequency_model_hz,
+    error_pct, damping; damped frequencies in Hz) and OUT/droptest.html (response spectra).
+    A measured record replaces the simulated row of the same case and p0.
     """
     from rich.console import Console
     from rich.table import Table
@@ -190,12 +237,18 @@ def droptest(
 def evaluate(
     problem: ProblemArg,
     set_: SetOpt = None,
-    designs: Annotated[Optional[Path], typer.Option(help="CSV with one column per design variable")] = None,
+    designs: Annotated[
+        Optional[Path], typer.Option(help="CSV with one column per design variable, SI units, e.g. examples/designs.csv")
+    ] = None,
     out: Annotated[Optional[Path], typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Objectives and constraints of the baseline design, or of every row of --designs."""
+    """Objectives and constraints of the baseline or a CSV file.
+
+    Without --designs, of the problem's baseline design; with it, of every row. The
+    table shows the first 20 designs; --out writes them all.
+    """
     import pandas as pd
     from rich.console import Console
     from rich.table import Table
@@ -231,6 +284,8 @@ def evaluate(
         from hisopt.units import display_frame
 
         Console(width=200).print(_units_table(display_frame(result.head(20)), f"{p.name}: {len(result)} design(s)"))
+        if len(result) > 20:
+            typer.echo(f"showing the first 20 of {len(result)} designs; write them all with --out FILE")
 
 
 def _units_table(shown, title: str):
@@ -257,12 +312,40 @@ def _units_table(shown, title: str):
 
 
 @app.command()
+def init(
+    file: Annotated[Path, typer.Argument(metavar="FILE", help="problem file to write, e.g. problem.toml")],
+    force: Annotated[bool, typer.Option("--force", help="overwrite FILE if it exists")] = False,
+) -> None:
+    """Write the paper's problem to FILE as a starting point.
+
+    The default vehicle, HIS, design box, road and the paper's four objectives, commented
+    and in SI units (the same file as problems/roll_plane_his.toml). Edit it, then run
+    `hisopt evaluate FILE` or `hisopt optimize FILE`.
+    """
+    from importlib import resources
+
+    from hisopt.errors import ConfigError
+
+    if file.exists() and not force:
+        raise ConfigError("already exists; expected a new file name, or --force to overwrite it", file=str(file))
+    text = (resources.files("hisopt") / "data" / PROBLEM_TEMPLATE).read_text(encoding="utf-8")
+    try:
+        file.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot write the file ({exc.strerror}); expected a writable path", file=str(file)) from None
+    typer.echo(f"wrote {file}; next: hisopt evaluate {file}")
+
+
+@app.command()
 def response(
     problem: ProblemArg,
     out: Annotated[Path, typer.Option(help="output directory for response.csv and response.html")],
     set_: SetOpt = None,
 ) -> None:
-    """Response spectra with and without HIS (paper Fig. 4) as CSV and interactive HTML."""
+    """Response spectra with and without HIS (paper Figure 4).
+
+    Writes OUT/response.csv and OUT/response.html (interactive, works offline).
+    """
     from hisopt.io import ensure_writable_dir, write_csv
     from hisopt.report.theme import write_html
     from hisopt.spectra import response_spectra
@@ -279,13 +362,25 @@ def response(
 def optimize_cmd(
     problem: ProblemArg,
     out: Annotated[Optional[Path], typer.Option("--out", help="run directory (default runs/NAME-TIMESTAMP)")] = None,
-    seed: Annotated[Optional[int], typer.Option("--seed", help="random seed (default: problem file)")] = None,
-    pop: Annotated[Optional[int], typer.Option("--pop", help="population size (default: problem file, 100)")] = None,
-    gens: Annotated[Optional[int], typer.Option("--gens", help="generations (default: problem file, 200)")] = None,
+    seed: Annotated[
+        Optional[int], typer.Option("--seed", parser=integer, metavar="N", help="random seed (default: problem file)")
+    ] = None,
+    pop: Annotated[
+        Optional[int], typer.Option("--pop", parser=integer, metavar="N", help="population size (default: problem file, 100)")
+    ] = None,
+    gens: Annotated[
+        Optional[int], typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")
+    ] = None,
     refine: Annotated[bool, typer.Option("--refine", help="refine the front with CasADi/IPOPT afterwards (front_refined.csv)")] = False,
-    max_points: Annotated[int, typer.Option("--max-points", help="with --refine: most front designs to refine")] = 40,
+    max_points: Annotated[
+        int, typer.Option("--max-points", parser=integer, metavar="N", help="with --refine: most front designs to refine")
+    ] = 40,
 ) -> None:
-    """Pareto-optimise PROBLEM (NSGA-II; NSGA-III from four objectives) in a resumable run directory."""
+    """Pareto-optimise PROBLEM in a resumable run directory.
+
+    NSGA-II, or NSGA-III from four objectives. A checkpoint is written after every
+    generation; `hisopt resume RUN_DIR` continues an interrupted run.
+    """
     from datetime import datetime
 
     from hisopt.optim.run import optimize, resolve_settings, run_with_console
@@ -321,9 +416,12 @@ def optimize_cmd(
 
 @app.command("resume")
 def resume_cmd(
-    run_dir: Annotated[Path, typer.Argument(help="run directory of an interrupted `hisopt optimize`")],
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of an interrupted `hisopt optimize`")],
 ) -> None:
-    """Continue an interrupted optimisation run from its last checkpoint (same final front)."""
+    """Continue an interrupted optimisation from its last checkpoint.
+
+    The final front is the one an uninterrupted run with the same seed gives.
+    """
     import json
 
     from hisopt.errors import RunError
@@ -344,14 +442,20 @@ def resume_cmd(
 @app.command()
 def study(
     problem: ProblemArg,
-    seeds: Annotated[str, typer.Option(help="seeds to run, e.g. 1-8 or 1,3,5")] = "1-4",
+    seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds to run, e.g. 1-8 or 1,3,5")] = "1-4",
     out: Annotated[Optional[Path], typer.Option(help="study directory: seed-<n>/ run dirs, merged front.csv, runs.csv")] = None,
-    pop: Annotated[Optional[int], typer.Option(help="population size (default: problem file)")] = None,
-    gens: Annotated[Optional[int], typer.Option(help="generations (default: problem file)")] = None,
+    pop: Annotated[
+        Optional[int], typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")
+    ] = None,
+    gens: Annotated[Optional[int], typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Independent optimisations for several seeds (in parallel on Dask), fronts merged."""
+    """Optimise with several seeds, fronts merged.
+
+    Each seed is an independent run in OUT/seed-<n>/, in parallel with --workers or
+    --scheduler (Dask); OUT/front.csv merges their fronts and OUT/runs.csv compares them.
+    """
     from rich.console import Console
 
     from hisopt.optim.study import parse_seeds
@@ -386,11 +490,15 @@ def study(
 
 @app.command()
 def report(
-    run_dir: Annotated[Path, typer.Argument(help="run directory written by `hisopt optimize`")],
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
     color_by: Annotated[Optional[str], typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
     design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
 ) -> None:
-    """Write RUN_DIR/report.html: a self-contained, offline report of the run."""
+    """Write RUN_DIR/report.html, a self-contained report of the run.
+
+    Front, parallel coordinates, convergence, spectra and modes of one design; plotly.js
+    is embedded, so the file opens offline.
+    """
     from hisopt.report.html import build_report
 
     path = build_report(run_dir, color_by=color_by, design=design)
@@ -399,17 +507,20 @@ def report(
 
 @app.command("refine")
 def refine_cmd(
-    run_dir: Annotated[Path, typer.Argument(help="run directory written by `hisopt optimize`")],
-    max_points: Annotated[int, typer.Option("--max-points", help="most front designs to refine, spread evenly over the front")] = 40,
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
+    max_points: Annotated[
+        int,
+        typer.Option("--max-points", parser=integer, metavar="N", help="most front designs to refine, spread evenly over the front"),
+    ] = 40,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Refine RUN_DIR's front with exact gradients (CasADi/IPOPT): writes front_refined.csv.
+    """Refine RUN_DIR's front with exact gradients (CasADi/IPOPT).
 
-    Each of up to --max-points designs spread over front.csv is moved towards the Pareto
-    front by an achievement-scalarising NLP and kept only if, re-evaluated, it weakly
-    dominates its start. NLPs run in local worker processes, or on Dask with --workers or
-    --scheduler. See docs/refine.md.
+    Writes RUN_DIR/front_refined.csv. Each of up to --max-points designs spread over
+    front.csv is moved towards the Pareto front by an NLP (its achievement scalarising
+    function) and kept only if, evaluated again, it weakly dominates its start. NLPs run
+    in local worker processes, or on Dask with --workers or --scheduler. See docs/refine.md.
     """
     from hisopt.errors import ConfigError
 
@@ -452,14 +563,20 @@ def _csv_rows(path: Path) -> int:
 @app.command("sweep")
 def sweep_cmd(
     problem: ProblemArg,
-    vary: Annotated[str, typer.Option("--vary", help="design variable to sweep across its bounds, e.g. p0")],
-    points: Annotated[int, typer.Option("--points", help="values between the bounds (both included)")] = 41,
+    vary: Annotated[str, typer.Option("--vary", metavar="NAME", help="design variable to sweep across its bounds, e.g. p0")],
+    points: Annotated[
+        int, typer.Option("--points", parser=integer, metavar="N", help="values between the bounds (both included)")
+    ] = 41,
     out: Annotated[Path, typer.Option("--out", help="output directory for sweep_NAME.csv and sweep_NAME.html")] = Path("."),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Frequencies and peak responses of the roll, pitch, bounce modes and FL tyre force (paper Figs. 5-8)."""
+    """Sweep one design variable across its bounds (paper Figures 5-8).
+
+    Frequencies and peak responses of the roll, pitch and bounce modes and of the FL tyre
+    force; writes OUT/sweep_NAME.csv and OUT/sweep_NAME.html.
+    """
     from hisopt.io import ensure_writable_dir, write_csv
     from hisopt.report.theme import write_html
     from hisopt.sweeps import sweep
@@ -479,14 +596,18 @@ def sweep_cmd(
 @app.command("regions")
 def regions_cmd(
     problem: ProblemArg,
-    pair: Annotated[str, typer.Option("--pair", help="two design variables, comma-separated, e.g. dA,lam")],
-    points: Annotated[int, typer.Option("--points", help="grid values per variable")] = 41,
+    pair: Annotated[str, typer.Option("--pair", metavar="A,B", help="two design variables, comma-separated, e.g. dA,lam")],
+    points: Annotated[int, typer.Option("--points", parser=integer, metavar="N", help="grid values per variable")] = 41,
     out: Annotated[Path, typer.Option("--out", help="output directory for regions_A_B.csv and regions_A_B.html")] = Path("."),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """The four indicators on a grid of two variables with the feasible region (paper Figs. 9-10)."""
+    """Feasible region of two design variables (paper Figures 9-10).
+
+    The four indicators on a grid of the --pair variables, with the region that meets the
+    constraints; writes OUT/regions_A_B.csv and OUT/regions_A_B.html.
+    """
     from hisopt.errors import ConfigError
     from hisopt.io import ensure_writable_dir, write_csv
     from hisopt.report.theme import write_html
@@ -509,10 +630,14 @@ def regions_cmd(
 
 def main() -> None:
     """Entry point: map user errors to exit code 2 and internal errors to 1."""
+    from hisopt.cli_usage import usage_error_line
     from hisopt.errors import HisoptError
 
+    args = sys.argv[1:]
+    if all(arg == "--debug" for arg in args):  # bare `hisopt`: the help, exit 0
+        args = [*args, "--help"]
     try:
-        code = app(standalone_mode=False)  # click returns a typer.Exit code here
+        code = app(args=args, prog_name="hisopt", standalone_mode=False)  # click returns a typer.Exit code here
     except HisoptError as exc:
         if _DEBUG["on"]:
             raise
@@ -521,15 +646,14 @@ def main() -> None:
     except (typer.Exit, SystemExit) as exc:
         code = getattr(exc, "exit_code", getattr(exc, "code", 0))
         sys.exit(code or 0)
-    except Exception as exc:  # click usage errors come through here too
-        import click
-
-        if isinstance(exc, click.exceptions.ClickException):
-            exc.show()
+    except typer.Abort:
+        typer.echo("aborted", err=True)
+        sys.exit(130)
+    except Exception as exc:  # command-line usage errors come through here too
+        line = usage_error_line(exc, args)  # by what they carry: their classes move between typer versions
+        if line is not None:
+            typer.echo(f"error: {line}", err=True)
             sys.exit(2)
-        if isinstance(exc, click.exceptions.Abort):
-            typer.echo("aborted", err=True)
-            sys.exit(130)
         if _DEBUG["on"]:
             raise
         typer.echo(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for a traceback)", err=True)

@@ -1,9 +1,16 @@
 """CLI smoke tests through the real entry point (exit codes, output)."""
 
-from hisopt.io import read_csv
+import re
 import subprocess
 import sys
+from pathlib import Path
 
+import numpy as np
+import pandas as pd
+import pytest
+
+import hisopt
+from hisopt.io import read_csv
 from tests.conftest import DEFAULT_PROBLEM
 
 
@@ -96,3 +103,185 @@ def test_response_writes_csv_and_offline_html(tmp_path):
     assert abs(df.loc[0, "acc_z_his"] / df.loc[0, "acc_z_ref"] - 1) < 0.25
     html = (tmp_path / "resp" / "response.html").read_text()
     assert "plotly" in html and 'src="https://cdn.plot.ly' not in html and len(html) > 2_000_000  # JS embedded
+
+
+# --- usage errors, help, version: through the real entry point --------------------------------
+
+USAGE_ERRORS = [
+    (["optimize", "{P}", "--bogus", "1"], "error: no such option --bogus; see `hisopt optimize --help`"),
+    (["optimize", "{P}", "--pop", "abc"], "error: --pop: expected an integer, got 'abc'"),
+    (["optimize"], "error: missing argument PROBLEM"),
+    (["bogus"], "error: no such command 'bogus'; expected one of "),
+    (["optimize", "{P}", "--popp", "3"], "error: no such option --popp; did you mean --pop?"),
+    (["optimise", "{P}"], "error: no such command 'optimise' (did you mean 'optimize'?); expected one of "),
+    (["droptest", "{P}", "--out", "x", "--height", "5cm"], "error: --height: expected a number, got '5cm'"),
+    (["droptest", "{P}"], "error: missing option --out"),
+    (["optimize", "{P}", "--pop"], "error: --pop: expected a value"),
+]
+
+
+@pytest.mark.parametrize(("args", "expected"), USAGE_ERRORS, ids=[" ".join(a) for a, _ in USAGE_ERRORS])
+def test_usage_errors_are_one_line_exit_2(args, expected, tmp_path):
+    out = subprocess.run([sys.executable, "-m", "hisopt", *[a.format(P=DEFAULT_PROBLEM) for a in args]],
+                         capture_output=True, text=True, timeout=120, cwd=tmp_path)  # fmt: skip
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.startswith(expected) and out.stderr.count("\n") == 1, out.stderr
+    assert out.stdout == "" and not (tmp_path / "x").exists()
+
+
+def test_bare_hisopt_prints_the_help_and_exits_0():
+    out = run()
+    assert out.returncode == 0 and out.stderr == ""
+    assert out.stdout.startswith("Usage: hisopt") and "Commands:" in out.stdout and "optimize" in out.stdout
+
+
+def test_version_is_the_installed_distribution_version():
+    from importlib.metadata import version
+
+    out = run("--version")
+    assert out.returncode == 0 and out.stdout == f"hisopt {version('hisopt')}\n"
+
+
+def _commands() -> list[str]:
+    from hisopt.cli import app
+
+    return [c.name or c.callback.__name__ for c in app.registered_commands]
+
+
+def test_every_help_reads_cleanly():
+    """No rich markup eaten, no type noise on flags, summaries not cut off, and each command's
+    description is whole sentences (a paragraph of the docstring is rewrapped, not cut)."""
+    top = run("--help")
+    assert top.returncode == 0
+    listing = top.stdout.split("Commands:")[1]
+    assert "..." not in listing and all(f"  {name} " in listing for name in _commands())
+    for name in _commands():
+        out = run(name, "--help")
+        assert out.returncode == 0, out.stderr
+        for noise in ("<bool>", "list[str]", "{problem}", "{run_dir}", "a  value", "Error"):
+            assert noise not in out.stdout, (name, noise)
+        description = re.split(r"\n(?:Arguments|Options):", out.stdout)[0].split("\n\n")[1:]
+        for par in filter(str.strip, description):
+            assert " ".join(par.split()).endswith((".", ")")), (name, par)
+            assert all(len(line.strip()) > 40 for line in par.strip().splitlines()[:-1]), (name, par)  # filled lines
+
+
+def test_set_help_names_every_key_set_accepts(problem):
+    """SET_KEYS (listed so that --help need not import the model) are the scalar fields of the
+    [his] model; --help names each, and --set accepts each."""
+    from pydantic import BaseModel
+
+    from hisopt.cli import SET_KEYS
+    from hisopt.hydraulics.roll_plane import RollPlaneHIS
+
+    def is_model(annotation) -> bool:
+        args = getattr(annotation, "__args__", ())
+        return any(isinstance(a, type) and issubclass(a, BaseModel) for a in (annotation, *args))
+
+    scalar = [n for n, f in RollPlaneHIS.model_fields.items() if not is_model(f.annotation)]
+    assert list(SET_KEYS) == scalar
+    help_text = " ".join(run("modes", "--help").stdout.split())
+    assert f"KEY is one of {', '.join(SET_KEYS)}" in help_text and "[his]" in help_text
+    his = problem.spec.his.model_dump()
+    for key in SET_KEYS:
+        value = his[key] if his[key] is not None else his[key.removesuffix("_rear")]
+        assert problem.with_values(**{key: value}).spec.his.model_dump()[key] == value
+
+
+def test_help_and_version_import_no_numerical_stack():
+    """The timing-free proxy for a fast `hisopt --help`: the CLI module and the help itself
+    import none of numpy, scipy, pandas, pymoo, casadi, plotly, dask."""
+    code = (
+        "import sys\n"
+        "from hisopt.cli import main\n"
+        "for args in (['--help'], ['--version'], []):\n"
+        "    sys.argv = ['hisopt', *args]\n"
+        "    try:\n"
+        "        main()\n"
+        "    except SystemExit as exc:\n"
+        "        assert not exc.code, exc.code\n"
+        "heavy = {'numpy', 'scipy', 'pandas', 'pymoo', 'casadi', 'plotly', 'dask'}\n"
+        "print(sorted(heavy & {m.split('.')[0] for m in sys.modules}), file=sys.stderr)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.strip() == "[]"
+
+
+def test_evaluate_says_when_it_shows_only_part_of_the_designs(tmp_path, problem):
+    x = problem.lower + (problem.upper - problem.lower) * np.linspace(0, 1, 23)[:, None]
+    path = tmp_path / "designs.csv"
+    pd.DataFrame(x, columns=problem.variable_names).to_csv(path, index=False)
+    out = run("evaluate", str(DEFAULT_PROBLEM), "--designs", str(path))
+    assert out.returncode == 0, out.stderr
+    assert "showing the first 20 of 23 designs; write them all with --out FILE" in out.stdout
+    assert "showing" not in run("evaluate", str(DEFAULT_PROBLEM)).stdout
+
+
+# --- hisopt init -----------------------------------------------------------------------------------
+
+
+def test_packaged_template_is_the_shipped_problem_file():
+    """One source of truth: hisopt/data/roll_plane_his.toml (what `hisopt init` writes, and all
+    a wheel user has) is byte for byte problems/roll_plane_his.toml."""
+    packaged = Path(hisopt.__file__).parent / "data" / "roll_plane_his.toml"
+    assert packaged.read_bytes() == DEFAULT_PROBLEM.read_bytes()
+
+
+def test_init_writes_the_paper_problem_and_refuses_to_overwrite(tmp_path):
+    target = tmp_path / "problem.toml"
+    out = run("init", str(target))
+    assert out.returncode == 0, out.stderr
+    assert target.read_bytes() == DEFAULT_PROBLEM.read_bytes()
+    assert "[Pa]" in target.read_text() and target.read_text().startswith("#")  # commented, with units
+    target.write_text("# mine\n")
+    out = run("init", str(target))
+    assert out.returncode == 2 and out.stderr.count("\n") == 1
+    assert str(target) in out.stderr and "--force" in out.stderr
+    assert target.read_text() == "# mine\n"
+    assert run("init", str(target), "--force").returncode == 0
+    assert target.read_bytes() == DEFAULT_PROBLEM.read_bytes()
+    ours, shipped = run("evaluate", str(target)), run("evaluate", str(DEFAULT_PROBLEM))
+    assert ours.returncode == 0 and ours.stdout == shipped.stdout
+
+
+# --- usage-error mapping with plain click (what typer < 0.29 raises) ---------------------------
+
+
+def test_usage_error_lines_from_plain_click_exceptions():
+    """typer < 0.29 raises click's own classes, typer 0.29 its copies: the same lines for both."""
+    click = pytest.importorskip("click")
+    from hisopt.cli_usage import integer, usage_error_line
+
+    def click_integer(text: str) -> int:  # typer < 0.29: typer.BadParameter is click's
+        try:
+            return integer(text)
+        except Exception as exc:
+            raise click.BadParameter(str(exc.message)) from None
+
+    @click.group()
+    def group() -> None:
+        pass
+
+    @group.command("optimize")
+    @click.argument("problem", metavar="PROBLEM")
+    @click.option("--pop", type=click.types.FuncParamType(click_integer))
+    @click.option("--out", required=True)
+    def optimize(problem: str, pop: int | None, out: str) -> None:
+        pass
+
+    def line(*args: str) -> str | None:
+        with pytest.raises(click.UsageError) as info:
+            group.main(list(args), prog_name="hisopt", standalone_mode=False)
+        return usage_error_line(info.value, args)
+
+    assert line("optimize", "p.toml", "--out", "o", "--pop", "abc") == "--pop: expected an integer, got 'abc'"
+    assert line("optimize", "p.toml", "--out", "o", "--bogus", "1") == (
+        "no such option --bogus; see `hisopt optimize --help`"
+    )
+    assert line("optimize", "p.toml", "--out", "o", "--popp", "1") == "no such option --popp; did you mean --pop?"
+    assert line("optimize", "--out", "o") == "missing argument PROBLEM"
+    assert line("optimize", "p.toml") == "missing option --out"
+    assert line("bogus") == "no such command 'bogus'; expected one of optimize"
+    assert line("optimize", "p.toml", "--out") == "--out: expected a value"
+    assert usage_error_line(ValueError("not a usage error"), []) is None
