@@ -251,7 +251,6 @@ def evaluate(
     """
     import pandas as pd
     from rich.console import Console
-    from rich.table import Table
 
     from hisopt.errors import ConfigError
     from hisopt.io import read_csv, write_csv

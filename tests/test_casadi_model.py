@@ -16,7 +16,6 @@ import hisopt
 from hisopt.evaluate import DirectOutputs
 from hisopt.metrics import COMFORT_OUTPUTS
 from hisopt.optim.casadi_model import CasadiModel, FrequencySet, SpectraCallback, compiled
-from hisopt.problem import problem_from_dict
 from hisopt.standards import iso_2631_1_1997 as iso2631
 from tests.conftest import ROOT, random_designs
 

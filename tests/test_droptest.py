@@ -24,8 +24,6 @@ from hisopt.droptest import (
     SENSOR_NAMES,
     TABLE_COLUMNS,
     drop_table,
-    era,
-    identify_mode,
     measured_drop_test,
     read_measured,
     response_sensors,
@@ -35,6 +33,7 @@ from hisopt.droptest import (
     spectra_figure,
 )
 from hisopt.errors import ConfigError
+from hisopt.identification import era, identify_mode
 from hisopt.io import read_csv
 from tests.conftest import DEFAULT_PROBLEM
 

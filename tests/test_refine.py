@@ -36,7 +36,6 @@ from hisopt.optim.refine import (
     select_points,
 )
 from hisopt.optim.run import optimize
-from hisopt.problem import problem_from_dict
 from tests.conftest import ROOT
 
 HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"
