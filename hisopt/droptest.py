@@ -253,10 +253,9 @@ class DropTest:
         """Response spectrum of the test's body coordinate (paper Fig. 13), one trace."""
         import plotly.graph_objects as go
 
-        from hisopt.report.theme import use_theme
+        from hisopt.report.theme import template
 
-        use_theme()
-        fig = go.Figure() if fig is None else fig
+        fig = go.Figure(layout={"template": template()}) if fig is None else fig
         f, mag = self.spectrum()
         keep = f <= 10.0
         dash = "dash" if self.source == "measured" else "solid"
@@ -465,9 +464,8 @@ def spectra_figure(tests: Sequence[DropTest]) -> "go.Figure":
     """Response spectra of the drop tests, one panel per body mode (paper Fig. 13)."""
     from plotly.subplots import make_subplots
 
-    from hisopt.report.theme import use_theme
+    from hisopt.report.theme import template
 
-    use_theme()
     order = ("left_side", "front_axle", "all_wheels")
     present = [c for c in order if any(t.case == c for t in tests)]
     titles = [f"{DROP_CASES[c].mode} mode ({c.replace('_', ' ')} drop)" for c in present]
@@ -480,6 +478,7 @@ def spectra_figure(tests: Sequence[DropTest]) -> "go.Figure":
         fig.update_yaxes(title_text=f"|{mode} acc.| [{units[mode]}]", row=row, col=1)
     fig.update_xaxes(title_text="frequency [Hz]", row=len(present), col=1)
     fig.update_layout(
+        template=template(),
         title="Drop-test response spectra (20 Hz low-pass, free decay)",
         height=320 * max(len(present), 1) + 120,
         legend={"groupclick": "toggleitem"},

@@ -143,7 +143,9 @@ class TimeResponse:
         cols |= {f"tyre_force_{w}": self.tyre_force_n[:, i] for i, w in enumerate(WHEEL_NAMES)}
         cols |= {f"p_acc_{n}": self.accumulator_pressure_pa[:, i] for i, n in enumerate(self.accumulator_names)}
         cols |= {f"dv_acc_{n}": self.accumulator_volume_m3[:, i] for i, n in enumerate(self.accumulator_names)}
-        return pd.DataFrame(cols)
+        frame = pd.DataFrame(cols)
+        frame.attrs["units"] = {name: signal_unit(name) for name in frame.columns}
+        return frame
 
     def plot_signals(
         self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: "go.Figure | None" = None
@@ -166,13 +168,15 @@ class TimeResponse:
             raise ConfigError(
                 f"unknown signal(s) {unknown}; expected columns of to_frame(), e.g. {list(frame.columns[:8])}"
             )
-        from hisopt.report.theme import use_theme
+        from hisopt.report.theme import template
 
-        use_theme()
+        units = frame.attrs["units"]
         if fig is None:
             fig = make_subplots(rows=len(columns), cols=1, shared_xaxes=True, subplot_titles=list(columns))
+            fig.update_layout(template=template())
         for row, col in enumerate(columns, start=1):
             fig.add_scatter(x=frame["time"], y=frame[col], name=f"{col} ({self.mode})", row=row, col=1)
+            fig.update_yaxes(title_text=f"{col} [{units[col]}]", row=row, col=1)
         fig.update_xaxes(title_text="time [s]", row=len(columns), col=1)
         return fig
 
@@ -180,15 +184,27 @@ class TimeResponse:
         """Gauge accumulator pressures [MPa] against time."""
         import plotly.graph_objects as go
 
-        from hisopt.report.theme import use_theme
+        from hisopt.report.theme import template
 
-        use_theme()
-        fig = go.Figure() if fig is None else fig
+        fig = go.Figure(layout={"template": template()}) if fig is None else fig
         for i, name in enumerate(self.accumulator_names):
             pressure_mpa = self.accumulator_pressure_pa[:, i] / 1e6
             fig.add_scatter(x=self.t_s, y=pressure_mpa, name=f"accumulator {name} ({self.mode})")
         fig.update_layout(xaxis_title="time [s]", yaxis_title="gauge pressure [MPa]")
         return fig
+
+
+def signal_unit(column: str) -> str:
+    """[-] SI unit of a column of :meth:`TimeResponse.to_frame`."""
+    dof = {name: ("rad" if name in ("phi", "theta") else "m") for name in DOF_NAMES}
+    if column in dof:
+        return dof[column]
+    if column.startswith("dd") and column[2:] in dof:
+        return f"{dof[column[2:]]}/s^2"
+    if column.startswith("d") and column[1:] in dof:
+        return f"{dof[column[1:]]}/s"
+    prefixes = {"time": "s", "road_": "m", "a_body_": "m/s^2", "stroke_": "m", "tyre_force_": "N", "p_acc_": "Pa", "dv_acc_": "m^3"}
+    return next(unit for prefix, unit in prefixes.items() if column.startswith(prefix))
 
 
 # --- simulation ---------------------------------------------------------------------------

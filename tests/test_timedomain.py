@@ -282,9 +282,15 @@ def test_result_frame_and_plots(problem):
         assert col in frame.columns
     assert len(frame) == t.size
     np.testing.assert_allclose(frame["a_body_fl"], res.acceleration[:, :3] @ res.corners[0])
+    assert frame.attrs["units"]["ddtheta"] == "rad/s^2" and frame.attrs["units"]["p_acc_A"] == "Pa"
+    import plotly.io as pio
+
+    default = pio.templates.default
     fig = res.plot_signals(("phi", "p_acc_A"))
     assert isinstance(fig, go.Figure) and len(fig.data) == 2
+    assert fig.layout.yaxis.title.text == "phi [rad]" and fig.layout.yaxis2.title.text == "p_acc_A [Pa]"
     assert len(res.plot_pressures().data) == 2
+    assert pio.templates.default == default  # the template goes to each figure, not plotly's default
     with pytest.raises(ConfigError, match="unknown signal"):
         res.plot_signals(("nope",))
 

@@ -1,7 +1,7 @@
 """One plotly template for every hisopt figure, passed to each figure (``template=``).
 
-:func:`template` returns it without touching plotly's global default; :func:`use_theme`
-(older figures) also makes it the default.
+:func:`template` returns it; plotly's global default is never changed, so a user's own
+figures keep their look.
 """
 
 from __future__ import annotations
@@ -53,15 +53,6 @@ def template() -> Any:
             }
         )
     return pio.templates[TEMPLATE_NAME]
-
-
-def use_theme() -> str:
-    """Register the ``hisopt`` template and make it plotly's default; returns its name."""
-    import plotly.io as pio
-
-    template()
-    pio.templates.default = TEMPLATE_NAME
-    return TEMPLATE_NAME
 
 
 def write_html(fig, path) -> None:
