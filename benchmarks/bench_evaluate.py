@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 import hisopt
-from hisopt.evaluate import COMFORT_OUTPUTS, Evaluator, grid_quantities
-from hisopt.hydraulics.coupling import stroke_impedance
+from hisopt.evaluate import Evaluator, grid_quantities
+from hisopt.metrics import COMFORT_OUTPUTS
 from hisopt.quadrature import base_edges
 from hisopt.standards.iso_2631_1_1997 import weighting_gain_squared
 from hisopt.vehicle import damping_matrix, mass_matrix, road_stiffness_input, stroke_matrix
@@ -60,7 +60,7 @@ def baseline(problem: hisopt.Problem, evaluator: Evaluator, x: np.ndarray, f_hz:
         model = problem.model(x[i : i + chunk])
         k = model.stiffness()  # K + G^T K_his G
         w0 = 2 * np.pi  # C_his from D(j w0) = K_his + j w0 C_his
-        c = damping_matrix(v) + g.T @ (stroke_impedance(model.his, np.array([1j * w0]))[:, 0].imag / w0) @ g
+        c = damping_matrix(v) + g.T @ (model.his.stroke_impedance(np.array([1j * w0]))[:, 0].imag / w0) @ g
         kdyn = s[None, :, None, None] ** 2 * m + s[None, :, None, None] * c[:, None] + k[:, None]
         h_x = np.linalg.solve(kdyn, np.broadcast_to(b0, kdyn.shape[:-1] + (4,)))
         h_out = np.stack([output_frf(evaluator.all_outputs[n], h_x, s) for n in names], axis=-1)
