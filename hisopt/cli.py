@@ -70,29 +70,12 @@ def _main(
     _DEBUG["on"] = debug
 
 
-def parse_assignments(items: list[str] | None) -> dict[str, float | str]:
-    """``["p0=3e6", "pipe_model=distributed"]`` -> ``{"p0": 3e6, "pipe_model": "distributed"}``."""
-    from hisopt.errors import ConfigError
-
-    out: dict[str, float | str] = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ConfigError(f"expected KEY=VALUE, got {item!r}", key="--set")
-        try:
-            out[key.strip()] = float(value)
-        except ValueError:
-            out[key.strip()] = value.strip()
-    return out
-
-
 def load(problem: Path, sets: list[str] | None):
-    """Load a problem file and apply ``--set`` overrides."""
+    """Load a problem file and apply ``--set`` overrides (:func:`hisopt.validation.apply_assignments`)."""
     from hisopt.problem import load_problem
+    from hisopt.validation import apply_assignments
 
-    p = load_problem(problem)
-    overrides = parse_assignments(sets)
-    return p.with_values(**overrides) if overrides else p
+    return apply_assignments(load_problem(problem), sets)
 
 
 @app.command()
@@ -247,37 +230,38 @@ def evaluate(
     """Objectives and constraints of the baseline or a CSV file.
 
     Without --designs, of the problem's baseline design; with it, of every row. The
-    table shows the first 20 designs; --out writes them all.
+    table shows the first 20 designs; --out writes them all. A row that breaks a
+    parameter's rule or is not finite is not evaluated, a row outside the [variables] box
+    is; both are flagged in the status and reason columns, never feasible, and counted in
+    one warning line.
     """
-    import pandas as pd
     from rich.console import Console
 
+    from hisopt.designs import read_designs
     from hisopt.errors import ConfigError
-    from hisopt.io import read_csv, write_csv
+    from hisopt.evaluate import evaluate_problem
+    from hisopt.io import ensure_writable_file, write_csv
+    from hisopt.validation import flag_summary
 
     p = load(problem, set_)
+    if out is not None:
+        ensure_writable_file(out, "--out")  # fail before any work
     if designs is not None:
-        if not designs.is_file():
-            raise ConfigError(f"designs file not found (expected a CSV with columns {', '.join(p.variable_names)})", file=str(designs))
-        try:
-            frame = read_csv(designs)  # a units row, as hisopt writes, is skipped
-        except (ValueError, pd.errors.ParserError) as exc:
-            raise ConfigError(f"unreadable CSV ({exc})", file=str(designs)) from None
-        missing = [n for n in p.variable_names if n not in frame.columns]
-        if missing:
-            raise ConfigError(f"missing column {missing[0]!r}; expected columns {', '.join(p.variable_names)}", file=str(designs))
-        try:
-            x = frame[list(p.variable_names)].to_numpy(dtype=float)
-        except ValueError:
-            raise ConfigError("design columns must be numeric", file=str(designs)) from None
-        from hisopt.parallel import evaluate_designs, open_backend
+        frame = read_designs(designs, p.variable_names)
+        from hisopt.parallel import open_backend
 
         with open_backend(workers, scheduler) as backend:
-            result = p.results_frame(x, evaluate_designs(p, x, backend))
+            result = evaluate_problem(p, frame, backend=backend, source=str(designs), log=False)
     else:
-        result = p.evaluate(p.baseline)
+        result = evaluate_problem(p, p.baseline, log=False)
+    summary = flag_summary(result["status"], str(designs) if designs is not None else "baseline design")
+    if summary:
+        typer.echo(f"warning: {summary}", err=True)
     if out is not None:
-        write_csv(result, out)
+        try:
+            write_csv(result, out)
+        except OSError as exc:
+            raise ConfigError(f"cannot write {out} ({exc.strerror or exc})", key="--out") from None
         typer.echo(f"wrote {len(result)} designs to {out}")
     if designs is None or out is None:
         from hisopt.units import display_frame

@@ -64,7 +64,7 @@ def test_evaluate_baseline_and_designs_file(tmp_path):
     assert out.returncode == 0, out.stderr
 
     df = read_csv(results)
-    assert list(df.columns) == ["p0", "dA", "lam", "Rv", "sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "feasible"]
+    assert list(df.columns) == ["p0", "dA", "lam", "Rv", "sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "feasible", "status", "reason"]
     assert abs(df.loc[1, "sigma_aw"] / 0.4599 - 1) < 5e-3
     assert df.attrs["units"] == {
         "p0": "Pa", "dA": "m^2", "lam": "-", "Rv": "Pa s m^-3", "sigma_aw": "m/s^2", "max_roll_psd": "rad^2/Hz",
