@@ -390,6 +390,7 @@ def optimize_cmd(
         total=settings.generations,
         done=0,
         run_dir=out,
+        debug=_DEBUG["on"],
     )
     if code:
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
@@ -401,25 +402,35 @@ def optimize_cmd(
 def resume_cmd(
     run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of an interrupted `hisopt optimize`")],
 ) -> None:
-    """Continue an interrupted optimisation from its last checkpoint.
+    """Continue an interrupted, killed or failed run from its last checkpoint.
 
     The final front is the one an uninterrupted run with the same seed gives.
     """
-    import json
+    from hisopt.optim.run import prepare_resume, run_with_console
 
-    from hisopt.errors import RunError
-    from hisopt.optim.run import resume, run_with_console
-    from hisopt.optim.runio import RUN_JSON, checkpoint_generation
-
-    info_path = run_dir / RUN_JSON
-    if not info_path.is_file():
-        raise RunError(f"{run_dir}: not a run directory (no {RUN_JSON}); start a run with `hisopt optimize`")
-    total = int(json.loads(info_path.read_text(encoding="utf-8")).get("settings", {}).get("generations", 0))
-    done = checkpoint_generation(run_dir)
-    typer.echo(f"resuming {run_dir} at generation {done} of {total}", err=True)
-    code = run_with_console(lambda update: resume(run_dir, progress=update), total=total, done=done, run_dir=run_dir)
+    plan = prepare_resume(run_dir)  # every check before any output
+    if plan.finished:
+        typer.echo(f"{plan.state.line()}; nothing to resume", err=True)
+        return
+    state = plan.state
+    typer.echo(f"resuming {run_dir} at generation {state.generation} of {state.generations}", err=True)
+    code = run_with_console(plan.run, total=state.generations, done=state.generation, run_dir=run_dir, debug=_DEBUG["on"])
     if code:
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
+
+
+@app.command("status")
+def status_cmd(
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
+) -> None:
+    """Say in one line what state a run directory is in.
+
+    The state is running, interrupted, killed, failed or finished, and the line says what
+    to do next: resume the run, wait for it, or start over with another --out.
+    """
+    from hisopt.optim.runstate import read_state
+
+    typer.echo(read_state(run_dir).line())
 
 
 @app.command()
