@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
-from hisopt.validation import bounds_problem, design_parameters, read_file
+from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file
 from hisopt.vehicle import VehicleParams
 
 OBJECTIVE_NAMES = tuple(METRICS)
@@ -172,7 +172,7 @@ def _format_error(err: dict[str, Any]) -> tuple[str, str]:
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     value = err.get("input")
     if err["type"] == "extra_forbidden":
-        msg = "unknown key (check the spelling; see problems/roll_plane_his.toml)"
+        return key, "unknown key (check the spelling; see problems/roll_plane_his.toml)"
     elif isinstance(value, bool) and err["type"] in ("float_type", "int_type", "float_parsing", "int_parsing"):
         kind = "an integer" if err["type"].startswith("int") else "a number"
         return key, f"expected {kind}, got the boolean {str(value).lower()} (booleans are not numbers)"
@@ -181,7 +181,14 @@ def _format_error(err: dict[str, Any]) -> tuple[str, str]:
     elif err["type"] in ("float_type", "float_parsing", "int_type", "int_parsing", "int_from_float"):
         kind = "an integer" if err["type"].startswith("int") else "a valid number"
         return key, f"expected {kind}, got {_short(value)}"
-    elif "input" in err and err["type"] not in ("missing",) and not isinstance(err["input"], dict):
+    elif err["type"] in ("model_type", "dict_type", "model_attributes_type"):
+        return key, f"expected a table (e.g. [{key}] or {{ key = value }}), got {_short(value)}"
+    elif err["type"] == "list_type":
+        return key, f"expected a list (e.g. [\"a\", \"b\"]), got {_short(value)}"
+    elif err["type"] == "missing":
+        return key, "missing; expected a value (see problems/roll_plane_his.toml)"
+    msg = msg.replace("Input should be ", "expected ", 1)
+    if "input" in err and not isinstance(err["input"], dict):
         msg = f"{msg}, got {_short(err['input'])}"
     return key, msg
 
@@ -190,13 +197,19 @@ def parse_problem(data: dict[str, Any], source: str = "<problem>") -> ProblemSpe
     """Validate a problem dictionary; raise :class:`ConfigError` naming the key on failure.
 
     Validation is strict: a number must be a TOML integer or float (a boolean or a string is
-    not a number; an integer field takes no float) and finite (no ``inf``, ``nan``, ``1e309``).
+    not a number; an integer field takes no float) and finite (no ``inf``, ``nan``, ``1e309``),
+    and every number is zero or of a magnitude within
+    :data:`hisopt.validation.MAGNITUDE_RANGE` (1e-15 to 1e15).
     """
     try:
-        return ProblemSpec.model_validate(data, strict=True)
+        spec = ProblemSpec.model_validate(data, strict=True)
     except ValidationError as exc:
         key, msg = _format_error(exc.errors()[0])
         raise ConfigError(msg, file=source, key=key or None) from None
+    found = implausible_number(data)
+    if found:
+        raise ConfigError(found[1], file=source, key=found[0])
+    return spec
 
 
 def read_problem_file(path: str | Path) -> tuple[ProblemSpec, str]:

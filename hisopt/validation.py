@@ -49,6 +49,12 @@ singular there, so the results are NaN)."""
 DESIGN_PARAMETER_MODEL: type[BaseModel] = RollPlaneHIS
 """The pydantic model whose scalar fields are the possible design variables."""
 
+MAGNITUDE_RANGE = (1e-15, 1e15)
+"""[SI units] Smallest and largest magnitude of any non-zero number hisopt accepts, in a problem
+file, an option or a design. Every physical value of a vehicle with HIS lies well inside (a
+chamber volume of 1e-6 m^3, a bulk modulus of 1.5e9 Pa); outside it a value is an exponent
+typo (2e60 for 2e6), and products of such values overflow or underflow in the model."""
+
 NOT_DESIGN_VARIABLES = ("chamber_volume",)
 """Scalar ``[his]`` fields the model builder reads from the fixed table only (a design
 variable of that name would be silently ignored)."""
@@ -75,9 +81,9 @@ class Rule:
     upper_closed: bool = True
 
     def holds(self, values: Any) -> np.ndarray:
-        """[-] Whether each value is finite and obeys the rule (NaN never does)."""
+        """[-] Whether each value is finite, of plausible magnitude and obeys the rule (NaN never does)."""
         v = np.asarray(values, dtype=float)
-        ok = np.isfinite(v)
+        ok = plausible(v)
         with np.errstate(invalid="ignore"):
             if self.lower is not None:
                 ok &= v >= self.lower if self.lower_closed else v > self.lower
@@ -97,6 +103,40 @@ class Rule:
         if hi:
             return f"{self.name}{hi}"
         return f"{self.name} finite"
+
+
+def plausible(values: Any) -> np.ndarray:
+    """[-] Finite values that are zero or of a magnitude within :data:`MAGNITUDE_RANGE`."""
+    v = np.abs(np.asarray(values, dtype=float))
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(v) & ((v == 0) | ((v >= MAGNITUDE_RANGE[0]) & (v <= MAGNITUDE_RANGE[1])))
+
+
+def magnitude_problem(value: float) -> str | None:
+    """What is wrong with a number that is not :func:`plausible` (None if it is)."""
+    if not math.isfinite(value):
+        return "expected a finite number"
+    if not plausible(value):
+        return f"expected zero or a magnitude between {MAGNITUDE_RANGE[0]:g} and {MAGNITUDE_RANGE[1]:g} (SI units; an exponent typo?)"
+    return None
+
+
+def implausible_number(data: Any, path: tuple[str, ...] = ()) -> tuple[str, str] | None:
+    """The first number in nested dicts and lists (a parsed problem file) that is not
+    :func:`plausible`: ``(dotted key, message)``; None if every number is."""
+    items = data.items() if isinstance(data, Mapping) else enumerate(data) if isinstance(data, list) else ()
+    for key, value in items:
+        where = path + (str(key),)
+        if isinstance(value, (Mapping, list)):
+            found = implausible_number(value, where)
+            if found:
+                return found
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            too_big = isinstance(value, int) and abs(value) > MAGNITUDE_RANGE[1]  # float() of a huge int overflows
+            problem = magnitude_problem(float(MAGNITUDE_RANGE[1] * 10 if too_big else value))
+            if problem:
+                return ".".join(where), f"{problem}, got {value!r}"
+    return None
 
 
 def parameter_rule(name: str, model: type[BaseModel] = DESIGN_PARAMETER_MODEL) -> Rule:
@@ -248,6 +288,8 @@ def design_matrix(problem: "Problem", designs: Any, source: str | None = None) -
             obj = np.asarray(designs, dtype=object)
         except ValueError:  # ragged nesting
             raise ConfigError(f"expected {expected}; rows differ in length", file=source) from None
+        if obj.ndim == 1 and any(isinstance(v, (list, tuple, np.ndarray)) for v in obj):
+            raise ConfigError(f"expected {expected}; rows differ in length", file=source)
         if obj.ndim not in (1, 2):
             raise ConfigError(f"expected {expected}, got shape {obj.shape}", file=source)
         _first_non_number(obj, names, source)
@@ -329,7 +371,7 @@ def check_designs(problem: "Problem", x: np.ndarray) -> DesignCheck:
         rule = parameter_rule(name)
         for i in np.flatnonzero(~rule.holds(col)):
             v = col[i]
-            invalid[i].append(f"{name} = {v:g}: expected a finite number" if not math.isfinite(v) else f"{name} = {v:g} breaks {rule.text}")
+            invalid[i].append(f"{name} = {v:g}: {magnitude_problem(v)}" if magnitude_problem(v) else f"{name} = {v:g} breaks {rule.text}")
         with np.errstate(invalid="ignore"):
             low, high = col < lower[j], col > upper[j]
         for i in np.flatnonzero(low):
