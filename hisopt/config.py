@@ -167,12 +167,34 @@ def _short(value: Any, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def _unwrap(annotation: Any) -> Any:
+    """``PipeLayout | None`` -> ``PipeLayout``; containers (``dict[str, Variable]``) unchanged."""
+    args = [a for a in getattr(annotation, "__args__", ()) if a is not type(None)]
+    container = getattr(annotation, "__origin__", None) in (dict, list)
+    return args[0] if len(args) == 1 and not container else annotation
+
+
+def _allowed_keys(loc: tuple[Any, ...]) -> list[str]:
+    """The keys the table at ``loc`` (a pydantic error location) may hold."""
+    model: Any = ProblemSpec
+    for part in loc:
+        fields = getattr(model, "model_fields", {})
+        field = fields.get(part) or next((f for f in fields.values() if f.alias == part), None)
+        if field is not None:
+            model = _unwrap(field.annotation)
+        else:  # a variable's name or a list index: step into the item type
+            model = (getattr(model, "__args__", None) or (None,))[-1]
+    fields = getattr(model, "model_fields", None)
+    return [f.alias or name for name, f in fields.items()] if fields else []
+
+
 def _format_error(err: dict[str, Any]) -> tuple[str, str]:
     key = ".".join(_key_part(p) for p in err["loc"] if not str(p).startswith("function-"))
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     value = err.get("input")
     if err["type"] == "extra_forbidden":
-        return key, "unknown key (check the spelling; see problems/roll_plane_his.toml)"
+        allowed = _allowed_keys(err["loc"][:-1])
+        return key, f"unknown key; expected one of {', '.join(allowed)} (check the spelling)" if allowed else "unknown key"
     elif isinstance(value, bool) and err["type"] in ("float_type", "int_type", "float_parsing", "int_parsing"):
         kind = "an integer" if err["type"].startswith("int") else "a number"
         return key, f"expected {kind}, got the boolean {str(value).lower()} (booleans are not numbers)"
@@ -219,5 +241,5 @@ def read_problem_file(path: str | Path) -> tuple[ProblemSpec, str]:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"invalid TOML: {exc}", file=str(path)) from None
+        raise ConfigError(f"invalid TOML: {exc}; expected a TOML problem file like problems/roll_plane_his.toml", file=str(path)) from None
     return parse_problem(data, str(path)), hashlib.sha256(raw).hexdigest()

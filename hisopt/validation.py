@@ -169,7 +169,7 @@ def bounds_problem(name: str, lower: float, upper: float) -> str | None:
     rule = parameter_rule(name)
     bad = [f"{which} bound {value:g}" for which, value in (("lower", lower), ("upper", upper)) if not rule.holds(value)]
     if bad:
-        return f"{' and '.join(bad)} break{'s' if len(bad) == 1 else ''} {rule.text}; the box must lie inside the parameter's range"
+        return f"expected bounds inside the parameter's range {rule.text}, got {' and '.join(bad)}"
     return None
 
 
@@ -207,7 +207,7 @@ def match_columns(columns: Sequence[Any], names: Sequence[str], source: str | No
         loose = [c for c in columns if str(c).strip().lower() == name.lower()]
         if len(exact) > 1 or (exact and len(loose) > 1) or (not exact and len(loose) > 1):
             both = ", ".join(repr(str(c)) for c in (loose if len(loose) > 1 else exact))
-            raise ConfigError(f"columns {both} all name the design variable {name!r}; keep one", file=source)
+            raise ConfigError(f"columns {both} all name the design variable {name!r}; expected one column per variable", file=source)
         if not (exact or loose):
             hint = ""
             if len(columns) == 1 and any(sep in str(columns[0]) for sep in ";\t|"):

@@ -94,7 +94,7 @@ def test_model_refuses_a_rule_breaking_design_naming_the_row(problem):
         (np.array([True, False, True, True]), r"got the boolean True"),
         (pd.DataFrame({"p0": [1.0], "dA": [1e-3], "lam": [True], "Rv": [0.0]}), r"column 'lam' holds booleans"),
         (pd.DataFrame({"p0": [1.0], "dA": [1e-3], "lam": ["x"], "Rv": [0.0]}), r"row 1, column 'lam': expected a number"),
-        (pd.DataFrame({"p0": [1.0], "P0": [1.0], "dA": [1e-3], "lam": [0.4], "Rv": [0.0]}), r"columns 'p0', 'P0' all name"),
+        (pd.DataFrame({"p0": [1.0], "P0": [1.0], "dA": [1e-3], "lam": [0.4], "Rv": [0.0]}), r"columns 'p0', 'P0' all name the design variable 'p0'; expected one column"),
         ({"p0": [1.0, 2.0], "dA": [1e-3, 2e-3, 3e-3]}, r"values of different lengths"),
     ],
 )
@@ -171,7 +171,7 @@ def test_design_files_with_units_row_delimiters_header_case_and_blank_lines(tmp_
         ("p0,dA,lam,Rv\n1,2,3\n", r"line 2: 3 fields, expected 4"),
         ("p0,dA,lam,Rv\n2e6,1e-3,0.5,8e5\n2e6,abc,0.5,8e5\n", r"line 3, column 'dA': expected a number, got 'abc'"),
         ("p0;dA;lam;Rv\n2e6;0,001;0.5;8e5\n", r"line 2, column 'dA': expected a number, got '0,001'; use a point"),
-        ("p0,P0,dA,lam,Rv\n1,1,1,1,1\n", r"columns 'p0', 'P0' all name the design variable 'p0'"),
+        ("p0,P0,dA,lam,Rv\n1,1,1,1,1\n", r"columns 'p0', 'P0' all name the design variable 'p0'; expected one column"),
     ],
 )
 def test_unreadable_design_files_name_file_line_and_column(tmp_path, problem, text, match):
