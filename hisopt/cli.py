@@ -168,10 +168,14 @@ def droptest(
         p0_values = [float(v) for v in p0.split(",") if v.strip()]
     except ValueError:
         raise ConfigError(f"expected comma-separated numbers in Pa, e.g. 1e6,2e6,3e6; got {p0!r}", key="--p0") from None
-    if not p0_values or min(p0_values) < 0:
-        raise ConfigError(f"expected one or more precharges >= 0 Pa, got {p0!r}", key="--p0")
-    if not height > 0:
-        raise ConfigError(f"expected a drop height > 0 m, got {height!r}", key="--height")
+    from hisopt.validation import parameter_rule, plausible
+
+    if not p0_values or not parameter_rule("p0").holds(p0_values).all():
+        raise ConfigError(f"expected one or more finite precharges >= 0 Pa, got {p0!r}", key="--p0")
+    if not (height > 0 and plausible(height)):
+        raise ConfigError(f"expected a finite drop height > 0 m, got {height!r}", key="--height")
+    if measured_p0 is not None and (measured is None or not parameter_rule("p0").holds(measured_p0)):
+        raise ConfigError(f"expected a finite precharge >= 0 Pa with --measured, got {measured_p0!r}", key="--measured-p0")
     if mode not in ("linear", "nonlinear"):
         raise ConfigError(f"expected linear or nonlinear, got {mode!r}", key="--mode")
     if (measured is None) != (case is None):
@@ -536,6 +540,9 @@ def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, sche
     front = run_dir / "front.csv"
     if not front.is_file():
         refine_run(run_dir, max_points)  # raises the error that says what is missing
+    from hisopt.optim.refine import read_front, run_problem, start_designs
+
+    start_designs(run_problem(run_dir)[0], read_front(front), str(front))  # before the progress bar
     task = bar.add_task("refine", total=min(max_points, _csv_rows(front)))
     with open_backend(workers, scheduler) as backend, bar:
         result = refine_run(run_dir, max_points, client=backend.client, progress=lambda _: bar.update(task, advance=1))

@@ -329,11 +329,13 @@ class DesignCheck:
     Attributes
     ----------
     status : [-] ``(n,)`` one of ``ok``, ``out_of_bounds``, ``invalid``
-    reason : [-] ``(n,)`` why a row is flagged (empty for ``ok``)
+    reason : [-] ``(n,)`` why a row is flagged (empty for ``ok``) and what happens to it
+    detail : [-] ``(n,)`` the reason without what happens to the row
     """
 
     status: np.ndarray
     reason: np.ndarray
+    detail: np.ndarray
 
     @property
     def evaluable(self) -> np.ndarray:
@@ -380,12 +382,15 @@ def check_designs(problem: "Problem", x: np.ndarray) -> DesignCheck:
             outside[i].append(f"{name} = {col[i]:g} is above the upper bound {upper[j]:g}")
     status = np.full(n, STATUS_OK, dtype=object)
     reason = np.full(n, "", dtype=object)
+    detail = np.full(n, "", dtype=object)
     for i in range(n):
         if invalid[i]:
-            status[i], reason[i] = STATUS_INVALID, "; ".join(invalid[i]) + " (not evaluated)"
+            status[i], detail[i] = STATUS_INVALID, "; ".join(invalid[i])
+            reason[i] = detail[i] + " (not evaluated)"
         elif outside[i]:
-            status[i], reason[i] = STATUS_OUT_OF_BOUNDS, "; ".join(outside[i]) + " of [variables] (evaluated, not feasible)"
-    return DesignCheck(status, reason)
+            status[i], detail[i] = STATUS_OUT_OF_BOUNDS, "; ".join(outside[i]) + " of [variables]"
+            reason[i] = detail[i] + " (evaluated, not feasible)"
+    return DesignCheck(status, reason, detail)
 
 
 def require_admissible(problem: "Problem", x: np.ndarray, source: str | None = None) -> None:
@@ -393,7 +398,7 @@ def require_admissible(problem: "Problem", x: np.ndarray, source: str | None = N
     ok = admissible(problem, x)
     if not ok.all():
         i = int(np.flatnonzero(~ok)[0])
-        reason = check_designs(problem, np.asarray(x, dtype=float)[i : i + 1]).reason[0].removesuffix(" (not evaluated)")
+        reason = check_designs(problem, np.asarray(x, dtype=float)[i : i + 1]).detail[0]
         where = f"design row {i + 1}" if len(ok) > 1 else "design"
         raise ConfigError(f"{where}: {reason}", file=source)
 

@@ -179,3 +179,33 @@ def test_real_process_one_line_and_exit_2(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "hisopt", "evaluate", str(path)], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith(f"error: {path}: vehicle.m_s")
+
+
+def test_refinement_start_points_are_checked_like_every_design(tmp_path):
+    run = tmp_path / "run"
+    assert run_cli("optimize", DEFAULT_PROBLEM, "--out", run, "--pop", "8", "--gens", "2").code == 0
+    front = read_csv(run / "front.csv")
+    front.loc[len(front) - 1, "lam"] = 1.5
+    from hisopt.io import write_csv
+
+    write_csv(front, run / "front.csv")
+    assert_one_line(run_cli("refine", run, "--max-points", "2"), f"{run / 'front.csv'}: row {len(front)}: lam = 1.5 breaks 0 < lam < 1")
+
+
+@pytest.mark.parametrize(
+    "args,option",
+    [
+        (("droptest", DEFAULT_PROBLEM, "--p0", "inf"), "--p0"),
+        (("droptest", DEFAULT_PROBLEM, "--p0", "1e6", "--height", "inf"), "--height"),
+        (("droptest", DEFAULT_PROBLEM, "--p0", "1e6", "--measured-p0", "-5"), "--measured-p0"),
+        (("evaluate", DEFAULT_PROBLEM, "--designs", "DESIGNS", "--workers", "0"), "--workers"),
+        (("evaluate", DEFAULT_PROBLEM, "--designs", "DESIGNS", "--scheduler", "nonsense"), "--scheduler"),
+    ],
+)
+def test_bad_options_name_the_option(tmp_path, args, option):
+    designs = tmp_path / "d.csv"
+    designs.write_text("p0,dA,lam,Rv\n2e6,1e-3,0.5,8e5\n")
+    args = tuple(designs if a == "DESIGNS" else a for a in args)
+    if args[0] == "droptest":
+        args += ("--out", tmp_path / "dt")
+    assert_one_line(run_cli(*args), f"error: {option}:")
