@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -242,7 +243,7 @@ def _first_non_number(arr: np.ndarray, names: Sequence[str], source: str | None)
             _number(value, f"row {i + 1}, column {column}", source)
 
 
-def design_matrix(problem: "Problem", designs: Any, source: str | None = None) -> np.ndarray:
+def design_matrix(problem: Problem, designs: Any, source: str | None = None) -> np.ndarray:
     """Designs as an ``(n, n_var)`` float array, columns in the problem's variable order.
 
     Parameters
@@ -303,7 +304,7 @@ def design_matrix(problem: "Problem", designs: Any, source: str | None = None) -
     return x
 
 
-def _mapping_matrix(problem: "Problem", designs: Mapping[str, Any], source: str | None, prefix: str) -> np.ndarray:
+def _mapping_matrix(problem: Problem, designs: Mapping[str, Any], source: str | None, prefix: str) -> np.ndarray:
     names = problem.variable_names
     unknown = [k for k in designs if k not in names]
     if unknown:
@@ -348,7 +349,7 @@ class DesignCheck:
         return self.status == STATUS_OK
 
 
-def admissible(problem: "Problem", x: np.ndarray) -> np.ndarray:
+def admissible(problem: Problem, x: np.ndarray) -> np.ndarray:
     """[-] Rows whose every value is finite and obeys its parameter's rule, ``(n,)``."""
     x = np.asarray(x, dtype=float)
     ok = np.ones(x.shape[0], dtype=bool)
@@ -357,7 +358,7 @@ def admissible(problem: "Problem", x: np.ndarray) -> np.ndarray:
     return ok
 
 
-def check_designs(problem: "Problem", x: np.ndarray) -> DesignCheck:
+def check_designs(problem: Problem, x: np.ndarray) -> DesignCheck:
     """Status and reason of every row of ``x`` (n, n_var): rules first, then the box.
 
     A reason names each offending parameter, its value and the rule or bound it breaks,
@@ -365,35 +366,35 @@ def check_designs(problem: "Problem", x: np.ndarray) -> DesignCheck:
     """
     x = np.asarray(x, dtype=float)
     n = x.shape[0]
-    invalid: list[list[str]] = [[] for _ in range(n)]
-    outside: list[list[str]] = [[] for _ in range(n)]
+    invalid: dict[int, list[str]] = defaultdict(list)  # only flagged rows: no Python loop over all
+    outside: dict[int, list[str]] = defaultdict(list)
     lower, upper = problem.lower, problem.upper
     for j, name in enumerate(problem.variable_names):
         col = x[:, j]
         rule = parameter_rule(name)
-        for i in np.flatnonzero(~rule.holds(col)):
-            v = col[i]
-            invalid[i].append(f"{name} = {v:g}: {magnitude_problem(v)}" if magnitude_problem(v) else f"{name} = {v:g} breaks {rule.text}")
+        for i in map(int, np.flatnonzero(~rule.holds(col))):
+            v, problem_text = col[i], magnitude_problem(col[i])
+            invalid[i].append(f"{name} = {v:g}: {problem_text}" if problem_text else f"{name} = {v:g} breaks {rule.text}")
         with np.errstate(invalid="ignore"):
             low, high = col < lower[j], col > upper[j]
-        for i in np.flatnonzero(low):
+        for i in map(int, np.flatnonzero(low)):
             outside[i].append(f"{name} = {col[i]:g} is below the lower bound {lower[j]:g}")
-        for i in np.flatnonzero(high):
+        for i in map(int, np.flatnonzero(high)):
             outside[i].append(f"{name} = {col[i]:g} is above the upper bound {upper[j]:g}")
     status = np.full(n, STATUS_OK, dtype=object)
     reason = np.full(n, "", dtype=object)
     detail = np.full(n, "", dtype=object)
-    for i in range(n):
-        if invalid[i]:
-            status[i], detail[i] = STATUS_INVALID, "; ".join(invalid[i])
-            reason[i] = detail[i] + " (not evaluated)"
-        elif outside[i]:
-            status[i], detail[i] = STATUS_OUT_OF_BOUNDS, "; ".join(outside[i]) + " of [variables]"
-            reason[i] = detail[i] + " (evaluated, not feasible)"
+    for row in sorted(set(invalid) | set(outside)):
+        if row in invalid:
+            status[row], detail[row] = STATUS_INVALID, "; ".join(invalid[row])
+            reason[row] = detail[row] + " (not evaluated)"
+        else:
+            status[row], detail[row] = STATUS_OUT_OF_BOUNDS, "; ".join(outside[row]) + " of [variables]"
+            reason[row] = detail[row] + " (evaluated, not feasible)"
     return DesignCheck(status, reason, detail)
 
 
-def require_admissible(problem: "Problem", x: np.ndarray, source: str | None = None) -> None:
+def require_admissible(problem: Problem, x: np.ndarray, source: str | None = None) -> None:
     """Raise :class:`ConfigError` naming the first row that breaks a rule or is not finite."""
     ok = admissible(problem, x)
     if not ok.all():
@@ -447,7 +448,7 @@ def parse_assignments(items: Sequence[str] | None, option: str = "--set") -> dic
     return out
 
 
-def apply_assignments(problem: "Problem", items: Sequence[str] | None, option: str = "--set") -> "Problem":
+def apply_assignments(problem: Problem, items: Sequence[str] | None, option: str = "--set") -> Problem:
     """``problem`` with ``--set KEY=VALUE`` overrides of ``[his]`` values; a bad value is
     blamed on the option (``--set p0=abc: expected a number ...``), not on the file."""
     values = parse_assignments(items, option)

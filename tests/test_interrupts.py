@@ -44,7 +44,7 @@ def optimize(run_dir: Path, hook: str | None = None) -> subprocess.CompletedProc
         env[TEST_HOOK_ENV] = hook
     return subprocess.run(
         [sys.executable, "-m", "hisopt", "optimize", str(DEFAULT_PROBLEM), "--out", str(run_dir), *ARGS],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=300, preexec_fn=_default_sigint,
+        check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300, preexec_fn=_default_sigint,
     )
 
 
@@ -133,7 +133,7 @@ def test_resume_refuses_a_run_that_is_still_running(tmp_path, reference):
     info = json.loads((run_dir / "run.json").read_text())
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        from hisopt.optim.runstate import process_identity, _start_time
+        from hisopt.optim.runstate import _start_time, process_identity
 
         info["process"] = process_identity() | {"pid": sleeper.pid, "start": _start_time(sleeper.pid)}
         (run_dir / "run.json").write_text(json.dumps(info))

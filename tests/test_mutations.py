@@ -34,7 +34,7 @@ from hisopt.io import read_csv
 from tests.cli_inprocess import Outcome, run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
-N_PROBLEMS = int(os.environ.get("HISOPT_MUTATIONS", 400))
+N_PROBLEMS = int(os.environ.get("HISOPT_MUTATIONS", "400"))
 COUNTS: dict[str, collections.Counter] = {"problem files": collections.Counter(), "design files": collections.Counter()}
 SCRATCH = Path(os.environ.get("HISOPT_MUTATION_DIR", "/tmp")) / f"hisopt-mutations-{os.getpid()}"
 
