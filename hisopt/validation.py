@@ -51,10 +51,12 @@ DESIGN_PARAMETER_MODEL: type[BaseModel] = RollPlaneHIS
 """The pydantic model whose scalar fields are the possible design variables."""
 
 MAGNITUDE_RANGE = (1e-15, 1e15)
-"""[SI units] Smallest and largest magnitude of any non-zero number hisopt accepts, in a problem
-file, an option or a design. Every physical value of a vehicle with HIS lies well inside (a
-chamber volume of 1e-6 m^3, a bulk modulus of 1.5e9 Pa); outside it a value is an exponent
-typo (2e60 for 2e6), and products of such values overflow or underflow in the model."""
+"""[SI units] Smallest and largest magnitude of a non-zero number in a problem file or an
+option (``--set``); designs (rows, arrays) only have the upper limit, since optimisers
+produce values like 1e-154 next to a zero bound. Every physical value of a vehicle with HIS
+lies well inside (a chamber volume of 1e-6 m^3, a bulk modulus of 1.5e9 Pa); outside it a
+value is an exponent typo (2e60 for 2e6), and products of such values overflow or underflow
+in the model."""
 
 NOT_DESIGN_VARIABLES = ("chamber_volume",)
 """Scalar ``[his]`` fields the model builder reads from the fixed table only (a design
@@ -82,9 +84,9 @@ class Rule:
     upper_closed: bool = True
 
     def holds(self, values: Any) -> np.ndarray:
-        """[-] Whether each value is finite, of plausible magnitude and obeys the rule (NaN never does)."""
+        """[-] Whether each value is finite, at most 1e15 in magnitude and obeys the rule (NaN never does)."""
         v = np.asarray(values, dtype=float)
-        ok = plausible(v)
+        ok = plausible(v, tiny=False)
         with np.errstate(invalid="ignore"):
             if self.lower is not None:
                 ok &= v >= self.lower if self.lower_closed else v > self.lower
@@ -106,18 +108,22 @@ class Rule:
         return f"{self.name} finite"
 
 
-def plausible(values: Any) -> np.ndarray:
-    """[-] Finite values that are zero or of a magnitude within :data:`MAGNITUDE_RANGE`."""
+def plausible(values: Any, tiny: bool = True) -> np.ndarray:
+    """[-] Finite values of a magnitude up to ``MAGNITUDE_RANGE[1]`` and, with ``tiny``, zero or
+    at least ``MAGNITUDE_RANGE[0]`` (:data:`MAGNITUDE_RANGE`)."""
     v = np.abs(np.asarray(values, dtype=float))
     with np.errstate(invalid="ignore"):
-        return np.isfinite(v) & ((v == 0) | ((v >= MAGNITUDE_RANGE[0]) & (v <= MAGNITUDE_RANGE[1])))
+        ok = np.isfinite(v) & (v <= MAGNITUDE_RANGE[1])
+        return ok & ((v == 0) | (v >= MAGNITUDE_RANGE[0])) if tiny else ok
 
 
-def magnitude_problem(value: float) -> str | None:
+def magnitude_problem(value: float, tiny: bool = True) -> str | None:
     """What is wrong with a number that is not :func:`plausible` (None if it is)."""
     if not math.isfinite(value):
         return "expected a finite number"
-    if not plausible(value):
+    if not plausible(value, tiny):
+        if not tiny:
+            return f"expected a magnitude of at most {MAGNITUDE_RANGE[1]:g} (SI units; an exponent typo?)"
         return f"expected zero or a magnitude between {MAGNITUDE_RANGE[0]:g} and {MAGNITUDE_RANGE[1]:g} (SI units; an exponent typo?)"
     return None
 
@@ -373,7 +379,7 @@ def check_designs(problem: Problem, x: np.ndarray) -> DesignCheck:
         col = x[:, j]
         rule = parameter_rule(name)
         for i in map(int, np.flatnonzero(~rule.holds(col))):
-            v, problem_text = col[i], magnitude_problem(col[i])
+            v, problem_text = col[i], magnitude_problem(col[i], tiny=False)
             invalid[i].append(f"{name} = {v:g}: {problem_text}" if problem_text else f"{name} = {v:g} breaks {rule.text}")
         with np.errstate(invalid="ignore"):
             low, high = col < lower[j], col > upper[j]
