@@ -740,7 +740,9 @@ def optimize(
     RunError
         ``out`` cannot be written or already holds a run (checked before any work).
     KeyboardInterrupt
-        After Ctrl-C, once the checkpoint and partial outputs are written (with ``out``).
+        After Ctrl-C or SIGTERM (:class:`hisopt.interrupt.Interrupted`, in the main thread),
+        once the checkpoint and partial outputs are written and ``run.json`` says
+        ``interrupted`` (with ``out``). Any other error marks the run ``failed`` and propagates.
     """
     from hisopt.problem import Problem, load_problem
 
