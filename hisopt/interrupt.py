@@ -95,13 +95,14 @@ def deferred() -> Iterator[None]:
     """Hold SIGINT/SIGTERM until the block ends, then raise :class:`Interrupted` for the last
     one that arrived (only where :func:`signals_as_interrupts` is active)."""
     _state["defer"] = int(_state["defer"]) + 1  # type: ignore[call-overload]
+    pending = None
     try:
         yield
     finally:
         _state["defer"] = int(_state["defer"]) - 1  # type: ignore[call-overload]
-    pending = _state["pending"]
-    if pending is not None and _state["defer"] == 0:
-        _state["pending"] = None
+        if _state["defer"] == 0:  # cleared even when the block raised, so it never fires later
+            pending, _state["pending"] = _state["pending"], None
+    if pending is not None:
         raise Interrupted(int(pending))  # type: ignore[call-overload]
 
 

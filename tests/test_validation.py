@@ -180,3 +180,24 @@ def test_unreadable_design_files_name_file_line_and_column(tmp_path, problem, te
     with pytest.raises(hisopt.ConfigError, match=match) as info:
         read_designs(path, problem.variable_names)
     assert str(info.value).startswith(str(path)) and "\n" not in str(info.value)
+
+
+def test_deferred_signals_wait_for_the_block_and_never_leak():
+    import os
+    import signal
+
+    from hisopt import interrupt
+
+    with interrupt.signals_as_interrupts():
+        with pytest.raises(interrupt.Interrupted) as info:
+            with interrupt.deferred():
+                os.kill(os.getpid(), signal.SIGTERM)
+                done = True  # the block runs to its end first
+        assert done and info.value.exit_code == 143 and info.value.name == "SIGTERM"
+        with pytest.raises(ValueError):  # a block that fails: the held signal is dropped with it
+            with interrupt.deferred():
+                os.kill(os.getpid(), signal.SIGINT)
+                raise ValueError("write failed")
+        with interrupt.deferred():
+            pass  # nothing left over from the failed block
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
