@@ -755,7 +755,7 @@ def optimize(
     if run_dir is not None:
         name, raw, record = problem_copy(problem)
         runio.atomic_write_bytes(run_dir / name, raw)
-        info = {"format": "hisopt-run/1", "status": "starting", "created": _now(), "problem": record}
+        info = {"format": "hisopt-run/1", "status": runstate.STARTING, "created": _now(), "problem": record}  # written as running
     reference = reference_point(problem)
     engine = _Engine(problem, settings, reference)
     engine.session_start = started

@@ -1,8 +1,8 @@
 """What state a run directory is in, in one line that says what to do next.
 
-``run.json`` records a ``status``:
+``run.json`` is written when the first generation begins (a run killed before that leaves a
+directory without it, which ``hisopt optimize --out`` may reuse) and records a ``status``:
 
-- ``starting``: the directory and ``run.json`` exist, the first generation has not begun;
 - ``running``: a process is working on it (``process``: pid, host and start time);
 - ``interrupted``: Ctrl-C (SIGINT) or SIGTERM stopped it after saving the checkpoint;
 - ``failed``: an error stopped it (``failure``: time, generation, error; ``repeated`` when a
@@ -10,7 +10,8 @@
 - ``finished``: every generation is done and all files are written.
 
 A process killed with SIGKILL (or a power cut) cannot update ``run.json``: its status stays
-``running`` or ``starting`` while the recorded process is gone. :func:`read_state` reports such
+``running`` while the recorded process is gone (``starting``, which older runs may record,
+is treated alike). :func:`read_state` reports such
 a run as ``killed``. Every state but ``finished`` and a live ``running`` can be continued with
 ``hisopt resume``; starting over means another ``--out`` (or deleting the directory).
 """
