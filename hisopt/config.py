@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
-from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file
+from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
 OBJECTIVE_NAMES = tuple(METRICS)
@@ -151,7 +151,7 @@ class ProblemSpec(_Strict):
         for name, var in self.variables.items():
             if name not in allowed:
                 raise ValueError(f"variables.{name}: not a design parameter of [his]; expected one of {', '.join(allowed)}")
-            problem = bounds_problem(name, var.lower, var.upper)
+            problem = bounds_problem(name, var.lower, var.upper) or switched_off(name, self.his)
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
         return self

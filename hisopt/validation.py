@@ -58,9 +58,10 @@ lies well inside (a chamber volume of 1e-6 m^3, a bulk modulus of 1.5e9 Pa); out
 value is an exponent typo (2e60 for 2e6), and products of such values overflow or underflow
 in the model."""
 
-NOT_DESIGN_VARIABLES = ("chamber_volume",)
-"""Scalar ``[his]`` fields the model builder reads from the fixed table only (a design
-variable of that name would be silently ignored)."""
+STRUCTURAL_SWITCHES = {"chamber_volume": "the chamber compliances"}
+"""Scalar ``[his]`` fields whose fixed value 0 leaves an element out of the network (the
+layout is compiled from ``[his]``): a design variable of that name needs a non-zero
+``[his]`` value, or it would be silently ignored."""
 
 
 # --- physical rules, read from the pydantic fields ------------------------------------------
@@ -165,10 +166,18 @@ def parameter_rule(name: str, model: type[BaseModel] = DESIGN_PARAMETER_MODEL) -
 
 
 def design_parameters(model: type[BaseModel] = DESIGN_PARAMETER_MODEL) -> tuple[str, ...]:
-    """[-] Fields that may be design variables: the scalar float fields the model reads per design."""
-    return tuple(
-        k for k, f in model.model_fields.items() if f.annotation in (float, float | None) and k not in NOT_DESIGN_VARIABLES
-    )
+    """[-] Fields that may be design variables: the scalar float fields of ``[his]``."""
+    return tuple(k for k, f in model.model_fields.items() if f.annotation in (float, float | None))
+
+
+def switched_off(name: str, his: BaseModel) -> str | None:
+    """Why design variable ``name`` would do nothing with these fixed ``[his]`` values (None: it acts)."""
+    if name in STRUCTURAL_SWITCHES and not getattr(his, name):
+        return (
+            f"expected a non-zero [his] {name} when {name} is a design variable: with {name} = 0 "
+            f"{STRUCTURAL_SWITCHES[name]} are left out of the model, so the variable would do nothing"
+        )
+    return None
 
 
 def bounds_problem(name: str, lower: float, upper: float) -> str | None:

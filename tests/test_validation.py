@@ -41,7 +41,22 @@ def test_rules_are_the_pydantic_field_rules():
     assert parameter_rule("lam").text == "0 < lam < 1"
     assert parameter_rule("p0").text == "p0 >= 0"
     assert parameter_rule("dA").text == "dA > 0"
-    assert "chamber_volume" not in design_parameters()  # the model builder reads it from [his] only
+
+
+
+def test_a_design_variable_that_would_do_nothing_is_refused(problem):
+    import tomllib
+
+    from tests.conftest import DEFAULT_PROBLEM
+
+    data = tomllib.loads(DEFAULT_PROBLEM.read_text())
+    data["variables"]["chamber_volume"] = {"lower": 1e-4, "upper": 3e-4}
+    with pytest.raises(hisopt.ConfigError, match=r"variables.chamber_volume: expected a non-zero \[his\] chamber_volume"):
+        hisopt.problem.problem_from_dict(data, "my.toml")
+    data["his"]["chamber_volume"] = 2e-4  # the chambers are in the model: the variable acts
+    p = hisopt.problem.problem_from_dict(data, "my.toml")
+    q = p.evaluator()(np.array([BASE + [1e-4], BASE + [3e-4]]))
+    assert q["valid"].all() and q["sigma_aw"][0] != q["sigma_aw"][1]
 
 
 def test_check_designs_flags_each_row_with_a_reason(problem):
