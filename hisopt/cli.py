@@ -383,6 +383,9 @@ def optimize_cmd(
         while out.exists():
             suffix += 1
             out = Path("runs") / f"{p.name}-{stamp}-{suffix}"
+    from hisopt.optim.runstate import refuse_occupied
+
+    refuse_occupied(out)  # says what state a run already there is in
     prepare_run_directory(out, fresh=True)  # fail before any work
     typer.echo(
         f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
@@ -406,9 +409,10 @@ def optimize_cmd(
 def resume_cmd(
     run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of an interrupted `hisopt optimize`")],
 ) -> None:
-    """Continue an interrupted, killed or failed run from its last checkpoint.
+    """Continue an interrupted run from its last checkpoint.
 
-    The final front is the one an uninterrupted run with the same seed gives.
+    The run may have been interrupted (Ctrl-C, SIGTERM), killed or stopped by an error. The
+    final front is the one an uninterrupted run with the same seed gives.
     """
     from hisopt.optim.run import prepare_resume, run_with_console
 

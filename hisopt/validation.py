@@ -28,7 +28,7 @@ from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -37,8 +37,27 @@ from pydantic import BaseModel
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
-if TYPE_CHECKING:
-    from hisopt.problem import Problem
+
+
+class DesignSpace(Protocol):
+    """What the checks need of a problem (:class:`hisopt.problem.Problem` has it)."""
+
+    @property
+    def variable_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def lower(self) -> np.ndarray: ...
+
+    @property
+    def upper(self) -> np.ndarray: ...
+
+    @property
+    def baseline(self) -> np.ndarray: ...
+
+    def with_values(self, **values: Any) -> Any: ...
+
+
+P = TypeVar("P", bound=DesignSpace)
 
 STATUS_OK = "ok"
 STATUS_OUT_OF_BOUNDS = "out_of_bounds"
@@ -258,7 +277,7 @@ def _first_non_number(arr: np.ndarray, names: Sequence[str], source: str | None)
             _number(value, f"row {i + 1}, column {column}", source)
 
 
-def design_matrix(problem: Problem, designs: Any, source: str | None = None) -> np.ndarray:
+def design_matrix(problem: DesignSpace, designs: Any, source: str | None = None) -> np.ndarray:
     """Designs as an ``(n, n_var)`` float array, columns in the problem's variable order.
 
     Parameters
@@ -319,7 +338,7 @@ def design_matrix(problem: Problem, designs: Any, source: str | None = None) -> 
     return x
 
 
-def _mapping_matrix(problem: Problem, designs: Mapping[str, Any], source: str | None, prefix: str) -> np.ndarray:
+def _mapping_matrix(problem: DesignSpace, designs: Mapping[str, Any], source: str | None, prefix: str) -> np.ndarray:
     names = problem.variable_names
     unknown = [k for k in designs if k not in names]
     if unknown:
@@ -364,7 +383,7 @@ class DesignCheck:
         return self.status == STATUS_OK
 
 
-def admissible(problem: Problem, x: np.ndarray) -> np.ndarray:
+def admissible(problem: DesignSpace, x: np.ndarray) -> np.ndarray:
     """[-] Rows whose every value is finite and obeys its parameter's rule, ``(n,)``."""
     x = np.asarray(x, dtype=float)
     ok = np.ones(x.shape[0], dtype=bool)
@@ -373,7 +392,7 @@ def admissible(problem: Problem, x: np.ndarray) -> np.ndarray:
     return ok
 
 
-def check_designs(problem: Problem, x: np.ndarray) -> DesignCheck:
+def check_designs(problem: DesignSpace, x: np.ndarray) -> DesignCheck:
     """Status and reason of every row of ``x`` (n, n_var): rules first, then the box.
 
     A reason names each offending parameter, its value and the rule or bound it breaks,
@@ -409,7 +428,7 @@ def check_designs(problem: Problem, x: np.ndarray) -> DesignCheck:
     return DesignCheck(status, reason, detail)
 
 
-def require_admissible(problem: Problem, x: np.ndarray, source: str | None = None) -> None:
+def require_admissible(problem: DesignSpace, x: np.ndarray, source: str | None = None) -> None:
     """Raise :class:`ConfigError` naming the first row that breaks a rule or is not finite."""
     ok = admissible(problem, x)
     if not ok.all():
@@ -463,7 +482,7 @@ def parse_assignments(items: Sequence[str] | None, option: str = "--set") -> dic
     return out
 
 
-def apply_assignments(problem: Problem, items: Sequence[str] | None, option: str = "--set") -> Problem:
+def apply_assignments(problem: P, items: Sequence[str] | None, option: str = "--set") -> P:
     """``problem`` with ``--set KEY=VALUE`` overrides of ``[his]`` values; a bad value is
     blamed on the option (``--set p0=abc: expected a number ...``), not on the file."""
     values = parse_assignments(items, option)

@@ -749,6 +749,8 @@ def optimize(
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
     settings = resolve_settings(problem, algorithm=algorithm, pop_size=pop_size, generations=generations, seed=seed)
+    if out is not None:
+        runstate.refuse_occupied(out)
     run_dir = None if out is None else runio.prepare_run_directory(Path(out), fresh=True)
     started = time.perf_counter()
     info: dict[str, Any] | None = None

@@ -207,3 +207,16 @@ def interrupted_line(run_dir: Path, exc: BaseException) -> str:
             f"Resume with: hisopt resume {run_dir}"
         )
     return f"interrupted by {name}; {state.line()}"
+
+
+def refuse_occupied(run_dir: str | Path) -> None:
+    """Raise :class:`RunError` if ``run_dir`` holds a run, saying what state it is in and how
+    to continue it or start over (called before a new run claims ``--out``)."""
+    run_dir = Path(run_dir)
+    if not (run_dir / runio.RUN_JSON).exists():
+        return
+    try:
+        line = read_state(run_dir).line().removeprefix(f"{run_dir}: ")
+    except RunError as exc:
+        line = str(exc).removeprefix(f"{run_dir}: ")
+    raise RunError(f"--out {run_dir} already holds a run: {line}; to start over choose another --out or delete {run_dir}")
