@@ -66,14 +66,14 @@ def _check_variable(problem: "Problem", name: str, option: str) -> None:
 
 
 SWEEP_MAX_POINTS = 1000
-"""Most points of a sweep: a line resolving 0.1 % of the range. Each point is a modal analysis
-(about 45 ms) and holds about 0.4 MB until the batch ends, so 1000 points take about 45 s and
-0.5 GB on a laptop core; larger requests are refused up front rather than streamed, since
-no figure or CSV reader gains from them."""
+"""Most points of a sweep: a line resolving 0.1 % of the range. All points are one batch
+holding about 0.9 MB each, so 1000 points take about 10 s and 0.9 GB on a 2-core machine;
+larger requests are refused up front rather than streamed, since no figure or CSV reader
+gains from them."""
 
 REGIONS_MAX_POINTS = 300
-"""Most grid values per variable of a regions map: 300^2 = 90,000 designs, about 1.5 min of
-evaluation on a laptop core; finer than any contour figure shows."""
+"""Most grid values per variable of a regions map: 300^2 = 90,000 designs, about 25 s and
+0.4 GB on a 2-core machine; finer than any contour figure shows."""
 
 
 def _check_points(points: int, least: int = 2, most: int | None = None, what: str = "grid points") -> None:
@@ -84,10 +84,10 @@ def _check_points(points: int, least: int = 2, most: int | None = None, what: st
 
 
 _LIMIT_REASON = {
-    "sweep points": f"{SWEEP_MAX_POINTS} resolve 0.1 % of the range and take about 45 s and 0.5 GB (see hisopt.sweeps.SWEEP_MAX_POINTS)",
+    "sweep points": f"{SWEEP_MAX_POINTS} resolve 0.1 % of the range and take about 10 s and 0.9 GB (see hisopt.sweeps.SWEEP_MAX_POINTS)",
     "grid values per variable": (
-        f"{REGIONS_MAX_POINTS}^2 = {REGIONS_MAX_POINTS**2:,} designs take about 1.5 min; narrow the [variables] bounds "
-        "for a finer map (see hisopt.sweeps.REGIONS_MAX_POINTS)"
+        f"{REGIONS_MAX_POINTS}^2 = {REGIONS_MAX_POINTS**2:,} designs take about 25 s and 0.4 GB; narrow the [variables] "
+        "bounds for a finer map (see hisopt.sweeps.REGIONS_MAX_POINTS)"
     ),
 }
 
