@@ -70,29 +70,12 @@ def _main(
     _DEBUG["on"] = debug
 
 
-def parse_assignments(items: list[str] | None) -> dict[str, float | str]:
-    """``["p0=3e6", "pipe_model=distributed"]`` -> ``{"p0": 3e6, "pipe_model": "distributed"}``."""
-    from hisopt.errors import ConfigError
-
-    out: dict[str, float | str] = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ConfigError(f"expected KEY=VALUE, got {item!r}", key="--set")
-        try:
-            out[key.strip()] = float(value)
-        except ValueError:
-            out[key.strip()] = value.strip()
-    return out
-
-
 def load(problem: Path, sets: list[str] | None):
-    """Load a problem file and apply ``--set`` overrides."""
+    """Load a problem file and apply ``--set`` overrides (:func:`hisopt.validation.apply_assignments`)."""
     from hisopt.problem import load_problem
+    from hisopt.validation import apply_assignments
 
-    p = load_problem(problem)
-    overrides = parse_assignments(sets)
-    return p.with_values(**overrides) if overrides else p
+    return apply_assignments(load_problem(problem), sets)
 
 
 @app.command()
@@ -185,10 +168,14 @@ def droptest(
         p0_values = [float(v) for v in p0.split(",") if v.strip()]
     except ValueError:
         raise ConfigError(f"expected comma-separated numbers in Pa, e.g. 1e6,2e6,3e6; got {p0!r}", key="--p0") from None
-    if not p0_values or min(p0_values) < 0:
-        raise ConfigError(f"expected one or more precharges >= 0 Pa, got {p0!r}", key="--p0")
-    if not height > 0:
-        raise ConfigError(f"expected a drop height > 0 m, got {height!r}", key="--height")
+    from hisopt.validation import parameter_rule, plausible
+
+    if not p0_values or not parameter_rule("p0").holds(p0_values).all():
+        raise ConfigError(f"expected one or more finite precharges >= 0 Pa, got {p0!r}", key="--p0")
+    if not (height > 0 and plausible(height)):
+        raise ConfigError(f"expected a finite drop height > 0 m, got {height!r}", key="--height")
+    if measured_p0 is not None and (measured is None or not parameter_rule("p0").holds(measured_p0)):
+        raise ConfigError(f"expected a finite precharge >= 0 Pa with --measured, got {measured_p0!r}", key="--measured-p0")
     if mode not in ("linear", "nonlinear"):
         raise ConfigError(f"expected linear or nonlinear, got {mode!r}", key="--mode")
     if (measured is None) != (case is None):
@@ -247,37 +234,38 @@ def evaluate(
     """Objectives and constraints of the baseline or a CSV file.
 
     Without --designs, of the problem's baseline design; with it, of every row. The
-    table shows the first 20 designs; --out writes them all.
+    table shows the first 20 designs; --out writes them all. A row that breaks a
+    parameter's rule or is not finite is not evaluated, a row outside the [variables] box
+    is; both are flagged in the status and reason columns, never feasible, and counted in
+    one warning line.
     """
-    import pandas as pd
     from rich.console import Console
 
+    from hisopt.designs import read_designs
     from hisopt.errors import ConfigError
-    from hisopt.io import read_csv, write_csv
+    from hisopt.evaluate import evaluate_problem
+    from hisopt.io import ensure_writable_file, write_csv
+    from hisopt.validation import flag_summary
 
     p = load(problem, set_)
+    if out is not None:
+        ensure_writable_file(out, "--out")  # fail before any work
     if designs is not None:
-        if not designs.is_file():
-            raise ConfigError(f"designs file not found (expected a CSV with columns {', '.join(p.variable_names)})", file=str(designs))
-        try:
-            frame = read_csv(designs)  # a units row, as hisopt writes, is skipped
-        except (ValueError, pd.errors.ParserError) as exc:
-            raise ConfigError(f"unreadable CSV ({exc})", file=str(designs)) from None
-        missing = [n for n in p.variable_names if n not in frame.columns]
-        if missing:
-            raise ConfigError(f"missing column {missing[0]!r}; expected columns {', '.join(p.variable_names)}", file=str(designs))
-        try:
-            x = frame[list(p.variable_names)].to_numpy(dtype=float)
-        except ValueError:
-            raise ConfigError("design columns must be numeric", file=str(designs)) from None
-        from hisopt.parallel import evaluate_designs, open_backend
+        frame = read_designs(designs, p.variable_names)
+        from hisopt.parallel import open_backend
 
         with open_backend(workers, scheduler) as backend:
-            result = p.results_frame(x, evaluate_designs(p, x, backend))
+            result = evaluate_problem(p, frame, backend=backend, source=str(designs), log=False)
     else:
-        result = p.evaluate(p.baseline)
+        result = evaluate_problem(p, p.baseline, log=False)
+    summary = flag_summary(result["status"], str(designs) if designs is not None else "baseline design")
+    if summary:
+        typer.echo(f"warning: {summary}", err=True)
     if out is not None:
-        write_csv(result, out)
+        try:
+            write_csv(result, out)
+        except OSError as exc:
+            raise ConfigError(f"cannot write {out} ({exc.strerror or exc})", key="--out") from None
         typer.echo(f"wrote {len(result)} designs to {out}")
     if designs is None or out is None:
         from hisopt.units import display_frame
@@ -395,6 +383,9 @@ def optimize_cmd(
         while out.exists():
             suffix += 1
             out = Path("runs") / f"{p.name}-{stamp}-{suffix}"
+    from hisopt.optim.runstate import refuse_occupied
+
+    refuse_occupied(out)  # says what state a run already there is in
     prepare_run_directory(out, fresh=True)  # fail before any work
     typer.echo(
         f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
@@ -406,6 +397,7 @@ def optimize_cmd(
         total=settings.generations,
         done=0,
         run_dir=out,
+        debug=_DEBUG["on"],
     )
     if code:
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
@@ -417,25 +409,36 @@ def optimize_cmd(
 def resume_cmd(
     run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of an interrupted `hisopt optimize`")],
 ) -> None:
-    """Continue an interrupted optimisation from its last checkpoint.
+    """Continue an interrupted run from its last checkpoint.
 
-    The final front is the one an uninterrupted run with the same seed gives.
+    The run may have been interrupted (Ctrl-C, SIGTERM), killed or stopped by an error. The
+    final front is the one an uninterrupted run with the same seed gives.
     """
-    import json
+    from hisopt.optim.run import prepare_resume, run_with_console
 
-    from hisopt.errors import RunError
-    from hisopt.optim.run import resume, run_with_console
-    from hisopt.optim.runio import RUN_JSON, checkpoint_generation
-
-    info_path = run_dir / RUN_JSON
-    if not info_path.is_file():
-        raise RunError(f"{run_dir}: not a run directory (no {RUN_JSON}); start a run with `hisopt optimize`")
-    total = int(json.loads(info_path.read_text(encoding="utf-8")).get("settings", {}).get("generations", 0))
-    done = checkpoint_generation(run_dir)
-    typer.echo(f"resuming {run_dir} at generation {done} of {total}", err=True)
-    code = run_with_console(lambda update: resume(run_dir, progress=update), total=total, done=done, run_dir=run_dir)
+    plan = prepare_resume(run_dir)  # every check before any output
+    if plan.finished:
+        typer.echo(f"{plan.state.line()}; nothing to resume", err=True)
+        return
+    state = plan.state
+    typer.echo(f"resuming {run_dir} at generation {state.generation} of {state.generations}", err=True)
+    code = run_with_console(plan.run, total=state.generations, done=state.generation, run_dir=run_dir, debug=_DEBUG["on"])
     if code:
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
+
+
+@app.command("status")
+def status_cmd(
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
+) -> None:
+    """Say in one line what state a run directory is in.
+
+    The state is running, interrupted, killed, failed or finished, and the line says what
+    to do next: resume the run, wait for it, or start over with another --out.
+    """
+    from hisopt.optim.runstate import read_state
+
+    typer.echo(read_state(run_dir).line())
 
 
 @app.command()
@@ -541,6 +544,9 @@ def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, sche
     front = run_dir / "front.csv"
     if not front.is_file():
         refine_run(run_dir, max_points)  # raises the error that says what is missing
+    from hisopt.optim.refine import read_front, run_problem, start_designs
+
+    start_designs(run_problem(run_dir)[0], read_front(front), str(front))  # before the progress bar
     task = bar.add_task("refine", total=min(max_points, _csv_rows(front)))
     with open_backend(workers, scheduler) as backend, bar:
         result = refine_run(run_dir, max_points, client=backend.client, progress=lambda _: bar.update(task, advance=1))

@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
+from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
 OBJECTIVE_NAMES = tuple(METRICS)
@@ -26,7 +27,7 @@ ROAD_CLASSES = ("A", "B", "C", "D", "E", "F", "G", "H")
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Variable(_Strict):
@@ -51,7 +52,7 @@ class Road(_Strict):
     speed: float = Field(10.0, gt=0, description="[m/s] vehicle speed")
     coherence: Literal["independent", "isotropic"] = "independent"
 
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, allow_inf_nan=False)
 
 
 class Band(_Strict):
@@ -124,22 +125,35 @@ class ProblemSpec(_Strict):
             raise ValueError(f"unknown objective {unknown[0]!r}; expected names from {', '.join(OBJECTIVE_NAMES)}")
         if not v:
             raise ValueError("expected at least one objective")
+        twice = [o for i, o in enumerate(v) if o in v[:i]]
+        if twice:
+            raise ValueError(f"{twice[0]!r} is listed twice; expected each objective once")
+        return v
+
+    @field_validator("constraints")
+    @classmethod
+    def _constraints_once(cls, v: list[Constraint]) -> list[Constraint]:
+        names = [c.name for c in v]
+        twice = [n for i, n in enumerate(names) if n in names[:i]]
+        if twice:
+            raise ValueError(f"{twice[0]!r} is constrained twice; expected one [[constraints]] table per quantity")
         return v
 
     @model_validator(mode="after")
     def _variables_are_his_fields(self) -> "ProblemSpec":
-        scalar = {k for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)}
+        # The rules come from RollPlaneHIS's fields (hisopt.validation), not from a list here.
+        allowed = design_parameters()
+        if not self.variables:  # also for a file without [variables] (defaults are not validated)
+            raise ValueError(
+                "variables: expected at least one design variable, e.g. [variables] p0 = { lower = 0.0, upper = 4.0e6 } "
+                "(see problems/roll_plane_his.toml)"
+            )
         for name, var in self.variables.items():
-            if name not in scalar:
-                raise ValueError(
-                    f"variables.{name!r}: not a numeric [his] parameter; expected one of {', '.join(sorted(scalar))}"
-                )
-            if name in ("lam", "lam_rear") and not (0 < var.lower and var.upper < 1):
-                raise ValueError(f"variables.{name}: bounds must lie inside (0, 1), got [{var.lower}, {var.upper}]")
-            if name in ("dA", "dA_rear", "V0") and var.lower <= 0:
-                raise ValueError(f"variables.{name}: lower bound must be > 0, got {var.lower}")
-            if name in ("p0", "Rv", "Rv_rear") and var.lower < 0:
-                raise ValueError(f"variables.{name}: lower bound must be >= 0, got {var.lower}")
+            if name not in allowed:
+                raise ValueError(f"variables.{name}: not a design parameter of [his]; expected one of {', '.join(allowed)}")
+            problem = bounds_problem(name, var.lower, var.upper) or switched_off(name, self.his)
+            if problem:
+                raise ValueError(f"variables.{name}: {problem}")
         return self
 
 
@@ -153,33 +167,79 @@ def _short(value: Any, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def _unwrap(annotation: Any) -> Any:
+    """``PipeLayout | None`` -> ``PipeLayout``; containers (``dict[str, Variable]``) unchanged."""
+    args = [a for a in getattr(annotation, "__args__", ()) if a is not type(None)]
+    container = getattr(annotation, "__origin__", None) in (dict, list)
+    return args[0] if len(args) == 1 and not container else annotation
+
+
+def _allowed_keys(loc: tuple[Any, ...]) -> list[str]:
+    """The keys the table at ``loc`` (a pydantic error location) may hold."""
+    model: Any = ProblemSpec
+    for part in loc:
+        fields = getattr(model, "model_fields", {})
+        field = fields.get(part) or next((f for f in fields.values() if f.alias == part), None)
+        if field is not None:
+            model = _unwrap(field.annotation)
+        else:  # a variable's name or a list index: step into the item type
+            model = (getattr(model, "__args__", None) or (None,))[-1]
+    fields = getattr(model, "model_fields", None)
+    return [f.alias or name for name, f in fields.items()] if fields else []
+
+
 def _format_error(err: dict[str, Any]) -> tuple[str, str]:
     key = ".".join(_key_part(p) for p in err["loc"] if not str(p).startswith("function-"))
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
+    value = err.get("input")
     if err["type"] == "extra_forbidden":
-        msg = "unknown key (check the spelling; see problems/roll_plane_his.toml)"
-    elif "input" in err and err["type"] not in ("missing",) and not isinstance(err["input"], dict):
+        allowed = _allowed_keys(err["loc"][:-1])
+        return key, f"unknown key; expected one of {', '.join(allowed)} (check the spelling)" if allowed else "unknown key"
+    elif isinstance(value, bool) and err["type"] in ("float_type", "int_type", "float_parsing", "int_parsing"):
+        kind = "an integer" if err["type"].startswith("int") else "a number"
+        return key, f"expected {kind}, got the boolean {str(value).lower()} (booleans are not numbers)"
+    elif err["type"] == "finite_number":
+        return key, f"expected a finite number, got {value!r}"
+    elif err["type"] in ("float_type", "float_parsing", "int_type", "int_parsing", "int_from_float"):
+        kind = "an integer" if err["type"].startswith("int") else "a valid number"
+        return key, f"expected {kind}, got {_short(value)}"
+    elif err["type"] in ("model_type", "dict_type", "model_attributes_type"):
+        return key, f"expected a table (e.g. [{key}] or {{ key = value }}), got {_short(value)}"
+    elif err["type"] == "list_type":
+        return key, f"expected a list (e.g. [\"a\", \"b\"]), got {_short(value)}"
+    elif err["type"] == "missing":
+        return key, "missing; expected a value (see problems/roll_plane_his.toml)"
+    msg = msg.replace("Input should be ", "expected ", 1)
+    if "input" in err and not isinstance(err["input"], dict):
         msg = f"{msg}, got {_short(err['input'])}"
     return key, msg
 
 
 def parse_problem(data: dict[str, Any], source: str = "<problem>") -> ProblemSpec:
-    """Validate a problem dictionary; raise :class:`ConfigError` naming the key on failure."""
+    """Validate a problem dictionary; raise :class:`ConfigError` naming the key on failure.
+
+    Validation is strict: a number must be a TOML integer or float (a boolean or a string is
+    not a number; an integer field takes no float) and finite (no ``inf``, ``nan``, ``1e309``),
+    and every number is zero or of a magnitude within
+    :data:`hisopt.validation.MAGNITUDE_RANGE` (1e-15 to 1e15).
+    """
     try:
-        return ProblemSpec.model_validate(data)
+        spec = ProblemSpec.model_validate(data, strict=True)
     except ValidationError as exc:
         key, msg = _format_error(exc.errors()[0])
         raise ConfigError(msg, file=source, key=key or None) from None
+    found = implausible_number(data)
+    if found:
+        raise ConfigError(found[1], file=source, key=found[0])
+    return spec
 
 
 def read_problem_file(path: str | Path) -> tuple[ProblemSpec, str]:
     """Read and validate a TOML problem file; returns the spec and the file's SHA-256."""
     path = Path(path)
-    if not path.is_file():
-        raise ProblemFileNotFoundError(f"{path}: problem file not found (expected a TOML file)")
-    raw = path.read_bytes()
+    raw, text = read_file(path, "a TOML problem file", ProblemFileNotFoundError)
     try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"invalid TOML: {exc}", file=str(path)) from None
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"invalid TOML: {exc}; expected a TOML problem file like problems/roll_plane_his.toml", file=str(path)) from None
     return parse_problem(data, str(path)), hashlib.sha256(raw).hexdigest()

@@ -27,7 +27,8 @@ from hisopt.quadrature import base_edges, panel_nodes, pole_edges
 from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
-from hisopt.units import attach_units
+from hisopt.units import NO_UNIT, attach_units
+from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs, design_matrix, flag_summary
 
 if TYPE_CHECKING:
     from hisopt.model import CoupledModel
@@ -104,7 +105,7 @@ class Evaluator:
     def _chunk(self, x: np.ndarray) -> dict[str, np.ndarray]:
         n = len(x)
         out = {name: np.full(n, np.nan) for name in self.names}
-        valid = np.all(np.isfinite(x), axis=1)
+        valid = admissible(self.problem, x)  # finite and within every parameter's rule
         if not valid.any():
             return out | {"valid": valid}
         idx = np.flatnonzero(valid)
@@ -384,28 +385,65 @@ def roll_gradient(model: "CoupledModel") -> np.ndarray:
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
-def evaluate_problem(problem: "Problem", designs: Any) -> pd.DataFrame:
-    """DataFrame of designs with objective and constraint columns (docs/model.md §8.1)."""
-    x = problem.design_matrix(designs)
-    return results_frame(problem, x, problem.evaluator()(x))
+def evaluate_problem(problem: "Problem", designs: Any, *, backend: Any = None, source: str | None = None, log: bool = True) -> pd.DataFrame:
+    """DataFrame of designs with objective and constraint columns (docs/model.md §8.1).
+
+    Every row is checked first (:func:`hisopt.validation.check_designs`): an ``invalid`` row
+    (not finite, or a parameter's rule broken) is not evaluated and gets NaN results; an
+    ``out_of_bounds`` row is evaluated; neither is ever feasible. With flagged rows and
+    ``log``, one warning line counting them goes to the ``hisopt`` logger.
+
+    Parameters
+    ----------
+    problem : the problem
+    designs : [variable units] any form :func:`hisopt.validation.design_matrix` accepts
+    backend : [-] a :class:`hisopt.parallel.Backend` (Dask) or None for this process
+    source : [-] where the designs come from (named in the messages)
+    log : [-] log the warning line (the CLI prints it itself)
+    """
+    x = design_matrix(problem, designs, source)
+    if backend is None:
+        quantities = problem.evaluator()(x)
+    else:
+        from hisopt.parallel import evaluate_designs
+
+        quantities = evaluate_designs(problem, x, backend)
+    df = results_frame(problem, x, quantities)
+    summary = flag_summary(df["status"], source)
+    if summary and log:
+        import logging
+
+        logging.getLogger("hisopt").warning(summary)
+    return df
 
 
 def results_frame(problem: "Problem", designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
     """Designs and their quantities as a DataFrame.
 
     Columns: the variable names, the objective names, the constraint names (physical units,
-    each quantity once), ``feasible`` (all constraints met and the model valid); their units
-    in ``attrs["units"]``.
+    each quantity once), ``feasible`` (all constraints met, the model valid and the row
+    ``ok``), ``status`` (``ok``, ``out_of_bounds``, ``invalid``, or ``failed`` for a model
+    that is unstable or singular there) and ``reason`` (empty when ``ok``); their units in
+    ``attrs["units"]``.
     """
     x = problem.design_matrix(designs)
+    check: DesignCheck = check_designs(problem, x)
     df = pd.DataFrame(x, columns=list(problem.variable_names))
     for name in dict.fromkeys(problem.objective_names + problem.constraint_names):
         df[name] = quantities[name]
-    feasible = quantities["valid"].copy()
+    valid = np.asarray(quantities["valid"], dtype=bool)
+    feasible = valid & check.ok
     for c in problem.spec.constraints:
         feasible &= quantities[c.name] <= c.limit
     df["feasible"] = feasible
-    return attach_units(df, problem)
+    status, reason = check.status.copy(), check.reason.copy()
+    failed = check.evaluable & ~valid
+    status[failed & (status == STATUS_OK)] = STATUS_FAILED
+    for i in np.flatnonzero(failed):
+        reason[i] = "; ".join(r for r in (reason[i], "the model is unstable or singular here (NaN results)") if r)
+    df["status"] = status.astype(str)
+    df["reason"] = reason.astype(str)
+    return attach_units(df, problem, {"reason": NO_UNIT})
 
 
 def grid_quantities(problem: "Problem", designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:

@@ -127,3 +127,29 @@ def ensure_writable_dir(path: str | Path) -> Path:
     except OSError as exc:
         raise RunError(f"{path}: output directory is not writable ({exc.strerror or exc})") from None
     return path
+
+
+def ensure_writable_file(path: str | Path, option: str = "--out") -> Path:
+    """Check before any work that ``path`` can be written as a file (its folder is created).
+
+    Raises
+    ------
+    ConfigError
+        ``path`` is a directory, or its folder cannot be created or written; the message
+        names ``option`` and the path, never a temporary file.
+    """
+    from hisopt.errors import ConfigError
+
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{path} is a directory; expected the path of a file to write", key=option)
+    blocking = next((q for q in path.parents if q.exists() and not q.is_dir()), None)
+    if blocking is not None:
+        raise ConfigError(f"cannot write {path}: {blocking} is a file, not a folder", key=option)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        probe = tempfile.NamedTemporaryFile(dir=path.parent, prefix=".write-test-", delete=True)
+        probe.close()
+    except OSError as exc:
+        raise ConfigError(f"cannot write {path} ({exc.strerror or exc}); expected a file in a writable folder", key=option) from None
+    return path

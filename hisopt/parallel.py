@@ -84,7 +84,7 @@ def open_backend(workers: int | None = None, scheduler: str | None = None, clien
     if client is not None:
         yield Backend(client)
         return
-    if not workers and not scheduler:
+    if workers is None and not scheduler:  # --workers 0 is refused below, not taken as local
         yield Backend(None)
         return
     from dask.distributed import Client, LocalCluster
@@ -94,8 +94,8 @@ def open_backend(workers: int | None = None, scheduler: str | None = None, clien
     if scheduler:
         try:
             own = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
-            raise ConfigError(f"cannot reach Dask scheduler {scheduler!r} ({exc})", key="--scheduler") from None
+        except (OSError, TimeoutError, ValueError) as exc:  # ValueError: a malformed address
+            raise ConfigError(f"cannot reach Dask scheduler {scheduler!r} ({exc}); expected an address like tcp://host:8786", key="--scheduler") from None
         try:
             yield Backend(own)
         finally:

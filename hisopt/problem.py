@@ -15,6 +15,7 @@ from hisopt.errors import ConfigError
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.roll_plane import parameter_values, roll_plane_network
 from hisopt.model import CoupledModel
+from hisopt.validation import design_matrix, require_admissible
 
 if TYPE_CHECKING:
     from hisopt.evaluate import Evaluator
@@ -65,37 +66,22 @@ class Problem:
         return tuple(c.name for c in self.spec.constraints)
 
     def design_matrix(self, designs: Any) -> np.ndarray:
-        """Designs as an ``(n, n_var)`` float array.
+        """Designs as an ``(n, n_var)`` float array (:func:`hisopt.validation.design_matrix`).
 
         Accepts an array (columns in variable order), a DataFrame or a dict with the
-        variable names (missing names take the baseline value), or a single design.
+        variable names (missing names take the baseline value), a list of such dicts, or a
+        single design. Values are not checked against the rules here: see
+        :func:`hisopt.validation.check_designs`.
         """
-        names = self.variable_names
-        if isinstance(designs, pd.DataFrame):
-            missing = [n for n in names if n not in designs.columns]
-            if missing:
-                raise ConfigError(f"designs lack the column(s) {', '.join(missing)}", key=missing[0])
-            return designs[list(names)].to_numpy(dtype=float)
-        if isinstance(designs, Mapping):
-            unknown = [k for k in designs if k not in names]
-            if unknown:
-                raise ConfigError(f"unknown design variable {unknown[0]!r}; expected {', '.join(names)}", key=unknown[0])
-            cols = [np.atleast_1d(np.asarray(designs.get(n, b), dtype=float)) for n, b in zip(names, self.baseline)]
-            return np.stack(np.broadcast_arrays(*cols), axis=-1)
-        x = np.asarray(designs, dtype=float)
-        if x.ndim == 1:
-            x = x[None, :]
-        if x.ndim != 2 or x.shape[1] != len(names):
-            raise ConfigError(f"expected designs of shape (n, {len(names)}) in the order {', '.join(names)}, got {x.shape}")
-        return x
+        return design_matrix(self, designs)
 
-    def with_values(self, **values: float) -> "Problem":
-        """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``)."""
+    def with_values(self, **values: Any) -> "Problem":
+        """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``), validated like the file."""
         data = self.spec.model_dump(by_alias=True)
         for key, value in values.items():
             if key not in data["his"]:
                 raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(data['his'])}", key=key)
-            data["his"][key] = value
+            data["his"][key] = value.item() if isinstance(value, np.generic) else value
         return Problem(parse_problem(data, str(self.path or "<problem>")), self.path, self.sha256)
 
     # --- models ----------------------------------------------------------------------
@@ -107,11 +93,15 @@ class Problem:
     def model(self, designs: Any = None, his: bool = True) -> CoupledModel:
         """The coupled model for a batch of designs (batch shape ``(n,)``).
 
-        ``designs=None`` is the baseline design; ``his=False`` the reference vehicle.
+        ``designs=None`` is the baseline design; ``his=False`` the reference vehicle. A design
+        that is not finite or breaks a parameter's rule raises :class:`ConfigError` naming
+        the row and the rule.
         """
         if not his:
             return CoupledModel(self.spec.vehicle, None)
-        params = self.his_parameters(self.baseline if designs is None else designs)
+        x = self.design_matrix(self.baseline if designs is None else designs)
+        require_admissible(self, x)  # never build a model from a rule-breaking design
+        params = {n: x[:, i] for i, n in enumerate(self.variable_names)}
         return CoupledModel(self.spec.vehicle, self.hydraulic_system(params))
 
     def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
@@ -140,7 +130,8 @@ class Problem:
         return results_frame(self, designs, quantities)
 
     def evaluate(self, designs: Any) -> pd.DataFrame:
-        """Objectives and constraints of many designs (docs/model.md §8.1)."""
+        """Objectives and constraints of many designs (docs/model.md §8.1), with ``status`` and
+        ``reason`` columns flagging invalid and out-of-box rows (:func:`hisopt.evaluate.evaluate_problem`)."""
         from hisopt.evaluate import evaluate_problem
 
         return evaluate_problem(self, designs)

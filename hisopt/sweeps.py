@@ -65,9 +65,31 @@ def _check_variable(problem: "Problem", name: str, option: str) -> None:
         raise ConfigError(f"expected a design variable of {problem.name} ({', '.join(problem.variable_names)}), got {name!r}", key=option)
 
 
-def _check_points(points: int, least: int = 2) -> None:
-    if not isinstance(points, int) or points < least:
-        raise ConfigError(f"expected an integer of at least {least} grid points, got {points!r}", key="--points")
+SWEEP_MAX_POINTS = 1000
+"""Most points of a sweep: a line resolving 0.1 % of the range. All points are one batch
+holding about 0.9 MB each, so 1000 points take about 10 s and 0.9 GB on a 2-core machine;
+larger requests are refused up front rather than streamed, since no figure or CSV reader
+gains from them."""
+
+REGIONS_MAX_POINTS = 300
+"""Most grid values per variable of a regions map: 300^2 = 90,000 designs, about 25 s and
+0.4 GB on a 2-core machine; finer than any contour figure shows."""
+
+
+def _check_points(points: int, least: int = 2, most: int | None = None, what: str = "grid points") -> None:
+    if not isinstance(points, int) or isinstance(points, bool) or points < least:
+        raise ConfigError(f"expected an integer of at least {least} {what}, got {points!r}", key="--points")
+    if most is not None and points > most:
+        raise ConfigError(f"expected at most {most} {what}, got {points}; {_LIMIT_REASON[what]}", key="--points")
+
+
+_LIMIT_REASON = {
+    "sweep points": f"{SWEEP_MAX_POINTS} resolve 0.1 % of the range and take about 10 s and 0.9 GB (see hisopt.sweeps.SWEEP_MAX_POINTS)",
+    "grid values per variable": (
+        f"{REGIONS_MAX_POINTS}^2 = {REGIONS_MAX_POINTS**2:,} designs take about 25 s and 0.4 GB; narrow the [variables] "
+        "bounds for a finer map (see hisopt.sweeps.REGIONS_MAX_POINTS)"
+    ),
+}
 
 
 # --- PSD peaks -------------------------------------------------------------------------------
@@ -265,7 +287,7 @@ def sweep(
     from hisopt.parallel import Backend, chunks
 
     _check_variable(problem, vary, "--vary")
-    _check_points(points)
+    _check_points(points, most=SWEEP_MAX_POINTS, what="sweep points")
     chosen = dict(SWEEP_RESPONSES) | dict(responses or {})
     j = problem.variable_names.index(vary)
     values = np.linspace(problem.lower[j], problem.upper[j], points)
@@ -446,7 +468,7 @@ def regions(problem: "Problem", pair: tuple[str, str], points: int = 41, backend
         _check_variable(problem, name, "--pair")
     if a == b:
         raise ConfigError(f"expected two different design variables, got {a!r} twice", key="--pair")
-    _check_points(points)
+    _check_points(points, most=REGIONS_MAX_POINTS, what="grid values per variable")
     ia, ib = problem.variable_names.index(a), problem.variable_names.index(b)
     grid_x = np.linspace(problem.lower[ia], problem.upper[ia], points)
     grid_y = np.linspace(problem.lower[ib], problem.upper[ib], points)

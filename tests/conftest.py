@@ -29,3 +29,16 @@ def random_designs(problem: hisopt.Problem, n: int, rng: np.random.Generator, co
         grid = np.array(np.meshgrid(*[[0, 1]] * lo.size, indexing="ij")).reshape(lo.size, -1).T
         x = np.vstack([x, lo + (hi - lo) * grid])
     return x
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    """Print the outcome counts of the mutation corpus (tests/test_mutations.py) if it ran."""
+    import sys
+
+    module = sys.modules.get("tests.test_mutations")
+    if module is None:
+        return
+    for corpus, counts in module.COUNTS.items():
+        if counts:
+            parts = ", ".join(f"{outcome}: {n}" for outcome, n in sorted(counts.items()))
+            terminalreporter.write_line(f"mutation corpus, {corpus}: {sum(counts.values())} ({parts})")

@@ -64,11 +64,11 @@ def test_evaluate_baseline_and_designs_file(tmp_path):
     assert out.returncode == 0, out.stderr
 
     df = read_csv(results)
-    assert list(df.columns) == ["p0", "dA", "lam", "Rv", "sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "feasible"]
+    assert list(df.columns) == ["p0", "dA", "lam", "Rv", "sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "feasible", "status", "reason"]
     assert abs(df.loc[1, "sigma_aw"] / 0.4599 - 1) < 5e-3
     assert df.attrs["units"] == {
         "p0": "Pa", "dA": "m^2", "lam": "-", "Rv": "Pa s m^-3", "sigma_aw": "m/s^2", "max_roll_psd": "rad^2/Hz",
-        "max_stroke_psd": "m^2/Hz", "max_tire_load_psd": "N^2/Hz", "feasible": "-",
+        "max_stroke_psd": "m^2/Hz", "max_tire_load_psd": "N^2/Hz", "feasible": "-", "status": "-", "reason": "-",
     }  # fmt: skip
     assert results.read_text().splitlines()[1].startswith("[Pa],[m^2],[-],[Pa s m^-3],[m/s^2]")
     # The results file is a designs file again (its units row is skipped), with the same results.

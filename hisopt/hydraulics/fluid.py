@@ -8,7 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field
 class Fluid(BaseModel):
     """Incompressible-with-compliance oil used by pipes and chamber compliances."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     rho: float = Field(870.0, gt=0, description="[kg/m^3] density")
     mu: float = Field(0.03, gt=0, description="[Pa s] dynamic viscosity")

@@ -28,7 +28,7 @@ CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = 
 class PipeLayout(BaseModel):
     """A pipe from every cylinder port to its circuit node (example pipe set, docs/model.md §3.6)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     diameter: float = Field(0.010, gt=0, description="[m] inner diameter")
     length_front: float = Field(1.0, gt=0, description="[m] front port to circuit node")
@@ -41,7 +41,7 @@ class RollPlaneHIS(BaseModel):
     Rear-axle ``dA``, ``lam`` and ``Rv`` are tied to the front ones unless given.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     p0: float = Field(2.0e6, ge=0, description="[Pa] accumulator gauge precharge")
     dA: float = Field(10e-4, gt=0, description="[m^2] bore minus annulus area A_b - A_t")

@@ -522,6 +522,7 @@ def refine_front(
     client: Any = None,
     reference_log: np.ndarray | None = None,
     progress: Callable[[PointResult], None] | None = None,
+    source: str = "front",
 ) -> RefineResult:
     """Refine up to ``max_points`` designs spread over ``front`` (module docstring).
 
@@ -538,12 +539,14 @@ def refine_front(
     reference_log : [decades] hypervolume reference point; default the problem's
         (:func:`hisopt.optim.decision.reference_point`)
     progress : called with each finished :class:`PointResult` (in completion order)
+    source : [-] where the front comes from (named in errors), e.g. its file
 
     Raises
     ------
     ConfigError
         The problem is outside the CasADi model's scope, ``max_points < 1``, ``workers < 1``,
-        or the front lacks a variable or objective column.
+        the front lacks a variable or objective column, or a row is not a valid start
+        (:func:`start_designs`).
     """
     from hisopt.optim.decision import hypervolume, reference_point
 
@@ -557,8 +560,7 @@ def refine_front(
     if workers is not None and workers < 1:
         raise ConfigError(f"expected at least 1 worker, got {workers}", key="--workers")
     front = front.reset_index(drop=True)
-    f = front[names].to_numpy(dtype=float)
-    x = front[var_names].to_numpy(dtype=float)
+    x, f = start_designs(problem, front, source)
     reference = reference_point(problem) if reference_log is None else np.asarray(reference_log, dtype=float)
     chosen = select_points(f, max_points) if len(front) else np.zeros(0, dtype=int)
     weights = asf_weights(f) if len(front) else np.ones(len(names))
@@ -577,6 +579,32 @@ def refine_front(
         reference_point=reference,
         wall_time_s=time.perf_counter() - started,
     )
+
+
+def start_designs(problem: "Problem", front: pd.DataFrame, source: str = "front") -> tuple[np.ndarray, np.ndarray]:
+    """Start designs ``x`` (n, n_var) and their objectives ``f`` (n, n_obj) from a front, checked
+    by the same rules as every design (:mod:`hisopt.validation`).
+
+    Raises
+    ------
+    ConfigError
+        A row breaks a parameter's rule, lies outside the box, or has a non-finite objective
+        (the row, counted from 1, is named).
+    """
+    from hisopt.validation import check_designs, design_matrix
+
+    x = design_matrix(problem, front[list(problem.variable_names)], source)
+    f = front[list(problem.objective_names)].to_numpy(dtype=float)
+    check = check_designs(problem, x)
+    bad = np.flatnonzero(~check.ok)
+    if len(bad):
+        i = int(bad[0])
+        raise ConfigError(f"row {i + 1}: {check.detail[i]}; expected start designs inside the box", file=source)
+    bad = np.flatnonzero(~np.all(np.isfinite(f), axis=1))
+    if len(bad):
+        i = int(bad[0])
+        raise ConfigError(f"row {i + 1}: expected finite objective values, got {dict(zip(problem.objective_names, f[i].tolist()))}", file=source)
+    return x, f
 
 
 def _run_tasks(
@@ -734,7 +762,8 @@ def refine_run(
     ensure_writable_dir(run_dir)
     settings = settings or RefineSettings()
     result = refine_front(
-        problem, front, max_points, settings=settings, workers=workers, client=client, reference_log=reference, progress=progress
+        problem, front, max_points, settings=settings, workers=workers, client=client, reference_log=reference, progress=progress,
+        source=str(run_dir / runio.FRONT_CSV),
     )
     write_csv(result.front, run_dir / FRONT_REFINED_CSV)
     summary = result.summary() | {"max_points": max_points, "settings": asdict(settings)}

@@ -50,9 +50,10 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pandas as pd
 
-from hisopt.errors import ConfigError, RunError
+from hisopt import interrupt
+from hisopt.errors import ConfigError, HisoptError, RunError
 from hisopt.io import write_csv
-from hisopt.optim import runio
+from hisopt.optim import runio, runstate
 from hisopt.optim.archive import Archive
 from hisopt.optim.decision import asf_index, hypervolume, knee_index, reference_point
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
@@ -600,16 +601,6 @@ def load_run_problem(run_dir: Path, record: dict[str, Any]) -> "Problem":
     return problem_from_dict(json.loads(copy.read_text(encoding="utf-8")), str(copy))
 
 
-def _read_run_json(run_dir: Path) -> dict[str, Any]:
-    path = run_dir / runio.RUN_JSON
-    if not path.is_file():
-        raise RunError(f"{run_dir}: not a run directory (no {runio.RUN_JSON}); start a run with `hisopt optimize`")
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise RunError(f"{path}: unreadable ({exc})") from None
-
-
 def _summary(result: OptimizationResult) -> dict[str, Any]:
     out: dict[str, Any] = {
         "generations": int(len(result.generations)),
@@ -627,6 +618,7 @@ def _summary(result: OptimizationResult) -> dict[str, Any]:
 def write_outputs(run_dir: Path, result: OptimizationResult) -> None:
     """``front.csv``, the evaluations and ``generations.csv`` (each atomically)."""
     write_csv(result.front, run_dir / runio.FRONT_CSV)
+    interrupt.hook_point("final-write")
     write_csv(result.generations, run_dir / runio.GENERATIONS_CSV)
     try:
         import io
@@ -642,6 +634,8 @@ def _update_run_json(
     run_dir: Path, info: dict[str, Any], session: dict[str, Any], status: str, engine: _Engine, result: OptimizationResult
 ) -> None:
     info["status"] = status
+    if status == runstate.FINISHED:
+        info.pop("failure", None)
     session |= {
         "ended": _now(),
         "status": status,
@@ -658,36 +652,55 @@ ProgressFn = Callable[[GenerationStats], None]
 
 
 def _drive(engine: _Engine, run_dir: Path | None, info: dict[str, Any] | None, progress: ProgressFn | None) -> OptimizationResult:
-    """Run generations until done; checkpoint each; on Ctrl-C save and re-raise."""
-    session: dict[str, Any] = {"started": _now(), "start_generation": engine.generation}
-    if info is not None and run_dir is not None:
-        info.setdefault("sessions", []).append(session)
-        info["status"] = "running"
-        runio.atomic_write_json(run_dir / runio.RUN_JSON, info)
+    """Run generations until done; checkpoint each; on Ctrl-C or SIGTERM save and re-raise;
+    on an error record ``failed`` in ``run.json`` and re-raise (:mod:`hisopt.optim.runstate`)."""
+    with interrupt.signals_as_interrupts():
+        return _drive_session(engine, run_dir, info, progress)
+
+
+def _drive_session(engine: _Engine, run_dir: Path | None, info: dict[str, Any] | None, progress: ProgressFn | None) -> OptimizationResult:
+    keep = run_dir is not None and info is not None
+    session: dict[str, Any] = {"started": _now(), "start_generation": engine.generation} | runstate.process_identity()
+    if keep:
+        info.setdefault("sessions", []).append(session)  # type: ignore[union-attr]
+        info["status"], info["process"] = runstate.RUNNING, runstate.process_identity()  # type: ignore[index]
+        runio.atomic_write_json(run_dir / runio.RUN_JSON, info)  # type: ignore[operator, arg-type]
     last = engine.snapshot() if run_dir is not None else None
+    finished = False
     try:
         while engine.generation < engine.settings.generations and not engine.exhausted:
+            interrupt.hook_point(f"generation-{engine.generation + 1}")
             stats = engine.step()
             if run_dir is not None:
                 last = engine.snapshot()
                 runio.save_checkpoint(run_dir / runio.CHECKPOINT, *last)
             if stats is not None and progress is not None:
                 progress(stats)
-    except KeyboardInterrupt:
-        if run_dir is not None and info is not None and last is not None:
-            clock = engine.session_start, engine.elapsed_before
-            engine.restore(*last)  # the last complete generation, whatever was cut short
-            engine.session_start, engine.elapsed_before = clock
-            runio.save_checkpoint(run_dir / runio.CHECKPOINT, *last)
-            result = engine.result(run_dir)
-            write_outputs(run_dir, result)
-            _update_run_json(run_dir, info, session, "interrupted", engine, result)
+        result = engine.result(run_dir)
+        if keep:
+            with interrupt.deferred():  # a signal now waits until every file is written
+                write_outputs(run_dir, result)  # type: ignore[arg-type]
+                _update_run_json(run_dir, info, session, runstate.FINISHED, engine, result)  # type: ignore[arg-type]
+                finished = True
+        return result
+    except KeyboardInterrupt as exc:
+        if keep and last is not None and not finished:
+            session["signal"] = interrupt.signal_name(exc)
+            with interrupt.deferred():  # a second Ctrl-C must not cut the save short
+                clock = engine.session_start, engine.elapsed_before
+                engine.restore(*last)  # the last complete generation, whatever was cut short
+                engine.session_start, engine.elapsed_before = clock
+                runio.save_checkpoint(run_dir / runio.CHECKPOINT, *last)  # type: ignore[operator]
+                result = engine.result(run_dir)
+                write_outputs(run_dir, result)  # type: ignore[arg-type]
+                _update_run_json(run_dir, info, session, runstate.INTERRUPTED, engine, result)  # type: ignore[arg-type]
         raise
-    result = engine.result(run_dir)
-    if run_dir is not None and info is not None:
-        write_outputs(run_dir, result)
-        _update_run_json(run_dir, info, session, "finished", engine, result)
-    return result
+    except Exception as exc:
+        if keep and not finished:
+            with interrupt.deferred():
+                runstate.record_failure(info, session, exc, engine.generation + 1)  # type: ignore[arg-type]
+                runio.atomic_write_json(run_dir / runio.RUN_JSON, info)  # type: ignore[operator, arg-type]
+        raise
 
 
 def optimize(
@@ -727,20 +740,24 @@ def optimize(
     RunError
         ``out`` cannot be written or already holds a run (checked before any work).
     KeyboardInterrupt
-        After Ctrl-C, once the checkpoint and partial outputs are written (with ``out``).
+        After Ctrl-C or SIGTERM (:class:`hisopt.interrupt.Interrupted`, in the main thread),
+        once the checkpoint and partial outputs are written and ``run.json`` says
+        ``interrupted`` (with ``out``). Any other error marks the run ``failed`` and propagates.
     """
     from hisopt.problem import Problem, load_problem
 
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
     settings = resolve_settings(problem, algorithm=algorithm, pop_size=pop_size, generations=generations, seed=seed)
+    if out is not None:
+        runstate.refuse_occupied(out)
     run_dir = None if out is None else runio.prepare_run_directory(Path(out), fresh=True)
     started = time.perf_counter()
     info: dict[str, Any] | None = None
     if run_dir is not None:
         name, raw, record = problem_copy(problem)
         runio.atomic_write_bytes(run_dir / name, raw)
-        info = {"format": "hisopt-run/1", "status": "starting", "created": _now(), "problem": record}
+        info = {"format": "hisopt-run/1", "status": runstate.STARTING, "created": _now(), "problem": record}  # written as running
     reference = reference_point(problem)
     engine = _Engine(problem, settings, reference)
     engine.session_start = started
@@ -754,8 +771,73 @@ def optimize(
     return _drive(engine, run_dir, info, progress)
 
 
+@dataclass
+class ResumePlan:
+    """A run directory checked and loaded for resuming (:func:`prepare_resume`).
+
+    Attributes
+    ----------
+    state : [-] the directory's state before resuming
+    engine : [-] the engine restored from the checkpoint
+    info : [-] the parsed ``run.json``
+    """
+
+    state: runstate.RunState
+    engine: _Engine
+    info: dict[str, Any]
+
+    @property
+    def finished(self) -> bool:
+        """[-] The run had already finished: nothing to do."""
+        return self.state.status == runstate.FINISHED
+
+    def run(self, progress: ProgressFn | None = None) -> OptimizationResult:
+        """Continue to the end (a finished run: its result, no file touched)."""
+        if self.finished:
+            return self.engine.result(self.state.run_dir)
+        return _drive(self.engine, self.state.run_dir, self.info, progress)
+
+
+def prepare_resume(run_dir: str | Path) -> ResumePlan:
+    """Every check of :func:`resume`, and the restored engine, before any output.
+
+    Raises
+    ------
+    RunError
+        Not a run directory, a live process still runs it, the problem file changed (see the
+        module's resume rule), or the checkpoint belongs to another pymoo version.
+    """
+    run_dir = Path(run_dir)
+    state = runstate.read_state(run_dir)
+    if state.status in (runstate.STARTING, runstate.RUNNING) and state.alive:
+        pid = (state.info.get("process") or {}).get("pid")
+        raise RunError(f"{state.line()}; wait for it to end, or stop it with `kill -TERM {pid}` and resume then")
+    info = state.info
+    for key in ("problem", "settings", "versions"):
+        if key not in info:
+            raise RunError(f"{run_dir / runio.RUN_JSON}: lacks {key!r}; the run never started, start over with another --out")
+    problem = load_run_problem(run_dir, info["problem"])
+    import pymoo
+
+    if info["versions"].get("pymoo") != pymoo.__version__:
+        raise RunError(
+            f"{run_dir} was run with pymoo {info['versions'].get('pymoo')}, this is pymoo {pymoo.__version__}; "
+            "an identical continuation needs the same version"
+        )
+    if state.status != runstate.FINISHED:
+        runio.prepare_run_directory(run_dir, fresh=False)
+    s = info["settings"]
+    settings = RunSettings(s["algorithm"], int(s["pop_size"]), int(s["generations"]), int(s["seed"]))
+    engine = _Engine(problem, settings, np.asarray(s["hypervolume_reference_log10"], dtype=float))
+    checkpoint = run_dir / runio.CHECKPOINT
+    if checkpoint.is_file():
+        engine.restore(*runio.load_checkpoint(checkpoint))
+    return ResumePlan(state, engine, info)
+
+
 def resume(run_dir: str | Path, *, progress: ProgressFn | None = None) -> OptimizationResult:
-    """Continue an interrupted run from its last checkpoint to the same final front.
+    """Continue an interrupted, killed or failed run from its last checkpoint to the same
+    final front (a finished run: its result, files untouched).
 
     Parameters
     ----------
@@ -765,30 +847,9 @@ def resume(run_dir: str | Path, *, progress: ProgressFn | None = None) -> Optimi
     Raises
     ------
     RunError
-        Not a run directory, the problem file changed (see the module's resume rule), or
-        the checkpoint belongs to another pymoo version.
+        As :func:`prepare_resume`.
     """
-    run_dir = Path(run_dir)
-    info = _read_run_json(run_dir)
-    runio.prepare_run_directory(run_dir, fresh=False)
-    for key in ("problem", "settings", "versions"):
-        if key not in info:
-            raise RunError(f"{run_dir / runio.RUN_JSON}: lacks {key!r}; the run never started, start a new one")
-    problem = load_run_problem(run_dir, info["problem"])
-    import pymoo
-
-    if info["versions"].get("pymoo") != pymoo.__version__:
-        raise RunError(
-            f"{run_dir} was run with pymoo {info['versions'].get('pymoo')}, this is pymoo {pymoo.__version__}; "
-            "an identical continuation needs the same version"
-        )
-    s = info["settings"]
-    settings = RunSettings(s["algorithm"], int(s["pop_size"]), int(s["generations"]), int(s["seed"]))
-    engine = _Engine(problem, settings, np.asarray(s["hypervolume_reference_log10"], dtype=float))
-    checkpoint = run_dir / runio.CHECKPOINT
-    if checkpoint.is_file():
-        engine.restore(*runio.load_checkpoint(checkpoint))
-    return _drive(engine, run_dir, info, progress)
+    return prepare_resume(run_dir).run(progress)
 
 
 # --- console presentation (the CLI's progress bar and summary) --------------------------
@@ -829,7 +890,7 @@ def console_progress(total: int, start: int = 0) -> tuple[Any, ProgressFn]:
 
 
 def run_with_console(
-    start: Callable[[ProgressFn], OptimizationResult], *, total: int, done: int, run_dir: Path
+    start: Callable[[ProgressFn], OptimizationResult], *, total: int, done: int, run_dir: Path, debug: bool = False
 ) -> int:
     """Run ``start(progress_callback)`` under a live progress bar, then print the summary.
 
@@ -839,12 +900,14 @@ def run_with_console(
     total : [-] generations of the run
     done : [-] generations already completed
     run_dir : [-] the run directory (for the resume hint)
+    debug : [-] re-raise an internal error (for its traceback) instead of reporting it
 
     Returns
     -------
     int
-        Exit code: 0, or 130 after Ctrl-C (the run has saved its checkpoint; the resume
-        command is printed on stderr).
+        Exit code: 0; ``128 + signal`` after Ctrl-C (130) or SIGTERM (143), the checkpoint
+        saved and the resume command printed on stderr; 1 after an internal error, with one
+        line on stderr saying what ``run.json`` now records and what to do.
     """
     from rich.console import Console
 
@@ -852,9 +915,19 @@ def run_with_console(
     try:
         with display:
             result = start(update)
-    except KeyboardInterrupt:
-        print(f"interrupted; checkpoint saved. Resume with: hisopt resume {run_dir}", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        print(runstate.interrupted_line(run_dir, exc), file=sys.stderr)
+        return interrupt.exit_code(exc)
+    except HisoptError:
+        raise
+    except Exception as exc:
+        if debug:
+            raise
+        line = runstate.state_line(run_dir)
+        if type(exc).__name__ not in line:  # the state line names a recorded failure itself
+            line = f"{type(exc).__name__}: {exc}; {line}"
+        print(f"internal error: {line} (--debug shows a traceback)", file=sys.stderr)
+        return 1
     console = Console(width=120)
     for table in summary_tables(result):
         console.print(table)
@@ -903,6 +976,7 @@ __all__ = [
     "RunSettings",
     "build_algorithm",
     "optimize",
+    "prepare_resume",
     "resolve_settings",
     "resume",
 ]

@@ -60,10 +60,8 @@ def prepare_run_directory(run_dir: Path, *, fresh: bool) -> Path:
         raise RunError(f"cannot create run directory {run_dir}: {exc.strerror or exc}; choose a writable --out") from None
     if not run_dir.is_dir():
         raise RunError(f"run directory {run_dir} is not a directory; choose another --out")
-    if fresh and (run_dir / RUN_JSON).exists():
-        raise RunError(
-            f"{run_dir} already holds a run; continue it with `hisopt resume {run_dir}` or choose another --out"
-        )
+    if fresh and (run_dir / RUN_JSON).exists():  # hisopt.optim.runstate.refuse_occupied says more, first
+        raise RunError(f"--out {run_dir} already holds a run; continue it with `hisopt resume {run_dir}`, or choose another --out")
     if not fresh:  # temporary files of a write that a kill cut short
         for stale in run_dir.glob(".*.tmp"):
             with contextlib.suppress(OSError):

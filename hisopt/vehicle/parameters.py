@@ -12,7 +12,7 @@ class VehicleParams(BaseModel):
     paper's Table 4, which did not survive). Front/rear values use suffixes ``f``/``r``.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     m_s: float = Field(1210.0, gt=0, description="[kg] sprung mass")
     I_x: float = Field(390.0, gt=0, description="[kg m^2] roll moment of inertia")

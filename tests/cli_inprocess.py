@@ -1,0 +1,38 @@
+"""Run the real CLI entry point (``hisopt.cli.main``) in this process and capture its output.
+
+In-process runs are fast enough for hundreds of property-based examples; pytest's
+warnings-as-errors then also turns any stray RuntimeWarning into a failure (exit 1).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import sys
+from dataclasses import dataclass
+from unittest import mock
+
+
+@dataclass
+class Outcome:
+    code: int
+    stdout: str
+    stderr: str
+
+    @property
+    def error_lines(self) -> list[str]:
+        return [line for line in self.stderr.splitlines() if line.strip()]
+
+
+def run_cli(*args: str) -> Outcome:
+    """``hisopt ARGS`` through :func:`hisopt.cli.main`: exit code, stdout and stderr."""
+    from hisopt.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    code = 0
+    with mock.patch.object(sys, "argv", ["hisopt", *map(str, args)]), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            main()
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    return Outcome(code, out.getvalue(), err.getvalue())

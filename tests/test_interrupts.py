@@ -1,0 +1,148 @@
+"""Every interruption is resumable: SIGINT, SIGTERM and SIGKILL at three points of a real run,
+and crashes, each followed by ``hisopt resume``.
+
+The points are hit deterministically with the run engine's test hook
+(``HISOPT_TEST_SIGNAL_AT``, see :mod:`hisopt.interrupt`): ``generation-1`` (before the first
+checkpoint), ``generation-4`` (mid-run) and ``final-write`` (``front.csv`` written, the other
+files and the status not yet). The interrupted runs are real processes; the resumes run the
+CLI entry point in this process. Every resumed run must end with the byte-identical
+``front.csv`` and the same evaluations as the uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from hisopt.interrupt import TEST_HOOK_ENV
+from hisopt.optim import runio
+from hisopt.optim.runstate import read_state
+from tests.cli_inprocess import run_cli
+from tests.conftest import DEFAULT_PROBLEM, ROOT
+
+POP, GENERATIONS = 12, 8
+ARGS = ("--pop", str(POP), "--gens", str(GENERATIONS), "--seed", "5")
+pytestmark = pytest.mark.slow  # real processes, about 30 s together
+
+
+def _default_sigint() -> None:
+    # A shell without job control starts background jobs with SIGINT ignored (inherited).
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def optimize(run_dir: Path, hook: str | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env.pop(TEST_HOOK_ENV, None)
+    if hook:
+        env[TEST_HOOK_ENV] = hook
+    return subprocess.run(
+        [sys.executable, "-m", "hisopt", "optimize", str(DEFAULT_PROBLEM), "--out", str(run_dir), *ARGS],
+        check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300, preexec_fn=_default_sigint,
+    )
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory) -> Path:
+    run_dir = tmp_path_factory.mktemp("reference") / "run"
+    proc = optimize(run_dir)
+    assert proc.returncode == 0, proc.stderr
+    return run_dir
+
+
+def assert_same_run(run_dir: Path, reference: Path) -> None:
+    assert (run_dir / runio.FRONT_CSV).read_bytes() == (reference / runio.FRONT_CSV).read_bytes()
+    a, b = pd.read_parquet(run_dir / runio.EVALUATIONS), pd.read_parquet(reference / runio.EVALUATIONS)
+    assert a.equals(b) and len(a) == POP * GENERATIONS
+    assert read_state(run_dir).status == "finished"
+
+
+EXPECTED_CODE = {"INT": 130, "TERM": 143, "KILL": -signal.SIGKILL}
+
+
+@pytest.mark.parametrize("point", ["generation-1", "generation-4", "final-write"])
+@pytest.mark.parametrize("sig", ["INT", "TERM", "KILL"])
+def test_interrupt_then_resume_gives_the_identical_front(tmp_path, reference, sig, point):
+    run_dir = tmp_path / "run"
+    proc = optimize(run_dir, f"{point}:{sig}")
+    assert proc.returncode == EXPECTED_CODE[sig], proc.stderr
+    assert "Traceback" not in proc.stderr
+    state = read_state(run_dir)
+    saved = {"generation-1": 0, "generation-4": 3, "final-write": GENERATIONS}[point]
+    assert state.generation == saved
+    last = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else ""
+    if sig == "KILL":
+        assert state.status == "killed" and "hisopt resume" in state.line()
+    elif point == "final-write":  # the signal waited for the final write: the run is complete
+        assert state.status == "finished"
+        assert last == f"SIG{sig} arrived during the final write, which completed: the run is finished ({run_dir / 'front.csv'})"
+    else:
+        assert state.status == "interrupted"
+        assert last == (
+            f"interrupted by SIG{sig} after {saved} of {GENERATIONS} generations; checkpoint saved. Resume with: hisopt resume {run_dir}"
+        )
+        refused = run_cli("optimize", DEFAULT_PROBLEM, "--out", run_dir, *ARGS)  # a new run may not overwrite it
+        assert refused.code == 2 and len(refused.error_lines) == 1
+        assert f"continue it with `hisopt resume {run_dir}`" in refused.stderr and "to start over" in refused.stderr
+    resumed = run_cli("resume", run_dir)
+    assert resumed.code == 0, resumed.stderr
+    if state.status == "finished":
+        assert resumed.error_lines == [f"{run_dir}: finished, {GENERATIONS} of {GENERATIONS} generations; results in {run_dir / 'front.csv'}; nothing to resume"]
+    assert_same_run(run_dir, reference)
+
+
+def test_a_crash_is_recorded_and_a_repeated_crash_is_named(tmp_path, reference):
+    run_dir = tmp_path / "run"
+    proc = optimize(run_dir, "generation-3:FAIL")
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"internal error: {run_dir}: failed at generation 3 of {GENERATIONS} (RuntimeError: simulated crash")
+    assert f"retry from generation 2 with `hisopt resume {run_dir}`" in last
+    info = json.loads((run_dir / "run.json").read_text())
+    assert info["status"] == "failed" and info["failure"]["generation"] == 3 and info["failure"]["time"]
+    # the same crash again on resume: said so, in one line
+    os.environ[TEST_HOOK_ENV] = "generation-3:FAIL"
+    try:
+        from hisopt import interrupt
+
+        interrupt._state["fired"] = set()
+        again = run_cli("resume", run_dir)
+    finally:
+        del os.environ[TEST_HOOK_ENV]
+    assert again.code == 1
+    assert again.error_lines[-1].startswith(f"internal error: {run_dir}: failed at generation 3 of {GENERATIONS} again")
+    assert "resuming will not get past it" in again.error_lines[-1]
+    assert "again" in run_cli("status", run_dir).stdout
+    # once the cause is gone, resume reaches the uninterrupted front
+    resumed = run_cli("resume", run_dir)
+    assert resumed.code == 0, resumed.stderr
+    assert_same_run(run_dir, reference)
+    assert "failure" not in json.loads((run_dir / "run.json").read_text())
+
+
+def test_resume_refuses_a_run_that_is_still_running(tmp_path, reference):
+    run_dir = tmp_path / "run"
+    proc = optimize(run_dir, "generation-2:KILL")
+    assert proc.returncode == -signal.SIGKILL
+    info = json.loads((run_dir / "run.json").read_text())
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        from hisopt.optim.runstate import _start_time, process_identity
+
+        info["process"] = process_identity() | {"pid": sleeper.pid, "start": _start_time(sleeper.pid)}
+        (run_dir / "run.json").write_text(json.dumps(info))
+        out = run_cli("resume", run_dir)
+        assert out.code == 2 and len(out.error_lines) == 1
+        assert f"running in process {sleeper.pid}" in out.stderr and f"kill -TERM {sleeper.pid}" in out.stderr
+    finally:
+        sleeper.kill()  # ours, by its id
+        sleeper.wait()
+    assert read_state(run_dir).status == "killed"
+    assert run_cli("resume", run_dir).code == 0
+    assert_same_run(run_dir, reference)
