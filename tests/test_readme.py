@@ -142,7 +142,7 @@ def test_example_designs_lie_in_the_box_and_start_with_the_reference_designs(pro
     assert designs.attrs["units"] == {"p0": "Pa", "dA": "m^2", "lam": "-", "Rv": "Pa s m^-3"}
     x = designs.to_numpy(dtype=float)
     assert np.all(x >= problem.lower) and np.all(x <= problem.upper)
-    np.testing.assert_array_equal(x[:2], [[2.0e6, 10e-4, 0.5, 8e5], [0.0, 1e-4, 0.1, 0.0]])  # DESIGN section 5
+    np.testing.assert_array_equal(x[:2], [[2.0e6, 10e-4, 0.5, 8e5], [0.0, 1e-4, 0.1, 0.0]])  # docs/model.md §7.1
 
 
 def test_measured_example_is_labelled_synthetic_and_reproducible(tmp_path):
