@@ -30,7 +30,8 @@ import hisopt
 from hisopt.optim import decision
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
-from hisopt.optim.run import optimize, resolve_settings
+from hisopt.optim.run import optimize
+from hisopt.optim.settings import resolve_settings
 
 ROOT = Path(__file__).resolve().parents[1]
 

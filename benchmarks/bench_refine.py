@@ -45,7 +45,10 @@ def main() -> None:
     model.fast_node_function(), model.fast_node_function(jacobian=True)
     print(f"CasADi model built and compiled (or loaded from the cache) in {time.perf_counter() - started:.1f} s")
 
-    result = refine_front(problem, run.front, args.points, workers=args.workers, reference_log=run.reference_point)
+    from hisopt.parallel import open_backend
+
+    with open_backend(args.workers if args.workers > 1 else None) as backend:
+        result = refine_front(problem, run.front, args.points, backend=backend, reference_log=run.reference_point)
     points = result.points
     print(f"refined {int(points['accepted'].sum())} of {len(points)} designs on {args.workers} worker(s)")
     print(f"hypervolume {result.hypervolume_before:.6g} -> {result.hypervolume_after:.6g} ({100 * result.hypervolume_gain:+.2f} %)")

@@ -243,7 +243,6 @@ def evaluate(
 
     from hisopt.designs import read_designs
     from hisopt.errors import ConfigError
-    from hisopt.evaluate import evaluate_problem
     from hisopt.io import ensure_writable_file, write_csv
     from hisopt.validation import flag_summary
 
@@ -255,9 +254,9 @@ def evaluate(
         from hisopt.parallel import open_backend
 
         with open_backend(workers, scheduler) as backend:
-            result = evaluate_problem(p, frame, backend=backend, source=str(designs), log=False)
+            result = p.evaluate(frame, backend=backend, source=str(designs), log=False)
     else:
-        result = evaluate_problem(p, p.baseline, log=False)
+        result = p.evaluate(p.baseline, log=False)
     summary = flag_summary(result["status"], str(designs) if designs is not None else "baseline design")
     if summary:
         typer.echo(f"warning: {summary}", err=True)
@@ -370,8 +369,10 @@ def optimize_cmd(
     """
     from datetime import datetime
 
-    from hisopt.optim.run import optimize, resolve_settings, run_with_console
-    from hisopt.optim.runio import prepare_run_directory
+    from hisopt.console import run_with_console
+    from hisopt.optim.run import optimize
+    from hisopt.optim.settings import resolve_settings
+    from hisopt.optim.rundir import prepare_run_directory
     from hisopt.problem import load_problem
 
     p = load_problem(problem)
@@ -414,7 +415,8 @@ def resume_cmd(
     The run may have been interrupted (Ctrl-C, SIGTERM), killed or stopped by an error. The
     final front is the one an uninterrupted run with the same seed gives.
     """
-    from hisopt.optim.run import prepare_resume, run_with_console
+    from hisopt.console import run_with_console
+    from hisopt.optim.run import prepare_resume
 
     plan = prepare_resume(run_dir)  # every check before any output
     if plan.finished:
@@ -522,7 +524,7 @@ def refine_cmd(
     Writes RUN_DIR/front_refined.csv. Each of up to --max-points designs spread over
     front.csv is moved towards the Pareto front by an NLP (its achievement scalarising
     function) and kept only if, evaluated again, it weakly dominates its start. NLPs run
-    in local worker processes, or on Dask with --workers or --scheduler. See docs/refine.md.
+    in this process, or on Dask with --workers or --scheduler. See docs/refine.md.
     """
     from hisopt.errors import ConfigError
 
@@ -532,24 +534,22 @@ def refine_cmd(
 
 
 def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, scheduler: str | None) -> None:
-    """Refine a run's front with a progress bar; local processes unless Dask is asked for."""
+    """Refine a run's front with a progress bar; in this process unless Dask is asked for."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from hisopt.optim.refine import FRONT_REFINED_CSV, refine_run
+    from hisopt.optim.refine import refine_run, start_designs
+    from hisopt.optim.rundir import FRONT_CSV, FRONT_REFINED_CSV, read_front, run_problem
     from hisopt.parallel import open_backend
 
+    problem = run_problem(run_dir)[0]  # every check before the progress bar
+    front = read_front(run_dir / FRONT_CSV)
+    start_designs(problem, front, str(run_dir / FRONT_CSV))
     bar = Progress(TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"),
                    TimeElapsedColumn(), console=Console(stderr=True))
-    front = run_dir / "front.csv"
-    if not front.is_file():
-        refine_run(run_dir, max_points)  # raises the error that says what is missing
-    from hisopt.optim.refine import read_front, run_problem, start_designs
-
-    start_designs(run_problem(run_dir)[0], read_front(front), str(front))  # before the progress bar
-    task = bar.add_task("refine", total=min(max_points, _csv_rows(front)))
+    task = bar.add_task("refine", total=min(max_points, len(front)))
     with open_backend(workers, scheduler) as backend, bar:
-        result = refine_run(run_dir, max_points, client=backend.client, progress=lambda _: bar.update(task, advance=1))
+        result = refine_run(run_dir, max_points, backend=backend, progress=lambda _: bar.update(task, advance=1))
     accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
     typer.echo(
         f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
@@ -557,12 +557,6 @@ def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, sche
         f"{result.seconds_per_point:.2f} s per design"
     )
     typer.echo(f"wrote {run_dir / FRONT_REFINED_CSV}")
-
-
-def _csv_rows(path: Path) -> int:
-    """Data rows of a CSV file with a header line."""
-    with open(path, encoding="utf-8") as handle:
-        return max(sum(1 for _ in handle) - 1, 0)
 
 
 @app.command("sweep")

@@ -28,11 +28,11 @@ from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
 from hisopt.units import NO_UNIT, attach_units
-from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs, design_matrix, flag_summary
+from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
 
 if TYPE_CHECKING:
+    from hisopt.design_space import DesignSpace
     from hisopt.model import CoupledModel
-    from hisopt.problem import Problem
 
 FrfFn = Callable[..., Any]
 """``frf(s, output=None)``: output FRFs (n, F, 4 inputs, n_out) at ``s`` (n, F), or one output;
@@ -57,7 +57,7 @@ class Evaluator:
 
     def __init__(
         self,
-        problem: "Problem",
+        problem: "DesignSpace",
         chunk_size: int = 256,
         order: int = 4,
         zoom_iterations: int = 5,
@@ -373,6 +373,14 @@ def _mixed_frf(fast: FrfFn, slow: FrfFn, use_slow: np.ndarray) -> FrfFn:
     return frf
 
 
+def evaluator_for(space: "DesignSpace") -> Evaluator:
+    """The evaluator of ``space``, built once and kept with it (its cache survives as long as
+    the problem object; a pickled problem builds its own)."""
+    if "evaluator" not in space._cache:
+        space._cache["evaluator"] = Evaluator(space)
+    return space._cache["evaluator"]
+
+
 def poles(model: "CoupledModel") -> np.ndarray:
     """[rad/s] Eigenvalues of the model's (lumped) state space, ``(n, n_states)``, computed as
     the evaluator computes them (with eigenvectors: the same LAPACK path), so nodes placed
@@ -385,39 +393,7 @@ def roll_gradient(model: "CoupledModel") -> np.ndarray:
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
-def evaluate_problem(problem: "Problem", designs: Any, *, backend: Any = None, source: str | None = None, log: bool = True) -> pd.DataFrame:
-    """DataFrame of designs with objective and constraint columns (docs/model.md §8.1).
-
-    Every row is checked first (:func:`hisopt.validation.check_designs`): an ``invalid`` row
-    (not finite, or a parameter's rule broken) is not evaluated and gets NaN results; an
-    ``out_of_bounds`` row is evaluated; neither is ever feasible. With flagged rows and
-    ``log``, one warning line counting them goes to the ``hisopt`` logger.
-
-    Parameters
-    ----------
-    problem : the problem
-    designs : [variable units] any form :func:`hisopt.validation.design_matrix` accepts
-    backend : [-] a :class:`hisopt.parallel.Backend` (Dask) or None for this process
-    source : [-] where the designs come from (named in the messages)
-    log : [-] log the warning line (the CLI prints it itself)
-    """
-    x = design_matrix(problem, designs, source)
-    if backend is None:
-        quantities = problem.evaluator()(x)
-    else:
-        from hisopt.parallel import evaluate_designs
-
-        quantities = evaluate_designs(problem, x, backend)
-    df = results_frame(problem, x, quantities)
-    summary = flag_summary(df["status"], source)
-    if summary and log:
-        import logging
-
-        logging.getLogger("hisopt").warning(summary)
-    return df
-
-
-def results_frame(problem: "Problem", designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
+def results_frame(problem: "DesignSpace", designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
     """Designs and their quantities as a DataFrame.
 
     Columns: the variable names, the objective names, the constraint names (physical units,
@@ -446,7 +422,7 @@ def results_frame(problem: "Problem", designs: Any, quantities: dict[str, np.nda
     return attach_units(df, problem, {"reason": NO_UNIT})
 
 
-def grid_quantities(problem: "Problem", designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:
+def grid_quantities(problem: "DesignSpace", designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:
     """Reference evaluator: direct solve on a given grid, trapezoid integrals, sample maxima.
 
     With a fine pole-clustered grid per design it is the converged reference of the tests

@@ -15,9 +15,12 @@ import contextlib
 import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from hisopt.design_space import DesignSpace
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -128,15 +131,17 @@ def chunks(n: int, size: int) -> list[slice]:
     return [slice(i, min(i + size, n)) for i in range(0, n, size)]
 
 
-def _evaluate_chunk(x: np.ndarray, problem: Any) -> dict[str, np.ndarray]:
-    return problem.evaluator()(x)
+def _evaluate_chunk(x: np.ndarray, problem: "DesignSpace") -> dict[str, np.ndarray]:
+    from hisopt.evaluate import evaluator_for
+
+    return evaluator_for(problem)(x)
 
 
-def evaluate_designs(problem: Any, designs: Any, backend: Backend | None = None, chunk_size: int = DEFAULT_CHUNK) -> dict[str, np.ndarray]:
+def evaluate_designs(problem: "DesignSpace", designs: Any, backend: Backend | None = None, chunk_size: int = DEFAULT_CHUNK) -> dict[str, np.ndarray]:
     """Objectives/constraints of many designs through ``backend`` (same keys as the evaluator)."""
     backend = backend or Backend()
     x = problem.design_matrix(designs)
     if not backend.is_distributed:
-        return problem.evaluator()(x)
+        return _evaluate_chunk(x, problem)
     parts = backend.map(_evaluate_chunk, [x[s] for s in chunks(len(x), chunk_size)], problem)
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -1,140 +1,61 @@
-"""``Problem``: a validated problem file plus the mapping from design vectors to models."""
+"""``Problem``: what users load: a :class:`~hisopt.design_space.DesignSpace` with its evaluator.
+
+``hisopt.load_problem(path)`` gives one; ``problem.evaluate(designs)`` returns the
+docs/model.md §8.1 DataFrame (objectives, constraints, ``feasible``, ``status``, ``reason``).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+import logging
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-from hisopt.config import ProblemSpec, parse_problem, read_problem_file
-from hisopt.errors import ConfigError
-from hisopt.hydraulics.coupling import HydraulicSystem
-from hisopt.hydraulics.roll_plane import parameter_values, roll_plane_network
-from hisopt.model import CoupledModel
-from hisopt.validation import design_matrix, require_admissible
+from hisopt.config import parse_problem, read_problem_file
+from hisopt.design_space import DesignSpace
+from hisopt.evaluate import Evaluator, evaluator_for, results_frame
+from hisopt.validation import design_matrix, flag_summary
 
 if TYPE_CHECKING:
-    from hisopt.evaluate import Evaluator
-    from hisopt.hydraulics.network import Network
+    from hisopt.parallel import Backend
 
 
-@dataclass(frozen=True)
-class Problem:
-    """A design problem: vehicle, HIS, variables with bounds, road, band and objectives."""
+class Problem(DesignSpace):
+    """A design problem with its (cached) evaluator: vehicle, HIS, variables, road, objectives."""
 
-    spec: ProblemSpec
-    path: Path | None = None
-    sha256: str | None = None
-    _cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
-
-    def __reduce__(self):
-        # Pickle (e.g. to Dask workers) without the cached evaluator; it is rebuilt there.
-        return (Problem, (self.spec, self.path, self.sha256))
-
-    # --- variables -------------------------------------------------------------------
-    @property
-    def name(self) -> str:
-        return self.spec.name
-
-    @property
-    def variable_names(self) -> tuple[str, ...]:
-        return tuple(self.spec.variables)
-
-    @property
-    def lower(self) -> np.ndarray:
-        return np.array([v.lower for v in self.spec.variables.values()])
-
-    @property
-    def upper(self) -> np.ndarray:
-        return np.array([v.upper for v in self.spec.variables.values()])
-
-    @property
-    def baseline(self) -> np.ndarray:
-        """The fixed ``[his]`` values of the design variables (the baseline design)."""
-        return np.array([getattr(self.spec.his, n) for n in self.variable_names], dtype=float)
-
-    @property
-    def objective_names(self) -> tuple[str, ...]:
-        return tuple(self.spec.objectives)
-
-    @property
-    def constraint_names(self) -> tuple[str, ...]:
-        return tuple(c.name for c in self.spec.constraints)
-
-    def design_matrix(self, designs: Any) -> np.ndarray:
-        """Designs as an ``(n, n_var)`` float array (:func:`hisopt.validation.design_matrix`).
-
-        Accepts an array (columns in variable order), a DataFrame or a dict with the
-        variable names (missing names take the baseline value), a list of such dicts, or a
-        single design. Values are not checked against the rules here: see
-        :func:`hisopt.validation.check_designs`.
-        """
-        return design_matrix(self, designs)
-
-    def with_values(self, **values: Any) -> "Problem":
-        """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``), validated like the file."""
-        data = self.spec.model_dump(by_alias=True)
-        for key, value in values.items():
-            if key not in data["his"]:
-                raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(data['his'])}", key=key)
-            data["his"][key] = value.item() if isinstance(value, np.generic) else value
-        return Problem(parse_problem(data, str(self.path or "<problem>")), self.path, self.sha256)
-
-    # --- models ----------------------------------------------------------------------
-    def his_parameters(self, designs: Any) -> dict[str, np.ndarray]:
-        """Design matrix as a dict of per-design arrays, shape ``(n,)`` each."""
-        x = self.design_matrix(designs)
-        return {n: x[:, i] for i, n in enumerate(self.variable_names)}
-
-    def model(self, designs: Any = None, his: bool = True) -> CoupledModel:
-        """The coupled model for a batch of designs (batch shape ``(n,)``).
-
-        ``designs=None`` is the baseline design; ``his=False`` the reference vehicle. A design
-        that is not finite or breaks a parameter's rule raises :class:`ConfigError` naming
-        the row and the rule.
-        """
-        if not his:
-            return CoupledModel(self.spec.vehicle, None)
-        x = self.design_matrix(self.baseline if designs is None else designs)
-        require_admissible(self, x)  # never build a model from a rule-breaking design
-        params = {n: x[:, i] for i, n in enumerate(self.variable_names)}
-        return CoupledModel(self.spec.vehicle, self.hydraulic_system(params))
-
-    def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
-        """The HIS with design variables set from ``overrides`` (numpy arrays of one batch
-        shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values."""
-        return HydraulicSystem(self.network(), parameter_values(self.spec.his, overrides))
-
-    def network(self) -> "Network":
-        """The compiled HIS network (structure only; computed once per problem)."""
-        if "network" not in self._cache:
-            self._cache["network"] = roll_plane_network(self.spec.his)
-        return self._cache["network"]
-
-    def evaluator(self) -> "Evaluator":
+    def evaluator(self) -> Evaluator:
         """The (cached) batched evaluator of this problem's objectives and constraints."""
-        if "evaluator" not in self._cache:
-            from hisopt.evaluate import Evaluator
-
-            self._cache["evaluator"] = Evaluator(self)
-        return self._cache["evaluator"]
+        return evaluator_for(self)
 
     def results_frame(self, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
         """Designs plus evaluated quantities as the docs/model.md §8.1 DataFrame."""
-        from hisopt.evaluate import results_frame
-
         return results_frame(self, designs, quantities)
 
-    def evaluate(self, designs: Any) -> pd.DataFrame:
-        """Objectives and constraints of many designs (docs/model.md §8.1), with ``status`` and
-        ``reason`` columns flagging invalid and out-of-box rows (:func:`hisopt.evaluate.evaluate_problem`)."""
-        from hisopt.evaluate import evaluate_problem
+    def evaluate(self, designs: Any, *, backend: "Backend | None" = None, source: str | None = None, log: bool = True) -> pd.DataFrame:
+        """Objectives and constraints of many designs (docs/model.md §8.1).
 
-        return evaluate_problem(self, designs)
+        Every row is checked first (:func:`hisopt.validation.check_designs`): an ``invalid`` row
+        (not finite, or a parameter's rule broken) is not evaluated and gets NaN results; an
+        ``out_of_bounds`` row is evaluated; neither is ever feasible. With flagged rows and
+        ``log``, one warning line counting them goes to the ``hisopt`` logger.
+
+        Parameters
+        ----------
+        designs : [variable units] any form :func:`hisopt.validation.design_matrix` accepts
+        backend : [-] a :class:`hisopt.parallel.Backend` (Dask) or None for this process
+        source : [-] where the designs come from (named in the messages)
+        log : [-] log the warning line (the CLI prints it itself)
+        """
+        from hisopt.parallel import evaluate_designs
+
+        x = design_matrix(self, designs, source)
+        df = results_frame(self, x, evaluate_designs(self, x, backend))
+        summary = flag_summary(df["status"], source)
+        if summary and log:
+            logging.getLogger("hisopt").warning(summary)
+        return df
 
 
 def load_problem(path: str | Path) -> Problem:
@@ -146,5 +67,3 @@ def load_problem(path: str | Path) -> Problem:
 def problem_from_dict(data: dict[str, Any], source: str = "<problem>") -> Problem:
     """Build a problem from a dictionary with the problem file's structure."""
     return Problem(parse_problem(data, source))
-
-

@@ -40,7 +40,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 if TYPE_CHECKING:
-    from hisopt.problem import Problem
+    from hisopt.design_space import DesignSpace
 
 NO_UNIT = "-"
 """Unit of ratios, counts, flags and labels."""
@@ -94,7 +94,7 @@ def hypervolume_unit(n_objectives: int) -> str:
     return f"decades^{n_objectives}"
 
 
-def variable_units(problem: Problem) -> dict[str, str]:
+def variable_units(problem: DesignSpace) -> dict[str, str]:
     """Unit of each design variable: the problem file's ``unit``, else the [his] field's.
 
     The [his] fields document their unit first in their description (``[Pa] ...``).
@@ -133,7 +133,7 @@ def column_unit(name: str) -> str:
     return ""
 
 
-def column_units(columns: Iterable[Any], problem: Problem | None = None, extra: Mapping[str, str] | None = None) -> dict[str, str]:
+def column_units(columns: Iterable[Any], problem: DesignSpace | None = None, extra: Mapping[str, str] | None = None) -> dict[str, str]:
     """Unit of every column: ``extra`` first, then the problem's variables, then :func:`column_unit`.
 
     With a problem, ``hypervolume`` is in ``decades^n_obj``.
@@ -152,7 +152,7 @@ def with_units(frame: pd.DataFrame, units: Mapping[str, str]) -> pd.DataFrame:
     return frame
 
 
-def attach_units(frame: pd.DataFrame, problem: Problem | None = None, extra: Mapping[str, str] | None = None) -> pd.DataFrame:
+def attach_units(frame: pd.DataFrame, problem: DesignSpace | None = None, extra: Mapping[str, str] | None = None) -> pd.DataFrame:
     """:func:`with_units` with :func:`column_units` of the frame's columns (in place); returns ``frame``."""
     return with_units(frame, column_units(frame.columns, problem, extra))
 

@@ -22,7 +22,7 @@ import pandas as pd
 import pytest
 
 from hisopt.interrupt import TEST_HOOK_ENV
-from hisopt.optim import runio
+from hisopt.optim import rundir
 from hisopt.optim.runstate import read_state
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
@@ -57,8 +57,8 @@ def reference(tmp_path_factory) -> Path:
 
 
 def assert_same_run(run_dir: Path, reference: Path) -> None:
-    assert (run_dir / runio.FRONT_CSV).read_bytes() == (reference / runio.FRONT_CSV).read_bytes()
-    a, b = pd.read_parquet(run_dir / runio.EVALUATIONS), pd.read_parquet(reference / runio.EVALUATIONS)
+    assert (run_dir / rundir.FRONT_CSV).read_bytes() == (reference / rundir.FRONT_CSV).read_bytes()
+    a, b = pd.read_parquet(run_dir / rundir.EVALUATIONS), pd.read_parquet(reference / rundir.EVALUATIONS)
     assert a.equals(b) and len(a) == POP * GENERATIONS
     assert read_state(run_dir).status == "finished"
 

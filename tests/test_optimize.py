@@ -15,11 +15,12 @@ import pytest
 import hisopt
 from hisopt.io import read_csv
 from hisopt.errors import ConfigError, RunError
-from hisopt.optim import runio
+from hisopt.optim import rundir
 from hisopt.optim.archive import Archive, non_dominated_mask, pareto_update, weakly_dominates
 from hisopt.optim.decision import asf_index, grid_designs, hypervolume, knee_index, reference_from_sample
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, constraint_matrix, objective_matrix
-from hisopt.optim.run import das_dennis_partitions, optimize, resolve_settings, resume
+from hisopt.optim.run import optimize, resume
+from hisopt.optim.settings import das_dennis_partitions, resolve_settings
 from hisopt.problem import problem_from_dict
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
@@ -214,14 +215,14 @@ def test_run_directory_contents_and_exact_front(tmp_path, handling):
     np.testing.assert_allclose(again[expected_columns].to_numpy(), front.to_numpy(), rtol=1e-12, atol=0)
     info = json.loads((run_dir / "run.json").read_text())
     assert info["status"] == "finished"
-    assert info["problem"]["sha256"] == handling.sha256 == runio.sha256_bytes(HANDLING_PROBLEM.read_bytes())
+    assert info["problem"]["sha256"] == handling.sha256 == rundir.sha256_bytes(HANDLING_PROBLEM.read_bytes())
     assert info["problem"]["text"] == HANDLING_PROBLEM.read_text()
     assert (run_dir / "problem.toml").read_bytes() == HANDLING_PROBLEM.read_bytes()
     assert {"hisopt", "numpy", "pymoo", "python"} <= set(info["versions"])
     assert info["settings"]["seed"] == SMALL["seed"] and info["settings"]["algorithm"] == "nsga3"
     assert info["result"]["front_size"] == len(front) and info["sessions"][0]["end_generation"] == SMALL["generations"]
     assert 0 < info["timings"]["evaluation_s"] < info["timings"]["wall_time_s"]
-    assert runio.checkpoint_generation(run_dir) == SMALL["generations"]
+    assert rundir.checkpoint_generation(run_dir) == SMALL["generations"]
     history = pd.read_parquet(run_dir / "evaluations.parquet")
     assert history.equals(res.history)
     assert not list(run_dir.glob(".*"))  # no temporary files left
@@ -254,7 +255,7 @@ def test_interrupt_and_resume_gives_identical_run(tmp_path, path):
     with pytest.raises(KeyboardInterrupt):
         optimize(p, out=tmp_path / "cut", progress=stop, **SMALL)
     info = json.loads((tmp_path / "cut" / "run.json").read_text())
-    assert info["status"] == "interrupted" and runio.checkpoint_generation(tmp_path / "cut") == 3
+    assert info["status"] == "interrupted" and rundir.checkpoint_generation(tmp_path / "cut") == 3
     resumed = resume(tmp_path / "cut")
     assert (tmp_path / "cut" / "front.csv").read_bytes() == (tmp_path / "full" / "front.csv").read_bytes()
     assert resumed.history.equals(full.history)
@@ -284,7 +285,7 @@ def test_interrupt_inside_an_evaluation_resumes_from_the_last_generation(tmp_pat
     with pytest.raises(KeyboardInterrupt):
         optimize(p, out=tmp_path / "cut", **SMALL)
     monkeypatch.setattr(type(evaluator), "__call__", original)
-    assert runio.checkpoint_generation(tmp_path / "cut") == 4
+    assert rundir.checkpoint_generation(tmp_path / "cut") == 4
     resumed = resume(tmp_path / "cut")
     assert resumed.front.equals(full.front) and resumed.history.equals(full.history)
 
@@ -338,8 +339,8 @@ def test_unwritable_or_occupied_run_directory_fails_before_work(tmp_path, proble
 def test_checkpoint_round_trip_is_exact(tmp_path):
     meta = {"generation": 3, "rng": {"state": 2**127 + 5}}
     arrays = {"a": np.array([0.1, 1 / 3, np.nan]), "b": np.arange(4)}
-    runio.save_checkpoint(tmp_path / "c.npz", meta, arrays)
-    meta2, arrays2 = runio.load_checkpoint(tmp_path / "c.npz")
+    rundir.save_checkpoint(tmp_path / "c.npz", meta, arrays)
+    meta2, arrays2 = rundir.load_checkpoint(tmp_path / "c.npz")
     assert meta2["rng"]["state"] == 2**127 + 5 and meta2["generation"] == 3
     assert np.array_equal(arrays2["a"], arrays["a"], equal_nan=True) and np.array_equal(arrays2["b"], arrays["b"])
 

@@ -89,6 +89,6 @@ def test_refinement_through_dask_equals_serial(problem, dask_backend):
     from hisopt.optim.refine import refine_front
 
     run = hisopt.optimize(problem, pop_size=12, generations=3, seed=4)
-    local = refine_front(problem, run.front, max_points=2, workers=1)
-    dist = refine_front(problem, run.front, max_points=2, client=dask_backend.client)
+    local = refine_front(problem, run.front, max_points=2)
+    dist = refine_front(problem, run.front, max_points=2, backend=dask_backend)
     pd.testing.assert_frame_equal(local.front, dist.front, check_exact=False, rtol=1e-12, atol=0)

@@ -29,12 +29,12 @@ from hisopt.optim.refine import (
     REFINE_JSON,
     RefineSettings,
     asf_weights,
-    read_front,
     refine_front,
     refine_point,
     refine_run,
     select_points,
 )
+from hisopt.optim.rundir import read_front
 from hisopt.optim.run import optimize
 from tests.conftest import ROOT
 
@@ -118,33 +118,25 @@ def test_refine_point_improves_an_interior_design(problem):
 
 def test_refine_front_keeps_only_dominating_designs(problem, small_run):
     front = small_run.front
-    result = refine_front(problem, front, max_points=6, workers=1)
+    result = refine_front(problem, front, max_points=6)
     assert len(result.points) == min(6, len(front))
     check_refined(problem, front, result)
     assert result.points["accepted"].any()
 
 
-def test_parallel_refinement_equals_serial(problem, small_run):
-    serial = refine_front(problem, small_run.front, max_points=4, workers=1)
-    parallel = refine_front(problem, small_run.front, max_points=4, workers=2)
-    pd.testing.assert_frame_equal(serial.front, parallel.front)
-    cols = ["source_index", "accepted", *problem.variable_names, *problem.objective_names]
-    pd.testing.assert_frame_equal(serial.points[cols], parallel.points[cols])
-
-
 def test_refinement_on_a_dask_cluster_equals_serial(problem, small_run):
     from hisopt.parallel import open_backend
 
-    serial = refine_front(problem, small_run.front, max_points=3, workers=1)
+    serial = refine_front(problem, small_run.front, max_points=3)
     with open_backend(workers=2) as backend:
-        distributed = refine_front(problem, small_run.front, max_points=3, client=backend.client)
+        distributed = refine_front(problem, small_run.front, max_points=3, backend=backend)
     pd.testing.assert_frame_equal(serial.front, distributed.front)
 
 
 def test_refinement_respects_the_problem_constraints():
     problem = hisopt.load_problem(HANDLING)
     run = optimize(problem, seed=2, pop_size=20, generations=6, algorithm="nsga2")
-    result = refine_front(problem, run.front, max_points=5, workers=1)
+    result = refine_front(problem, run.front, max_points=5)
     check_refined(problem, run.front, result)
     for c in problem.spec.constraints:
         assert (result.front[c.name] <= c.limit).all(), c.name
@@ -154,7 +146,7 @@ def test_refine_run_and_cli_write_the_refined_front(problem, tmp_path):
     run_dir = tmp_path / "run"
     optimize(problem, out=run_dir, seed=5, pop_size=16, generations=5, algorithm="nsga2")
     front = read_front(run_dir / "front.csv")
-    result = refine_run(run_dir, max_points=3, workers=1)
+    result = refine_run(run_dir, max_points=3)
     written = read_csv(run_dir / FRONT_REFINED_CSV)
     assert list(written.columns) == [*front.columns, "source_index"]
     np.testing.assert_allclose(written[list(problem.objective_names)], result.front[list(problem.objective_names)], rtol=1e-15)
@@ -200,7 +192,7 @@ def test_refine_runs_on_chamber_and_distributed_pipe_problems(tmp_path, name):
 def test_refinement_gains_hypervolume_on_a_40_by_40_run(problem):
     run = optimize(problem, seed=1, pop_size=40, generations=40, algorithm="nsga2")
     started = time.perf_counter()
-    result = refine_front(problem, run.front, max_points=40, workers=2, reference_log=run.reference_point)
+    result = refine_front(problem, run.front, max_points=40, reference_log=run.reference_point)
     seconds = time.perf_counter() - started
     print(
         f"\nrefined {int(result.points['accepted'].sum())}/{len(result.points)} designs of a {len(run.front)}-design front: "

@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hisopt.optim import runio
+from hisopt.optim import rundir
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
 HANDLING_PROBLEM = ROOT / "problems" / "roll_plane_his_handling.toml"
@@ -51,7 +51,7 @@ def wait_for_generation(proc: subprocess.Popen, run_dir: Path, generation: int, 
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         assert proc.poll() is None, f"run ended before generation {generation}: {proc.stderr.read() if proc.stderr else ''}"
-        done = runio.checkpoint_generation(run_dir) if (run_dir / runio.CHECKPOINT).exists() else 0
+        done = rundir.checkpoint_generation(run_dir) if (run_dir / rundir.CHECKPOINT).exists() else 0
         if done >= generation:
             return done
         time.sleep(0.005)
@@ -110,7 +110,7 @@ def test_ctrl_c_saves_checkpoint_prints_resume_command_and_resumes(tmp_path, ref
             proc.communicate()
     assert proc.returncode == 130, stderr
     assert f"hisopt resume {run_dir}" in stderr and "Traceback" not in stderr
-    saved = runio.checkpoint_generation(run_dir)
+    saved = rundir.checkpoint_generation(run_dir)
     assert 5 <= saved < GENERATIONS
     assert (run_dir / "front.csv").exists()  # partial results are written too
     resumed = run("resume", str(run_dir))

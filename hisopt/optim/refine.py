@@ -46,11 +46,8 @@ point, or the one a run directory recorded).
 from __future__ import annotations
 
 import json
-import multiprocessing
-import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -61,16 +58,13 @@ import pandas as pd
 from hisopt.errors import ConfigError, RunError
 from hisopt.metrics import METRICS
 from hisopt.optim.archive import non_dominated_mask
+from hisopt.optim.rundir import FRONT_REFINED_CSV, REFINE_JSON
 
 if TYPE_CHECKING:
     from hisopt.optim.casadi_model import CasadiModel, FrequencySet
+    from hisopt.parallel import Backend
     from hisopt.problem import Problem
 
-FRONT_REFINED_CSV = "front_refined.csv"
-"""Refined front in a run directory: ``front.csv``'s columns plus ``source_index``."""
-
-REFINE_JSON = "refine.json"
-"""Summary of a run directory's refinement (settings, hypervolumes, timing, per point)."""
 
 
 # --- settings and results --------------------------------------------------------------------
@@ -508,18 +502,13 @@ def _refine_task(task: tuple[int, np.ndarray, np.ndarray], problem: "Problem", w
     return refine_point(_WORKER["problem"], model, task[0], task[1], task[2], weights, settings)
 
 
-def _init_worker(problem: "Problem") -> None:
-    _worker_model(problem)
-
-
 def refine_front(
     problem: "Problem",
     front: pd.DataFrame,
     max_points: int = 40,
     *,
     settings: RefineSettings | None = None,
-    workers: int | None = None,
-    client: Any = None,
+    backend: "Backend | None" = None,
     reference_log: np.ndarray | None = None,
     progress: Callable[[PointResult], None] | None = None,
     source: str = "front",
@@ -533,9 +522,8 @@ def refine_front(
         constraint columns), one row per design, as ``front.csv``
     max_points : [-] most start designs
     settings : refinement settings (default :class:`RefineSettings`)
-    workers : [-] worker processes (default: one per CPU, at most one per start design);
-        1 refines in this process
-    client : a ``dask.distributed.Client`` to refine on instead of local processes
+    backend : where the NLPs run: this process (default) or a Dask cluster
+        (:func:`hisopt.parallel.open_backend`), one task per start design
     reference_log : [decades] hypervolume reference point; default the problem's
         (:func:`hisopt.optim.decision.reference_point`)
     progress : called with each finished :class:`PointResult` (in completion order)
@@ -544,11 +532,11 @@ def refine_front(
     Raises
     ------
     ConfigError
-        The problem is outside the CasADi model's scope, ``max_points < 1``, ``workers < 1``,
-        the front lacks a variable or objective column, or a row is not a valid start
+        ``max_points < 1``, the front lacks a variable or objective column, or a row is not a valid start
         (:func:`start_designs`).
     """
     from hisopt.optim.decision import hypervolume, reference_point
+    from hisopt.parallel import Backend
 
     started = time.perf_counter()
     settings = settings or RefineSettings()
@@ -557,15 +545,15 @@ def refine_front(
     missing = [c for c in var_names + names if c not in front.columns]
     if missing:
         raise ConfigError(f"the front lacks the column {missing[0]!r}; expected columns {', '.join(var_names + names)}")
-    if workers is not None and workers < 1:
-        raise ConfigError(f"expected at least 1 worker, got {workers}", key="--workers")
     front = front.reset_index(drop=True)
     x, f = start_designs(problem, front, source)
     reference = reference_point(problem) if reference_log is None else np.asarray(reference_log, dtype=float)
     chosen = select_points(f, max_points) if len(front) else np.zeros(0, dtype=int)
     weights = asf_weights(f) if len(front) else np.ones(len(names))
     tasks = [(int(i), x[i], f[i]) for i in chosen]
-    results = _run_tasks(problem, tasks, weights, settings, workers, client, progress)
+    backend = backend or Backend()
+    report = None if progress is None else (lambda _, result: progress(result))
+    results = backend.map(_refine_task, tasks, problem, weights, settings, on_result=report)
 
     from hisopt.units import attach_units
 
@@ -605,45 +593,6 @@ def start_designs(problem: "Problem", front: pd.DataFrame, source: str = "front"
         i = int(bad[0])
         raise ConfigError(f"row {i + 1}: expected finite objective values, got {dict(zip(problem.objective_names, f[i].tolist()))}", file=source)
     return x, f
-
-
-def _run_tasks(
-    problem: "Problem",
-    tasks: list[tuple[int, np.ndarray, np.ndarray]],
-    weights: np.ndarray,
-    settings: RefineSettings,
-    workers: int | None,
-    client: Any,
-    progress: Callable[[PointResult], None] | None,
-) -> list[PointResult]:
-    """Refine every task serially, in local processes or on a Dask cluster; in task order."""
-    if not tasks:
-        return []
-    if client is not None:
-        from hisopt.parallel import Backend
-
-        results = Backend(client).map(_refine_task, tasks, problem, weights, settings)
-        if progress:
-            for r in results:
-                progress(r)
-        return results
-    n = min(workers or os.cpu_count() or 1, len(tasks))
-    if n == 1:
-        results = []
-        for task in tasks:
-            results.append(_refine_task(task, problem, weights, settings))
-            if progress:
-                progress(results[-1])
-        return results
-    # The platform's default start method (fork on Linux); each worker builds its model once.
-    with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context(), initializer=_init_worker, initargs=(problem,)) as pool:
-        futures = [pool.submit(_refine_task, task, problem, weights, settings) for task in tasks]
-        results = []
-        for future in futures:
-            results.append(future.result())
-            if progress:
-                progress(results[-1])
-    return results
 
 
 def _points_frame(problem: "Problem", results: list[PointResult]) -> pd.DataFrame:
@@ -687,54 +636,12 @@ def _refined_front(problem: "Problem", front: pd.DataFrame, results: list[PointR
 
 
 # --- run directories -------------------------------------------------------------------------
-def read_front(path: str | Path) -> pd.DataFrame:
-    """A ``front.csv`` (full precision; the values round-trip)."""
-    from hisopt.io import read_csv
-
-    path = Path(path)
-    if not path.is_file():
-        raise RunError(f"{path}: front not found; expected a run directory with {path.name}")
-    try:
-        return read_csv(path)
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise RunError(f"{path}: unreadable front ({exc})") from None
-
-
-def run_problem(run_dir: Path) -> tuple["Problem", np.ndarray | None]:
-    """The problem of a run directory and its recorded hypervolume reference point.
-
-    Reads ``run.json`` and the run's problem copy (:func:`hisopt.optim.run.load_run_problem`,
-    which refuses an edited copy or a changed original); without ``run.json`` a
-    ``problem.toml`` in the directory is used.
-    """
-    from hisopt.optim import runio
-
-    info_path = run_dir / runio.RUN_JSON
-    if info_path.is_file():
-        from hisopt.optim.run import load_run_problem
-
-        try:
-            info = json.loads(info_path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise RunError(f"{info_path}: unreadable ({exc})") from None
-        if "problem" not in info:
-            raise RunError(f"{info_path}: lacks 'problem'; the run never started")
-        reference = info.get("settings", {}).get("hypervolume_reference_log10")
-        return load_run_problem(run_dir, info["problem"]), None if reference is None else np.asarray(reference, dtype=float)
-    if (run_dir / runio.PROBLEM_TOML).is_file():
-        from hisopt.problem import load_problem
-
-        return load_problem(run_dir / runio.PROBLEM_TOML), None
-    raise RunError(f"{run_dir}: not a run directory (no {runio.RUN_JSON}); start a run with `hisopt optimize`")
-
-
 def refine_run(
     run_dir: str | Path,
     max_points: int = 40,
     *,
     settings: RefineSettings | None = None,
-    workers: int | None = None,
-    client: Any = None,
+    backend: "Backend | None" = None,
     progress: Callable[[PointResult], None] | None = None,
 ) -> RefineResult:
     """Refine a run directory's ``front.csv``; write ``front_refined.csv`` and ``refine.json``.
@@ -742,31 +649,31 @@ def refine_run(
     Parameters
     ----------
     run_dir : [-] a directory written by :func:`hisopt.optim.run.optimize` (``out=``)
-    max_points, settings, workers, client, progress : as :func:`refine_front`
+    max_points, settings, backend, progress : as :func:`refine_front`
 
     Raises
     ------
     RunError
         Not a run directory, no or unreadable ``front.csv``, or the problem copy was edited.
     ConfigError
-        The problem is outside the refinement's scope (pipes, chamber compliance).
+        A front row is not a valid start design.
     """
     from hisopt.io import ensure_writable_dir, write_csv
-    from hisopt.optim import runio
+    from hisopt.optim import rundir
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise RunError(f"{run_dir}: run directory not found; expected the --out directory of `hisopt optimize`")
-    problem, reference = run_problem(run_dir)
-    front = read_front(run_dir / runio.FRONT_CSV)
+    problem, reference = rundir.run_problem(run_dir)
+    front = rundir.read_front(run_dir / rundir.FRONT_CSV)
     ensure_writable_dir(run_dir)
     settings = settings or RefineSettings()
     result = refine_front(
-        problem, front, max_points, settings=settings, workers=workers, client=client, reference_log=reference, progress=progress,
-        source=str(run_dir / runio.FRONT_CSV),
+        problem, front, max_points, settings=settings, backend=backend, reference_log=reference, progress=progress,
+        source=str(run_dir / rundir.FRONT_CSV),
     )
     write_csv(result.front, run_dir / FRONT_REFINED_CSV)
     summary = result.summary() | {"max_points": max_points, "settings": asdict(settings)}
     summary["per_point"] = json.loads(result.points.to_json(orient="records"))
-    runio.atomic_write_json(run_dir / REFINE_JSON, summary)
+    rundir.atomic_write_json(run_dir / REFINE_JSON, summary)
     return result

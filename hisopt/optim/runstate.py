@@ -18,7 +18,6 @@ a run as ``killed``. Every state but ``finished`` and a live ``running`` can be 
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 from dataclasses import dataclass
@@ -27,7 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from hisopt.errors import RunError
-from hisopt.optim import runio
+from hisopt.optim import rundir
+from hisopt.optim.rundir import read_run_json
 
 STARTING, RUNNING, INTERRUPTED, FAILED, FINISHED = "starting", "running", "interrupted", "failed", "finished"
 KILLED = "killed"
@@ -108,7 +108,7 @@ class RunState:
         resume = f"continue it with `hisopt resume {d}`"
         proc = self.info.get("process") or {}
         if self.status == FINISHED:
-            return f"{d}: finished, {g} of {n} generations; results in {d / runio.FRONT_CSV}"
+            return f"{d}: finished, {g} of {n} generations; results in {d / rundir.FRONT_CSV}"
         if self.status in (STARTING, RUNNING) and self.alive:
             return f"{d}: {self.status} in process {proc.get('pid')}, {g} of {n} generations saved"
         if self.status in (STARTING, RUNNING) and self.alive is None:
@@ -128,29 +128,10 @@ class RunState:
             if f.get("repeated"):
                 return (
                     f"{d}: failed {at} again, with the same error as the session before ({f.get('error')}): resuming will "
-                    f"not get past it; report it with {d / runio.RUN_JSON}, or start over with another --out"
+                    f"not get past it; report it with {d / rundir.RUN_JSON}, or start over with another --out"
                 )
             return f"{d}: failed {at} ({f.get('error', 'unknown error')}); retry from generation {g} with `hisopt resume {d}`, or start over with another --out"
         return f"{d}: status {self.status!r}, {g} of {n} generations saved"
-
-
-def read_run_json(run_dir: Path) -> dict[str, Any]:
-    """``run_dir/run.json``; :class:`RunError` saying what to do when it is missing or unreadable."""
-    run_dir = Path(run_dir)
-    path = run_dir / runio.RUN_JSON
-    if not run_dir.is_dir():
-        raise RunError(f"{run_dir}: not a run directory (not found); expected the --out directory of `hisopt optimize`")
-    if not path.is_file():
-        if any((run_dir / name).is_file() for name in (runio.PROBLEM_TOML, runio.PROBLEM_JSON)):
-            raise RunError(f"{run_dir}: the run never started (no {runio.RUN_JSON}); start it again with `hisopt optimize PROBLEM --out {run_dir}`")
-        raise RunError(f"{run_dir}: not a run directory (no {runio.RUN_JSON}); start a run with `hisopt optimize`")
-    try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise RunError(f"{path}: unreadable ({exc}); start over with another --out") from None
-    if not isinstance(info, dict):
-        raise RunError(f"{path}: not a hisopt run record; start over with another --out")
-    return info
 
 
 def read_state(run_dir: str | Path) -> RunState:
@@ -168,7 +149,7 @@ def read_state(run_dir: str | Path) -> RunState:
     if status in (STARTING, RUNNING) and alive is False:
         status = KILLED
     total = int((info.get("settings") or {}).get("generations", 0))
-    return RunState(run_dir, status, runio.checkpoint_generation(run_dir), total, info, alive)
+    return RunState(run_dir, status, rundir.checkpoint_generation(run_dir), total, info, alive)
 
 
 def record_failure(info: dict[str, Any], session: dict[str, Any], exc: BaseException, generation: int) -> None:
@@ -200,7 +181,7 @@ def interrupted_line(run_dir: Path, exc: BaseException) -> str:
     except (RunError, OSError, ValueError, KeyError):
         return f"interrupted by {name}. Resume with: hisopt resume {run_dir}"
     if state.status == FINISHED:
-        return f"{name} arrived during the final write, which completed: the run is finished ({run_dir / runio.FRONT_CSV})"
+        return f"{name} arrived during the final write, which completed: the run is finished ({run_dir / rundir.FRONT_CSV})"
     if state.status == INTERRUPTED:
         return (
             f"interrupted by {name} after {state.generation} of {state.generations} generations; checkpoint saved. "
@@ -213,7 +194,7 @@ def refuse_occupied(run_dir: str | Path) -> None:
     """Raise :class:`RunError` if ``run_dir`` holds a run, saying what state it is in and how
     to continue it or start over (called before a new run claims ``--out``)."""
     run_dir = Path(run_dir)
-    if not (run_dir / runio.RUN_JSON).exists():
+    if not (run_dir / rundir.RUN_JSON).exists():
         return
     try:
         line = read_state(run_dir).line().removeprefix(f"{run_dir}: ")

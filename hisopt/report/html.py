@@ -26,7 +26,6 @@ from hisopt.units import (
     hypervolume_unit,
 )
 
-RUN_FILES = {"front": "front.csv", "refined": "front_refined.csv", "generations": "generations.csv", "run": "run.json"}
 
 _CSS = """
 body{font-family:Inter,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1280px;padding:0 16px;color:#1d2330}
@@ -47,21 +46,17 @@ p.note{color:#556;font-size:13px;margin:4px 0 0 0}
 
 def load_run_files(run_dir: str | Path) -> dict[str, Any]:
     """The run's record, front (and refined front, generations if present) and problem copy."""
-    from hisopt.problem import load_problem, problem_from_dict
+    from hisopt.optim import rundir
 
     run_dir = Path(run_dir)
-    record_path = run_dir / RUN_FILES["run"]
-    if not record_path.is_file():
-        raise RunError(f"{run_dir}: not a run directory (no run.json); start one with `hisopt optimize`")
-    record = json.loads(record_path.read_text(encoding="utf-8"))
-    front_path = run_dir / RUN_FILES["front"]
+    record = rundir.read_run_json(run_dir)
+    front_path = run_dir / rundir.FRONT_CSV
     if not front_path.is_file():
         raise RunError(f"{front_path}: missing; the run has not finished a generation yet")
-    copy = run_dir / record["problem"]["copy"]
-    problem = load_problem(copy) if copy.suffix == ".toml" else problem_from_dict(json.loads(copy.read_text()), str(copy))
+    problem = rundir.load_run_problem(run_dir, record["problem"], check_original=False)
     out: dict[str, Any] = {"record": record, "problem": problem, "front": read_csv(front_path)}
-    for key in ("refined", "generations"):
-        path = run_dir / RUN_FILES[key]
+    for key, name in (("refined", rundir.FRONT_REFINED_CSV), ("generations", rundir.GENERATIONS_CSV)):
+        path = run_dir / name
         out[key] = read_csv(path) if path.is_file() else None
     return out
 

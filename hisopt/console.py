@@ -1,0 +1,130 @@
+"""The command line's run display: a live progress bar, the exit codes of interrupted and
+failed runs, and the summary tables (with units) printed at the end."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from hisopt import interrupt
+from hisopt.errors import HisoptError
+from hisopt.optim import runstate
+from hisopt.optim.results import GenerationStats, OptimizationResult, ProgressFn
+
+def console_progress(total: int, start: int = 0) -> tuple[Any, ProgressFn]:
+    """A rich progress display (on stderr) and its callback: ``(progress, callback)``.
+
+    Use the display as a context manager around the run.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    progress = Progress(
+        TextColumn("[bold]optimising"),
+        BarColumn(),
+        TextColumn("gen {task.completed:>4.0f}/{task.total:.0f}"),
+        TextColumn("evals {task.fields[evals]:>6}"),
+        TextColumn("feasible {task.fields[feasible]:>5}"),
+        TextColumn("front {task.fields[front]:>5}"),
+        TextColumn("HV {task.fields[hv]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=False,
+    )
+    task = progress.add_task("optimise", total=total, completed=start, evals="-", feasible="-", front="-", hv="-")
+
+    def update(stats: GenerationStats) -> None:
+        progress.update(
+            task,
+            completed=stats.generation,
+            evals=stats.evaluations,
+            feasible=f"{100 * stats.feasible_share:.0f}%",
+            front=stats.front_size,
+            hv=f"{stats.hypervolume:.5g}",
+        )
+
+    return progress, update
+
+
+def run_with_console(
+    start: Callable[[ProgressFn], OptimizationResult], *, total: int, done: int, run_dir: Path, debug: bool = False
+) -> int:
+    """Run ``start(progress_callback)`` under a live progress bar, then print the summary.
+
+    Parameters
+    ----------
+    start : [-] starts or resumes the run with the given progress callback
+    total : [-] generations of the run
+    done : [-] generations already completed
+    run_dir : [-] the run directory (for the resume hint)
+    debug : [-] re-raise an internal error (for its traceback) instead of reporting it
+
+    Returns
+    -------
+    int
+        Exit code: 0; ``128 + signal`` after Ctrl-C (130) or SIGTERM (143), the checkpoint
+        saved and the resume command printed on stderr; 1 after an internal error, with one
+        line on stderr saying what ``run.json`` now records and what to do.
+    """
+    from rich.console import Console
+
+    display, update = console_progress(total, done)
+    try:
+        with display:
+            result = start(update)
+    except KeyboardInterrupt as exc:
+        print(runstate.interrupted_line(run_dir, exc), file=sys.stderr)
+        return interrupt.exit_code(exc)
+    except HisoptError:
+        raise
+    except Exception as exc:
+        if debug:
+            raise
+        line = runstate.state_line(run_dir)
+        if type(exc).__name__ not in line:  # the state line names a recorded failure itself
+            line = f"{type(exc).__name__}: {exc}; {line}"
+        print(f"internal error: {line} (--debug shows a traceback)", file=sys.stderr)
+        return 1
+    console = Console(width=120)
+    for table in summary_tables(result):
+        console.print(table)
+    return 0
+
+
+def summary_tables(result: OptimizationResult) -> list[Any]:
+    """Rich tables summarising a run: totals, then the knee design and the ASF pick (with units)."""
+    from rich.table import Table
+    from rich.text import Text
+
+    from hisopt.units import display_for, hypervolume_unit
+
+    totals = Table(title=f"{result.problem.name}: {result.settings.algorithm.upper()} run summary", show_header=False)
+    totals.add_column("item")
+    totals.add_column("value", justify="right")
+    rows = [
+        ("front size", f"{len(result.front)} designs"),
+        ("evaluations", f"{len(result.history)}"),
+        ("generations", f"{len(result.generations)} of {result.settings.generations}"),
+        ("population / seed", f"{result.settings.pop_size} / {result.settings.seed}"),
+        ("wall time", f"{result.wall_time_s:.1f} s"),
+        ("hypervolume (log10 objectives)", f"{result.hypervolume:.6g} {hypervolume_unit(len(result.problem.objective_names))}"),
+        ("run directory", str(result.run_dir) if result.run_dir else "-"),
+    ]
+    for item, value in rows:
+        totals.add_row(item, Text(value))
+    tables: list[Any] = [totals]
+    if len(result.front):
+        picks = Table(title="Knee and ASF pick (closest to the ideal)")
+        picks.add_column(Text("quantity [unit]"))  # Text: brackets are not rich markup
+        picks.add_column("knee", justify="right")
+        picks.add_column("ASF pick", justify="right")
+        knee, asf = result.knee, result.asf_pick()
+        units = result.front.attrs.get("units", {})
+        for name in result.front.columns:
+            shown = display_for(units.get(name, ""), [knee[name], asf[name]], trim=False)
+            picks.add_row(Text(shown.label(name)), shown.number(knee[name]), shown.number(asf[name]))
+        tables.append(picks)
+    return tables

@@ -1,0 +1,121 @@
+"""``DesignSpace``: a validated problem file and the mapping from designs to models.
+
+What every engine needs of a problem: the validated specification, the design variables
+(names, bounds, baseline), the design matrix of any input form, and the coupled model of a
+batch of designs (numpy) or of symbolic ones (CasADi). The evaluator sits on top of it;
+:class:`hisopt.problem.Problem` (the facade users load) adds the evaluator and ``evaluate``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Self
+
+import numpy as np
+
+from hisopt.config import ProblemSpec, parse_problem
+from hisopt.errors import ConfigError
+from hisopt.hydraulics.coupling import HydraulicSystem
+from hisopt.hydraulics.roll_plane import parameter_values, roll_plane_network
+from hisopt.model import CoupledModel
+from hisopt.validation import design_matrix, require_admissible
+
+if TYPE_CHECKING:
+    from hisopt.hydraulics.network import Network
+
+
+@dataclass(frozen=True)
+class DesignSpace:
+    """A design problem below the evaluator: vehicle, HIS, variables with bounds, road, band,
+    objectives and constraints, and the models of designs."""
+
+    spec: ProblemSpec
+    path: Path | None = None
+    sha256: str | None = None
+    _cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Pickle (e.g. to Dask workers) without the caches; they are rebuilt there.
+        return (type(self), (self.spec, self.path, self.sha256))
+
+    # --- variables -------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def variable_names(self) -> tuple[str, ...]:
+        return tuple(self.spec.variables)
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([v.lower for v in self.spec.variables.values()])
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([v.upper for v in self.spec.variables.values()])
+
+    @property
+    def baseline(self) -> np.ndarray:
+        """The fixed ``[his]`` values of the design variables (the baseline design)."""
+        return np.array([getattr(self.spec.his, n) for n in self.variable_names], dtype=float)
+
+    @property
+    def objective_names(self) -> tuple[str, ...]:
+        return tuple(self.spec.objectives)
+
+    @property
+    def constraint_names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.spec.constraints)
+
+    def design_matrix(self, designs: Any) -> np.ndarray:
+        """Designs as an ``(n, n_var)`` float array (:func:`hisopt.validation.design_matrix`).
+
+        Accepts an array (columns in variable order), a DataFrame or a dict with the
+        variable names (missing names take the baseline value), a list of such dicts, or a
+        single design. Values are not checked against the rules here: see
+        :func:`hisopt.validation.check_designs`.
+        """
+        return design_matrix(self, designs)
+
+    def with_values(self, **values: Any) -> Self:
+        """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``), validated like the file."""
+        data = self.spec.model_dump(by_alias=True)
+        for key, value in values.items():
+            if key not in data["his"]:
+                raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(data['his'])}", key=key)
+            data["his"][key] = value.item() if isinstance(value, np.generic) else value
+        return type(self)(parse_problem(data, str(self.path or "<problem>")), self.path, self.sha256)
+
+    # --- models ----------------------------------------------------------------------
+    def his_parameters(self, designs: Any) -> dict[str, np.ndarray]:
+        """Design matrix as a dict of per-design arrays, shape ``(n,)`` each."""
+        x = self.design_matrix(designs)
+        return {n: x[:, i] for i, n in enumerate(self.variable_names)}
+
+    def model(self, designs: Any = None, his: bool = True) -> CoupledModel:
+        """The coupled model for a batch of designs (batch shape ``(n,)``).
+
+        ``designs=None`` is the baseline design; ``his=False`` the reference vehicle. A design
+        that is not finite or breaks a parameter's rule raises :class:`ConfigError` naming
+        the row and the rule.
+        """
+        if not his:
+            return CoupledModel(self.spec.vehicle, None)
+        x = self.design_matrix(self.baseline if designs is None else designs)
+        require_admissible(self, x)  # never build a model from a rule-breaking design
+        params = {n: x[:, i] for i, n in enumerate(self.variable_names)}
+        return CoupledModel(self.spec.vehicle, self.hydraulic_system(params))
+
+    def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
+        """The HIS with design variables set from ``overrides`` (numpy arrays of one batch
+        shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values."""
+        return HydraulicSystem(self.network(), parameter_values(self.spec.his, overrides))
+
+    def network(self) -> "Network":
+        """The compiled HIS network (structure only; computed once per problem)."""
+        if "network" not in self._cache:
+            self._cache["network"] = roll_plane_network(self.spec.his)
+        return self._cache["network"]

@@ -1,0 +1,145 @@
+"""What an optimisation run found: per-generation statistics and the result object."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.errors import ConfigError
+from hisopt.optim.decision import asf_index, knee_index
+from hisopt.optim.settings import RunSettings
+
+if TYPE_CHECKING:
+    from hisopt.problem import Problem
+
+@dataclass(frozen=True)
+class GenerationStats:
+    """Progress of a run after one generation (passed to ``progress`` callbacks).
+
+    Attributes
+    ----------
+    generation : [-] generations completed (1 = initial population)
+    generations : [-] generations of the whole run
+    evaluations : [-] designs evaluated so far
+    feasible_share : [-] share of this generation's designs that are feasible
+    front_size : [-] designs in the archive (the non-dominated feasible set)
+    hypervolume : [decades^n_obj] hypervolume of the archive in log10 space
+    elapsed_s : [s] wall time of the run so far (all sessions)
+    """
+
+    generation: int
+    generations: int
+    evaluations: int
+    feasible_share: float
+    front_size: int
+    hypervolume: float
+    elapsed_s: float
+
+
+@dataclass
+class OptimizationResult:
+    """What a run found: the front, every evaluation, quality and decision support.
+
+    Attributes
+    ----------
+    problem : the optimised problem
+    settings : algorithm settings of the run
+    front : [physical units] non-dominated feasible designs of all evaluations: variable
+        columns, objective columns, constraint-only quantity columns (sorted by the first
+        objective)
+    history : [physical units] every evaluated design: ``evaluation``, ``generation``,
+        variables, quantities, ``valid``, ``feasible``
+    generations : per-generation statistics (:class:`GenerationStats` fields)
+    hypervolume : [decades^n_obj] hypervolume of the front in log10 space
+    reference_point : [decades] the fixed hypervolume reference point (log10 of objectives)
+    wall_time_s : [s] wall time of the run (all sessions)
+    run_dir : the run directory (None for a run without one)
+    completed : [-] False when the algorithm stopped early (no new offspring possible)
+    """
+
+    problem: "Problem"
+    settings: RunSettings
+    front: pd.DataFrame
+    history: pd.DataFrame
+    generations: pd.DataFrame
+    hypervolume: float
+    reference_point: np.ndarray
+    wall_time_s: float
+    run_dir: Path | None = None
+    completed: bool = True
+
+    @property
+    def objectives(self) -> pd.DataFrame:
+        """[objective units] The front's objective columns."""
+        return self.front[list(self.problem.objective_names)]
+
+    @property
+    def knee(self) -> pd.Series:
+        """The knee design of the front (:func:`hisopt.optim.decision.knee_index`)."""
+        return self.front.iloc[knee_index(self.objectives.to_numpy())]
+
+    def plot_front(self, refined: pd.DataFrame | None = None) -> Any:
+        """Scatter matrix of the front's objectives, knee and ASF pick highlighted (plotly)."""
+        from hisopt.report.figures import front_scatter_matrix
+
+        highlights = {"knee": self.knee, "ASF pick": self.asf_pick()} if len(self.front) else {}
+        return front_scatter_matrix(self.front, self.problem.objective_names, self.problem.variable_names, highlights, refined)
+
+    def plot_parallel(self, color_by: str | None = None) -> Any:
+        """Parallel coordinates of the front's variables and objectives (plotly)."""
+        from hisopt.report.figures import parallel_coordinates
+
+        names = self.problem.objective_names
+        return parallel_coordinates(self.front, self.problem.variable_names, names, color_by or names[0])
+
+    def plot_convergence(self) -> Any:
+        """Hypervolume, front size and feasible share per generation (plotly)."""
+        from hisopt.report.figures import convergence
+
+        return convergence(self.generations)
+
+    def asf_pick(
+        self,
+        reference: Mapping[str, float] | Sequence[float] | None = None,
+        weights: Mapping[str, float] | Sequence[float] | None = None,
+    ) -> pd.Series:
+        """The front design closest to an aspiration point (augmented ASF, log space).
+
+        Parameters
+        ----------
+        reference : [objective units] aspiration value per objective (by name or in
+            objective order); default the front's ideal point; names left out take it too
+        weights : [-] positive weight per objective (by name or in order); default 1 each;
+            a larger weight pulls that objective closer to the reference
+        """
+        f = self.objectives.to_numpy()
+        names = self.problem.objective_names
+        ref = None
+        if reference is not None:
+            ideal = f.min(axis=0)
+            ref = _by_objective(reference, names, "reference", default=ideal)
+        w = None if weights is None else _by_objective(weights, names, "weights", default=np.ones(len(names)))
+        return self.front.iloc[asf_index(f, ref, w)]
+
+
+def _by_objective(values: Mapping[str, float] | Sequence[float], names: tuple[str, ...], what: str, default: np.ndarray) -> np.ndarray:
+    if isinstance(values, Mapping):
+        unknown = [k for k in values if k not in names]
+        if unknown:
+            raise ConfigError(f"unknown objective {unknown[0]!r} in the ASF {what}; expected names from {', '.join(names)}")
+        return np.array([float(values.get(n, d)) for n, d in zip(names, default)])
+    out = np.asarray(values, dtype=float)
+    if out.shape != (len(names),):
+        raise ConfigError(f"expected {len(names)} ASF {what} values (order {', '.join(names)}), got {out.shape[0] if out.ndim else 1}")
+    return out
+
+
+
+
+ProgressFn = Callable[[GenerationStats], None]
+"""Called with each generation's statistics."""

@@ -1,0 +1,366 @@
+"""Run directories: their layout, atomic writes, the checkpoint, the problem copy and the
+resume rule. One module owns them; runs, refinement, studies and reports go through it.
+
+Run directory files (all written atomically):
+
+- ``run.json``: status, settings, versions, the problem file's SHA-256 and text, sessions
+  with timings, and (when finished) a result summary;
+- ``problem.toml`` (or ``problem.json`` for a problem not read unchanged from a file): the
+  run's own copy of the problem;
+- ``checkpoint.npz``: written after every generation;
+- ``front.csv``: the archive's non-dominated feasible designs: variables, objectives,
+  constraint quantities, physical units, shortest round-trip decimals and a units row
+  (:func:`hisopt.io.write_csv`; read it back with :func:`hisopt.io.read_csv`);
+- ``evaluations.parquet``: every evaluated design
+  with its generation, quantities, ``valid`` and ``feasible``;
+- ``generations.csv``: per-generation statistics (evaluations, feasible share, front
+  size, hypervolume).
+
+Resume rule for the problem file: :func:`resume` loads the run's own copy. It refuses
+(:class:`~hisopt.errors.RunError`) when the copy's SHA-256 differs from the one in
+``run.json`` (the copy was edited) or when the original problem file recorded in
+``run.json`` still exists and its SHA-256 differs (the problem changed since the run
+started: resuming would mix two problems). A moved or deleted original is not an error.
+Resume also refuses a checkpoint written by another pymoo version.
+
+Run-directory input/output: atomic writes, the checkpoint format, problem copies.
+
+Every file of a run directory is written atomically: the bytes go to a temporary file in
+the same directory, which is flushed, ``fsync``-ed and moved over the target with
+:func:`os.replace`. A reader (or a resumed run after ``SIGKILL``) therefore sees either the
+previous complete file or the new complete file, never a torn one.
+
+Checkpoint format (``checkpoint.npz``, one file, written after every generation): plain
+numpy arrays (no pickles, loaded with ``allow_pickle=False``) plus one JSON document in the
+0-d string array ``meta``. The arrays hold the algorithm's population (``pop_X``, ``pop_F``,
+``pop_G`` and the survival attributes ``pop_rank`` ...), the archive (``archive_X``,
+``archive_Q``, ``archive_id``), every evaluated design (``hist_X``, ``hist_Q``,
+``hist_valid``, ``hist_gen``) and NSGA-III's normalisation state (``norm_*``); ``meta``
+holds the generation counter, the random generator states as plain integers and lists,
+the per-generation statistics and the settings.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import platform
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt import interrupt
+from hisopt.errors import ConfigError, RunError
+from hisopt.io import atomic_write_bytes, atomic_write_json, read_csv, sha256_bytes, write_csv
+
+if TYPE_CHECKING:
+    from hisopt.optim.results import OptimizationResult
+    from hisopt.problem import Problem
+
+CHECKPOINT = "checkpoint.npz"
+RUN_JSON = "run.json"
+FRONT_CSV = "front.csv"
+EVALUATIONS = "evaluations.parquet"
+GENERATIONS_CSV = "generations.csv"
+PROBLEM_TOML = "problem.toml"
+PROBLEM_JSON = "problem.json"
+FRONT_REFINED_CSV = "front_refined.csv"
+"""Refined front (``hisopt refine``): ``front.csv``'s columns plus ``source_index``."""
+REFINE_JSON = "refine.json"
+"""Summary of the refinement (settings, hypervolumes, timing, per point)."""
+CHECKPOINT_FORMAT = 1
+
+
+def prepare_run_directory(run_dir: Path, *, fresh: bool) -> Path:
+    """Create ``run_dir`` if needed and prove it writable before any work starts.
+
+    Parameters
+    ----------
+    run_dir : [-] the run directory
+    fresh : [-] True for a new run: refuse a directory that already holds a run
+
+    Raises
+    ------
+    RunError
+        The directory cannot be created or written, or (``fresh``) already holds a run.
+    """
+    run_dir = Path(run_dir)
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RunError(f"cannot create run directory {run_dir}: {exc.strerror or exc}; choose a writable --out") from None
+    if not run_dir.is_dir():
+        raise RunError(f"run directory {run_dir} is not a directory; choose another --out")
+    if fresh and (run_dir / RUN_JSON).exists():  # hisopt.optim.runstate.refuse_occupied says more, first
+        raise RunError(f"--out {run_dir} already holds a run; continue it with `hisopt resume {run_dir}`, or choose another --out")
+    if not fresh:  # temporary files of a write that a kill cut short
+        for stale in run_dir.glob(".*.tmp"):
+            with contextlib.suppress(OSError):
+                stale.unlink()
+    try:
+        atomic_write_bytes(run_dir / ".write-test", b"ok\n")
+        (run_dir / ".write-test").unlink()
+    except OSError as exc:
+        raise RunError(f"cannot write to run directory {run_dir}: {exc.strerror or exc}; choose a writable --out") from None
+    return run_dir
+
+
+def save_checkpoint(path: Path, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+    """Write a checkpoint (``arrays`` plus the JSON ``meta``) atomically to ``path``."""
+    buffer = io.BytesIO()
+    payload = {"meta": np.array(json.dumps(meta | {"format": CHECKPOINT_FORMAT}))}
+    payload.update({name: np.asarray(value) for name, value in arrays.items()})
+    np.savez(buffer, **payload)
+    atomic_write_bytes(path, buffer.getvalue())
+
+
+def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Read a checkpoint written by :func:`save_checkpoint`: ``(meta, arrays)``.
+
+    Raises
+    ------
+    RunError
+        The file is missing, unreadable or of another format.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RunError(f"{path}: checkpoint not found")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except (OSError, ValueError) as exc:
+        raise RunError(f"{path}: unreadable checkpoint ({exc})") from None
+    meta = json.loads(str(arrays.pop("meta")))
+    if meta.get("format") != CHECKPOINT_FORMAT:
+        raise RunError(f"{path}: checkpoint format {meta.get('format')!r}, expected {CHECKPOINT_FORMAT}")
+    return meta, arrays
+
+
+def checkpoint_generation(run_dir: Path) -> int:
+    """[-] Generations completed according to ``run_dir``'s checkpoint (0 if none yet)."""
+    path = Path(run_dir) / CHECKPOINT
+    if not path.is_file():
+        return 0
+    meta, _ = load_checkpoint(path)
+    return int(meta["generation"])
+
+
+def generator_state(rng: np.random.Generator) -> dict[str, Any]:
+    """A JSON-ready copy of a numpy ``Generator``'s bit-generator state (plain ints)."""
+    return json.loads(json.dumps(rng.bit_generator.state))
+
+
+def set_generator_state(rng: np.random.Generator, state: dict[str, Any]) -> None:
+    """Restore a state from :func:`generator_state` into ``rng`` (same bit generator)."""
+    if state.get("bit_generator") != type(rng.bit_generator).__name__:
+        raise RunError(f"checkpoint holds a {state.get('bit_generator')} state, expected {type(rng.bit_generator).__name__}")
+    rng.bit_generator.state = state
+
+
+def legacy_state() -> dict[str, Any]:
+    """The global numpy RNG state (``np.random.get_state()``) as plain lists and ints."""
+    name, keys, pos, has_gauss, cached = np.random.get_state()
+    return {"name": name, "keys": keys.tolist(), "pos": int(pos), "has_gauss": int(has_gauss), "cached_gaussian": float(cached)}
+
+
+def set_legacy_state(state: dict[str, Any]) -> None:
+    """Restore the global numpy RNG from :func:`legacy_state`."""
+    np.random.set_state(
+        (state["name"], np.asarray(state["keys"], dtype=np.uint32), state["pos"], state["has_gauss"], state["cached_gaussian"])
+    )
+
+
+# --- reading a run directory -----------------------------------------------------------------
+def read_run_json(run_dir: Path) -> dict[str, Any]:
+    """``run_dir/run.json``; :class:`RunError` saying what to do when it is missing or unreadable."""
+    run_dir = Path(run_dir)
+    path = run_dir / RUN_JSON
+    if not run_dir.is_dir():
+        raise RunError(f"{run_dir}: not a run directory (not found); expected the --out directory of `hisopt optimize`")
+    if not path.is_file():
+        if any((run_dir / name).is_file() for name in (PROBLEM_TOML, PROBLEM_JSON)):
+            raise RunError(f"{run_dir}: the run never started (no {RUN_JSON}); start it again with `hisopt optimize PROBLEM --out {run_dir}`")
+        raise RunError(f"{run_dir}: not a run directory (no {RUN_JSON}); start a run with `hisopt optimize`")
+    try:
+        info = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise RunError(f"{path}: unreadable ({exc}); start over with another --out") from None
+    if not isinstance(info, dict):
+        raise RunError(f"{path}: not a hisopt run record; start over with another --out")
+    return info
+
+
+def read_front(path: str | Path) -> pd.DataFrame:
+    """A ``front.csv`` (full precision; the values round-trip)."""
+    path = Path(path)
+    if not path.is_file():
+        raise RunError(f"{path}: front not found; expected a run directory with {path.name}")
+    try:
+        return read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        raise RunError(f"{path}: unreadable front ({exc})") from None
+
+
+def run_problem(run_dir: Path) -> tuple["Problem", np.ndarray | None]:
+    """The problem of a run directory and its recorded hypervolume reference point.
+
+    Reads ``run.json`` and the run's problem copy (:func:`load_run_problem`, which refuses an
+    edited copy or a changed original); a directory with only a ``problem.toml`` (a run that
+    never started) gives that problem and no reference point.
+    """
+    run_dir = Path(run_dir)
+    if not (run_dir / RUN_JSON).is_file() and (run_dir / PROBLEM_TOML).is_file():
+        from hisopt.problem import load_problem
+
+        return load_problem(run_dir / PROBLEM_TOML), None
+    info = read_run_json(run_dir)
+    if "problem" not in info:
+        raise RunError(f"{run_dir / RUN_JSON}: lacks 'problem'; the run never started")
+    reference = info.get("settings", {}).get("hypervolume_reference_log10")
+    return load_run_problem(run_dir, info["problem"]), None if reference is None else np.asarray(reference, dtype=float)
+
+
+# --- run.json, the problem copy, the outputs ------------------------------------------------
+def now() -> str:
+    """The current UTC time as ``run.json`` records it."""
+    return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+def versions() -> dict[str, str]:
+    """Versions of hisopt, Python and the numerical stack (recorded in ``run.json``)."""
+    import pymoo
+    import scipy
+
+    import hisopt
+
+    return {
+        "hisopt": hisopt.__version__,
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "pandas": pd.__version__,
+        "pymoo": pymoo.__version__,
+        "platform": platform.platform(),
+    }
+
+
+def problem_copy(problem: "Problem") -> tuple[str, bytes, dict[str, Any]]:
+    """The run's copy of the problem: ``(file name, bytes, run.json record)``.
+
+    The problem file itself (``problem.toml``) when the problem was loaded from a file that
+    is unchanged and unmodified since (``Problem.sha256`` matches and the file parses to the
+    same specification); otherwise the specification as JSON (``problem.json``), e.g. for
+    :func:`~hisopt.problem.problem_from_dict` or ``Problem.with_values``.
+    """
+    from hisopt.config import parse_problem
+
+    path = problem.path
+    if path is not None and problem.sha256 is not None and Path(path).is_file():
+        raw = Path(path).read_bytes()
+        if sha256_bytes(raw) == problem.sha256:
+            import tomllib
+
+            try:
+                same = parse_problem(tomllib.loads(raw.decode("utf-8")), str(path)) == problem.spec
+            except (ConfigError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+                same = False
+            if same:
+                record = {
+                    "name": problem.name,
+                    "path": str(Path(path).resolve()),
+                    "sha256": problem.sha256,
+                    "copy": PROBLEM_TOML,
+                    "text": raw.decode("utf-8"),
+                }
+                return PROBLEM_TOML, raw, record
+    text = json.dumps(problem.spec.model_dump(mode="json", by_alias=True), indent=2) + "\n"
+    raw = text.encode("utf-8")
+    record = {
+        "name": problem.name,
+        "path": None,
+        "derived_from": None if path is None else str(Path(path).resolve()),
+        "sha256": sha256_bytes(raw),
+        "copy": PROBLEM_JSON,
+        "text": text,
+    }
+    return PROBLEM_JSON, raw, record
+
+
+def load_run_problem(run_dir: Path, record: dict[str, Any], check_original: bool = True) -> "Problem":
+    """The problem of a run from its own copy, after the checks of the module's resume rule
+    (``check_original=False``: only the copy's own checksum, e.g. for a report).
+
+    Raises
+    ------
+    RunError
+        The copy is missing or edited, or the original problem file has changed.
+    """
+    from hisopt.problem import load_problem, problem_from_dict
+
+    copy = run_dir / str(record.get("copy", ""))
+    if not copy.is_file():
+        raise RunError(f"{copy}: the run's copy of its problem is missing")
+    digest = sha256_bytes(copy.read_bytes())
+    if digest != record["sha256"]:
+        raise RunError(
+            f"{copy} was edited since the run started (sha256 {record['sha256'][:12]} -> {digest[:12]}); "
+            "restore it or start a new run with `hisopt optimize`"
+        )
+    original = record.get("path")
+    if check_original and original and Path(original).is_file():
+        now = sha256_bytes(Path(original).read_bytes())
+        if now != record["sha256"]:
+            raise RunError(
+                f"{original} changed since the run started (sha256 {record['sha256'][:12]} -> {now[:12]}); "
+                "resuming would mix two problems: restore the file or start a new run with `hisopt optimize`"
+            )
+    if copy.suffix == ".toml":
+        return load_problem(copy)
+    return problem_from_dict(json.loads(copy.read_text(encoding="utf-8")), str(copy))
+
+
+def _summary(result: "OptimizationResult") -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "generations": int(len(result.generations)),
+        "evaluations": int(len(result.history)),
+        "front_size": int(len(result.front)),
+        "hypervolume": result.hypervolume,
+        "completed": result.completed,
+    }
+    if len(result.front):
+        out["knee"] = {k: float(v) for k, v in result.knee.items()}
+        out["asf_pick"] = {k: float(v) for k, v in result.asf_pick().items()}
+    return out
+
+
+def write_outputs(run_dir: Path, result: "OptimizationResult") -> None:
+    """``front.csv``, the evaluations and ``generations.csv`` (each atomically)."""
+    write_csv(result.front, run_dir / FRONT_CSV)
+    interrupt.hook_point("final-write")
+    write_csv(result.generations, run_dir / GENERATIONS_CSV)
+    buffer = io.BytesIO()
+    result.history.to_parquet(buffer, index=False)  # pyarrow, a declared dependency
+    atomic_write_bytes(run_dir / EVALUATIONS, buffer.getvalue())
+
+
+def update_run_json(
+    run_dir: Path, info: dict[str, Any], session: dict[str, Any], status: str, result: "OptimizationResult", session_s: float, evaluation_s: float
+) -> None:
+    """Record ``status``, the session's end, the timings and the result summary in ``run.json``."""
+    info["status"] = status
+    if status == "finished":
+        info.pop("failure", None)
+    session |= {
+        "ended": now(),
+        "status": status,
+        "end_generation": int(len(result.generations)),
+        "wall_time_s": session_s,
+    }
+    info["timings"] = {"wall_time_s": result.wall_time_s, "evaluation_s": evaluation_s}
+    info["result"] = _summary(result)
+    atomic_write_json(run_dir / RUN_JSON, info)
