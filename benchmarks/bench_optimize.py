@@ -63,10 +63,10 @@ def run_optuna(problem: hisopt.Problem, pop: int, trials: int, seed: int) -> tup
     records: list[tuple[np.ndarray, bool]] = []
 
     def objective(trial: optuna.Trial) -> tuple[float, ...]:
-        x = np.array([[trial.suggest_float(n, lo, hi) for n, lo, hi in zip(names, lower, upper)]])
+        x = np.array([[trial.suggest_float(n, lo, hi) for n, lo, hi in zip(names, lower, upper, strict=True)]])
         f, g = adapter.f_and_g(evaluator(x))
         records.append((f[0], bool(feasible_mask(g)[0])))
-        for key, value in zip(constraint_keys, g[0]):  # value / limit - 1 <= 0, as for hisopt
+        for key, value in zip(constraint_keys, g[0], strict=True):  # value / limit - 1 <= 0, as for hisopt
             trial.set_constraint(key, float(value))
         if not np.all(np.isfinite(f)):
             return tuple(float("nan") for _ in f[0])  # Optuna marks the trial failed

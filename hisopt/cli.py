@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
@@ -31,15 +31,15 @@ ProblemArg = Annotated[
     Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
 ]
 WorkersOpt = Annotated[
-    Optional[int],
+    int | None,
     typer.Option("--workers", parser=integer, metavar="N", help="start a local Dask cluster with N worker processes"),
 ]
 SchedulerOpt = Annotated[
-    Optional[str],
+    str | None,
     typer.Option("--scheduler", metavar="ADDRESS", help="address of an existing Dask scheduler, e.g. tcp://host:8786"),
 ]
 SetOpt = Annotated[
-    Optional[list[str]],
+    list[str] | None,
     typer.Option(
         "--set",
         metavar="KEY=VALUE",
@@ -96,7 +96,7 @@ def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
     p = load(problem, set_)
     ref = modal_analysis(p, his=False)
     his = modal_analysis(p)
-    design = format_design(dict(zip(p.variable_names, p.baseline)), variable_units(p))
+    design = format_design(dict(zip(p.variable_names, p.baseline, strict=True)), variable_units(p))
     table = Table(title=f"Modes of {p.name} without and with HIS ({design})")
     for col in ("mode", "motion", "f ref [Hz]", "zeta ref [-]", "f HIS [Hz]", "zeta HIS [-]", "change [%]"):
         table.add_column(Text(col), justify="left" if col in ("mode", "motion") else "right")
@@ -129,7 +129,7 @@ def droptest(
         typer.Option("--height", parser=number, metavar="METRES", help="drop height in m (the wheels roll off blocks this high)"),
     ] = 0.05,
     measured: Annotated[
-        Optional[Path],
+        Path | None,
         typer.Option(
             "--measured",
             help="measured drop record, CSV with columns time (s) and body_fl, body_fr, body_rl, body_rr "
@@ -138,10 +138,10 @@ def droptest(
         ),
     ] = None,
     case: Annotated[
-        Optional[str], typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")
+        str | None, typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")
     ] = None,
     measured_p0: Annotated[
-        Optional[float],
+        float | None,
         typer.Option(
             "--measured-p0", parser=number, metavar="PA", help="precharge in Pa (gauge) of the measured test (default: the problem's p0)"
         ),
@@ -225,9 +225,9 @@ def evaluate(
     problem: ProblemArg,
     set_: SetOpt = None,
     designs: Annotated[
-        Optional[Path], typer.Option(help="CSV with one column per design variable, SI units, e.g. examples/designs.csv")
+        Path | None, typer.Option(help="CSV with one column per design variable, SI units, e.g. examples/designs.csv")
     ] = None,
-    out: Annotated[Optional[Path], typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
+    out: Annotated[Path | None, typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
@@ -347,15 +347,15 @@ def response(
 @app.command("optimize")
 def optimize_cmd(
     problem: ProblemArg,
-    out: Annotated[Optional[Path], typer.Option("--out", help="run directory (default runs/NAME-TIMESTAMP)")] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="run directory (default runs/NAME-TIMESTAMP)")] = None,
     seed: Annotated[
-        Optional[int], typer.Option("--seed", parser=integer, metavar="N", help="random seed (default: problem file)")
+        int | None, typer.Option("--seed", parser=integer, metavar="N", help="random seed (default: problem file)")
     ] = None,
     pop: Annotated[
-        Optional[int], typer.Option("--pop", parser=integer, metavar="N", help="population size (default: problem file, 100)")
+        int | None, typer.Option("--pop", parser=integer, metavar="N", help="population size (default: problem file, 100)")
     ] = None,
     gens: Annotated[
-        Optional[int], typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")
+        int | None, typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")
     ] = None,
     refine: Annotated[bool, typer.Option("--refine", help="refine the front with CasADi/IPOPT afterwards (front_refined.csv)")] = False,
     max_points: Annotated[
@@ -371,8 +371,8 @@ def optimize_cmd(
 
     from hisopt.console import run_with_console
     from hisopt.optim.run import optimize
-    from hisopt.optim.settings import resolve_settings
     from hisopt.optim.rundir import prepare_run_directory
+    from hisopt.optim.settings import resolve_settings
     from hisopt.problem import load_problem
 
     p = load_problem(problem)
@@ -447,11 +447,11 @@ def status_cmd(
 def study(
     problem: ProblemArg,
     seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds to run, e.g. 1-8 or 1,3,5")] = "1-4",
-    out: Annotated[Optional[Path], typer.Option(help="study directory: seed-<n>/ run dirs, merged front.csv, runs.csv")] = None,
+    out: Annotated[Path | None, typer.Option(help="study directory: seed-<n>/ run dirs, merged front.csv, runs.csv")] = None,
     pop: Annotated[
-        Optional[int], typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")
+        int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")
     ] = None,
-    gens: Annotated[Optional[int], typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
+    gens: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
@@ -495,7 +495,7 @@ def study(
 @app.command()
 def report(
     run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
-    color_by: Annotated[Optional[str], typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
+    color_by: Annotated[str | None, typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
     design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
 ) -> None:
     """Write RUN_DIR/report.html, a self-contained report of the run.
@@ -577,10 +577,9 @@ def sweep_cmd(
     force; writes OUT/sweep_NAME.csv and OUT/sweep_NAME.html.
     """
     from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.parallel import open_backend
     from hisopt.report.theme import write_html
     from hisopt.sweeps import sweep
-
-    from hisopt.parallel import open_backend
 
     p = load(problem, set_)
     with open_backend(workers, scheduler) as backend:
@@ -619,7 +618,7 @@ def regions_cmd(
 
     p = load(problem, set_)
     with open_backend(workers, scheduler) as backend:
-        result = regions(p, names, points, backend=backend)  # type: ignore[arg-type]
+        result = regions(p, (names[0], names[1]), points, backend=backend)
     ensure_writable_dir(out)
     stem = f"regions_{names[0]}_{names[1]}"
     write_csv(result.to_frame(), out / f"{stem}.csv")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -39,7 +40,7 @@ class Variable(_Strict):
     description: str = ""
 
     @model_validator(mode="after")
-    def _ordered(self) -> "Variable":
+    def _ordered(self) -> Variable:
         if not self.lower < self.upper:
             raise ValueError(f"expected lower < upper, got lower={self.lower}, upper={self.upper}")
         return self
@@ -62,7 +63,7 @@ class Band(_Strict):
     f_max_hz: float = Field(80.0, gt=0)
 
     @model_validator(mode="after")
-    def _ordered(self) -> "Band":
+    def _ordered(self) -> Band:
         if not self.f_min_hz < self.f_max_hz:
             raise ValueError(f"expected f_min_hz < f_max_hz, got {self.f_min_hz} and {self.f_max_hz}")
         return self
@@ -140,7 +141,7 @@ class ProblemSpec(_Strict):
         return v
 
     @model_validator(mode="after")
-    def _variables_are_his_fields(self) -> "ProblemSpec":
+    def _variables_are_his_fields(self) -> ProblemSpec:
         # The rules come from RollPlaneHIS's fields (hisopt.validation), not from a list here.
         allowed = design_parameters()
         if not self.variables:  # also for a file without [variables] (defaults are not validated)
@@ -188,7 +189,7 @@ def _allowed_keys(loc: tuple[Any, ...]) -> list[str]:
     return [f.alias or name for name, f in fields.items()] if fields else []
 
 
-def _format_error(err: dict[str, Any]) -> tuple[str, str]:
+def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     key = ".".join(_key_part(p) for p in err["loc"] if not str(p).startswith("function-"))
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     value = err.get("input")

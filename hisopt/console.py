@@ -13,6 +13,7 @@ from hisopt.errors import HisoptError
 from hisopt.optim import runstate
 from hisopt.optim.results import GenerationStats, OptimizationResult, ProgressFn
 
+
 def console_progress(total: int, start: int = 0) -> tuple[Any, ProgressFn]:
     """A rich progress display (on stderr) and its callback: ``(progress, callback)``.
 

@@ -114,7 +114,7 @@ class DesignSpace:
         shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values."""
         return HydraulicSystem(self.network(), parameter_values(self.spec.his, overrides))
 
-    def network(self) -> "Network":
+    def network(self) -> Network:
         """The compiled HIS network (structure only; computed once per problem)."""
         if "network" not in self._cache:
             self._cache["network"] = roll_plane_network(self.spec.his)

@@ -55,8 +55,8 @@ from hisopt.identification import (
     identify_mode,
     lowpass,
 )
-from hisopt.model import CoupledModel
 from hisopt.modal import modal_analysis
+from hisopt.model import CoupledModel
 from hisopt.road.profiles import step_profile
 from hisopt.timedomain import SimulationMode, TimeResponse, simulate
 from hisopt.units import attach_units
@@ -191,9 +191,9 @@ def sensor_frame(t_s: ArrayLike, corner_acc: ArrayLike, wheel_acc: ArrayLike | N
         [m/s^2] Wheels FL, FR, RL, RR, shape ``(n_t, 4)``; omitted columns are left out.
     """
     cols: dict[str, Any] = {"time": np.asarray(t_s, dtype=float)}
-    cols |= dict(zip(BODY_SENSORS, np.asarray(corner_acc, dtype=float).T))
+    cols |= dict(zip(BODY_SENSORS, np.asarray(corner_acc, dtype=float).T, strict=True))
     if wheel_acc is not None:
-        cols |= dict(zip(WHEEL_SENSORS, np.asarray(wheel_acc, dtype=float).T))
+        cols |= dict(zip(WHEEL_SENSORS, np.asarray(wheel_acc, dtype=float).T, strict=True))
     return pd.DataFrame(cols)
 
 
@@ -249,7 +249,7 @@ class DropTest:
         body = pd.DataFrame(self.body, columns=[f"a_{c}" for c in BODY_COORDINATES])
         return pd.concat([self.signals.reset_index(drop=True), body], axis=1)
 
-    def plot_spectrum(self, fig: "go.Figure | None" = None, row: int | None = None) -> "go.Figure":
+    def plot_spectrum(self, fig: go.Figure | None = None, row: int | None = None) -> go.Figure:
         """Response spectrum of the test's body coordinate (paper Fig. 13), one trace."""
         import plotly.graph_objects as go
 
@@ -277,20 +277,20 @@ def _case(case: str) -> DropCaseSpec:
     return DROP_CASES[case]
 
 
-def _with_p0(problem: "Problem", p0_pa: float) -> "Problem":
+def _with_p0(problem: Problem, p0_pa: float) -> Problem:
     if not p0_pa >= 0.0:
         raise ConfigError(f"expected a gauge precharge p0 >= 0 [Pa], got {p0_pa!r}", key="p0")
     return problem.with_values(p0=float(p0_pa))
 
 
-def model_frequency(problem: "Problem", case: DropCase, p0_pa: float) -> float:
+def model_frequency(problem: Problem, case: DropCase, p0_pa: float) -> float:
     """[Hz] Damped frequency of the case's mode from :func:`hisopt.modal_analysis` at ``p0``."""
     modes = modal_analysis(_with_p0(problem, p0_pa)).set_index("mode")
     return float(modes.loc[_case(case).mode, "damped_frequency_hz"])
 
 
 def process_record(
-    problem: "Problem",
+    problem: Problem,
     case: DropCase,
     p0_pa: float,
     record: pd.DataFrame,
@@ -333,7 +333,7 @@ def process_record(
 
 
 def run_drop_test(
-    problem: "Problem",
+    problem: Problem,
     case: DropCase,
     p0_pa: float,
     height_m: float = DEFAULT_HEIGHT_M,
@@ -360,7 +360,7 @@ def run_drop_test(
 
 
 def run_drop_tests(
-    problem: "Problem",
+    problem: Problem,
     p0_pa: Sequence[float],
     height_m: float = DEFAULT_HEIGHT_M,
     cases: Sequence[DropCase] = ("front_axle", "left_side", "all_wheels"),
@@ -429,7 +429,7 @@ def read_measured(path: str | Path) -> pd.DataFrame:
 
 
 def measured_drop_test(
-    problem: "Problem", path: str | Path, case: DropCase, p0_pa: float, window_s: float = 4.0
+    problem: Problem, path: str | Path, case: DropCase, p0_pa: float, window_s: float = 4.0
 ) -> DropTest:
     """Identify the dominant mode of a measured drop-test record (same processing as simulated).
 
@@ -460,7 +460,7 @@ def measured_drop_test(
     return process_record(problem, case, p0_pa, record, "measured", window_s)
 
 
-def spectra_figure(tests: Sequence[DropTest]) -> "go.Figure":
+def spectra_figure(tests: Sequence[DropTest]) -> go.Figure:
     """Response spectra of the drop tests, one panel per body mode (paper Fig. 13)."""
     from plotly.subplots import make_subplots
 

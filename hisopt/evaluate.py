@@ -17,15 +17,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt import psd as psd_kernels
 from hisopt.errors import ModelError
 from hisopt.linalg import bmm, cbmm, cmul, one_blas_thread, split
-from hisopt import psd as psd_kernels
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
-from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.psd import comfort_gain_squared, reduce_metrics, track_power, zoom_maximum
 from hisopt.quadrature import base_edges, panel_nodes, pole_edges
 from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
+from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
 from hisopt.units import NO_UNIT, attach_units
 from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
@@ -57,7 +57,7 @@ class Evaluator:
 
     def __init__(
         self,
-        problem: "DesignSpace",
+        problem: DesignSpace,
         chunk_size: int = 256,
         order: int = 4,
         zoom_iterations: int = 5,
@@ -134,7 +134,7 @@ class Evaluator:
             ok[i] = good[0]
         return values, ok
 
-    def _solve(self, model: "CoupledModel") -> tuple[dict[str, np.ndarray], np.ndarray]:
+    def _solve(self, model: CoupledModel) -> tuple[dict[str, np.ndarray], np.ndarray]:
         ss = model.state_space()
         lam, vec = np.linalg.eig(ss.a)
         scale = np.abs(lam).max(axis=1)
@@ -174,11 +174,11 @@ class Evaluator:
         if self.problem.spec.road.coherence == "isotropic":
             v = self.problem.spec.vehicle
             coherence = isotropic_coherence(f_hz / self.speed, v.t_f + v.t_r)[..., None]
-        wheel = [(re[..., k, :], im[..., k, :]) for k in range(4)]
-        power = track_power(*wheel, cos, sin, coherence)
+        fl, fr, rl, rr = ((re[..., k, :], im[..., k, :]) for k in range(4))
+        power = track_power(fl, fr, rl, rr, cos, sin, coherence)
         return temporal_psd(f_hz, self.gd_n0, self.speed)[..., None] * power
 
-    def quantities(self, lam: np.ndarray, frf: FrfFn, model: "CoupledModel") -> dict[str, np.ndarray]:
+    def quantities(self, lam: np.ndarray, frf: FrfFn, model: CoupledModel) -> dict[str, np.ndarray]:
         """All requested metrics from poles (for the nodes) and an FRF function of the bases."""
         f, w = self.nodes(lam)
         psd = self.spectra(f, frf(2j * np.pi * f))
@@ -250,7 +250,7 @@ class PoleResidueOutputs:
         vec7 = split(vec[:, :7, :])
         rho_re, rho_im, poly = [], [], []
         for o in outputs.values():
-            weight = (0.0, 0.0)
+            weight: tuple[Any, Any] = (0.0, 0.0)
             for p_ in range(o.c.shape[0]):
                 cv = (bmm(o.c[p_][None, :], vec7[0])[:, 0, :], bmm(o.c[p_][None, :], vec7[1])[:, 0, :])  # (n, ns)
                 term = cmul(cv, lam_pow[p_])
@@ -293,9 +293,8 @@ class PoleResidueOutputs:
         np.multiply(-b, inv, out=p[..., ns:])
         h = bmm(p, rho)
         half = h.shape[-1] // 2
-        h = (h[..., :half], h[..., half:])
         shape = omega.shape + poly.shape[2:]
-        h_re, h_im = h[0].reshape(shape), h[1].reshape(shape)
+        h_re, h_im = h[..., :half].reshape(shape), h[..., half:].reshape(shape)
         for m in range(poly.shape[1]):
             if np.any(poly[:, m]):
                 # (j omega)^m is real for even m, imaginary for odd m.
@@ -311,7 +310,7 @@ class PoleResidueOutputs:
 class DirectOutputs:
     """Output FRFs by direct solve of the dynamic stiffness (any pipe model; reference path)."""
 
-    def __init__(self, model: "CoupledModel", outputs: dict[str, Output]):
+    def __init__(self, model: CoupledModel, outputs: dict[str, Output]):
         self.model = model
         self.outputs = outputs
         self.names = tuple(outputs)
@@ -337,7 +336,7 @@ def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[
     """
     bases: dict[str, Output] = {}
     derived: dict[str, tuple[str, float, int]] = {}
-    pure = {}  # base name -> displacement vector of a pure (p = 0, no road term) base
+    pure: dict[str, np.ndarray] = {}  # base name -> displacement vector of a pure (p = 0, no road term) base
     for name, out in outputs.items():
         rows = np.flatnonzero(np.any(out.c != 0, axis=1))
         if len(rows) != 1 or np.any(out.d):
@@ -373,7 +372,7 @@ def _mixed_frf(fast: FrfFn, slow: FrfFn, use_slow: np.ndarray) -> FrfFn:
     return frf
 
 
-def evaluator_for(space: "DesignSpace") -> Evaluator:
+def evaluator_for(space: DesignSpace) -> Evaluator:
     """The evaluator of ``space``, built once and kept with it (its cache survives as long as
     the problem object; a pickled problem builds its own)."""
     if "evaluator" not in space._cache:
@@ -381,19 +380,19 @@ def evaluator_for(space: "DesignSpace") -> Evaluator:
     return space._cache["evaluator"]
 
 
-def poles(model: "CoupledModel") -> np.ndarray:
+def poles(model: CoupledModel) -> np.ndarray:
     """[rad/s] Eigenvalues of the model's (lumped) state space, ``(n, n_states)``, computed as
     the evaluator computes them (with eigenvectors: the same LAPACK path), so nodes placed
     from them are the evaluator's own."""
     return np.linalg.eig(model.state_space().a)[0]
 
 
-def roll_gradient(model: "CoupledModel") -> np.ndarray:
+def roll_gradient(model: CoupledModel) -> np.ndarray:
     """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.psd.roll_gradient`)."""
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
-def results_frame(problem: "DesignSpace", designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
+def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
     """Designs and their quantities as a DataFrame.
 
     Columns: the variable names, the objective names, the constraint names (physical units,
@@ -422,7 +421,27 @@ def results_frame(problem: "DesignSpace", designs: Any, quantities: dict[str, np
     return attach_units(df, problem, {"reason": NO_UNIT})
 
 
-def grid_quantities(problem: "DesignSpace", designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:
+def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, np.ndarray]:
+    """:func:`grid_quantities` of one chunk of designs on their grids ``f`` (n, F)."""
+    spec = ev.problem.spec
+    psd = ev.spectra(f, DirectOutputs(model, ev.outputs)(2j * np.pi * f))
+    spectra = {name: psd[..., j] for name, j in ev.output_index.items()}
+
+    def integral(output: str, weighting: str | None) -> np.ndarray:
+        gain = 1.0 if weighting is None else comfort_gain_squared(f, weighting, spec.comfort, ev.f_lo, ev.f_hi)
+        return np.trapezoid(gain * spectra[output], f, axis=1)
+
+    return reduce_metrics(
+        ev.metrics,
+        spec.comfort,
+        lambda name: ev.outputs[name].weighting,  # type: ignore[arg-type,return-value]
+        integral,
+        lambda output: spectra[output].max(axis=1),
+        lambda name: roll_gradient(model),
+    )
+
+
+def grid_quantities(problem: DesignSpace, designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:
     """Reference evaluator: direct solve on a given grid, trapezoid integrals, sample maxima.
 
     With a fine pole-clustered grid per design it is the converged reference of the tests
@@ -434,28 +453,7 @@ def grid_quantities(problem: "DesignSpace", designs: Any, f_hz: np.ndarray, chun
     f_hz : [Hz] grid, shape ``(F,)`` shared by all designs or ``(n, F)`` per design, sorted
     """
     ev = Evaluator(problem)
-    spec = problem.spec
     x = problem.design_matrix(designs)
     f_all = np.broadcast_to(np.asarray(f_hz, dtype=float), (len(x), np.shape(f_hz)[-1]))
-    parts = []
-    for i in range(0, len(x), chunk_size):
-        f = f_all[i : i + chunk_size]
-        model = problem.model(x[i : i + chunk_size])
-        psd = ev.spectra(f, DirectOutputs(model, ev.outputs)(2j * np.pi * f))
-        spectra = {name: psd[..., j] for name, j in ev.output_index.items()}
-
-        def integral(output: str, weighting: str | None) -> np.ndarray:
-            gain = 1.0 if weighting is None else comfort_gain_squared(f, weighting, spec.comfort, ev.f_lo, ev.f_hi)
-            return np.trapezoid(gain * spectra[output], f, axis=1)
-
-        parts.append(
-            reduce_metrics(
-                ev.metrics,
-                spec.comfort,
-                lambda name: ev.outputs[name].weighting,  # type: ignore[arg-type,return-value]
-                integral,
-                lambda output: spectra[output].max(axis=1),
-                lambda name: roll_gradient(model),
-            )
-        )
+    parts = [_grid_chunk(ev, problem.model(x[i : i + chunk_size]), f_all[i : i + chunk_size]) for i in range(0, len(x), chunk_size)]
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -274,4 +274,5 @@ def amplitude_spectrum(
     t = np.asarray(t_s, dtype=float)
     dt = float(t[1] - t[0])
     n = max(n_fft, t.size)
-    return np.fft.rfftfreq(n, dt), np.abs(np.fft.rfft(np.asarray(signal, dtype=float), n)) * dt
+    f_hz = np.asarray(np.fft.rfftfreq(n, dt), dtype=np.float64)
+    return f_hz, np.abs(np.fft.rfft(np.asarray(signal, dtype=float), n)) * dt

@@ -59,7 +59,10 @@ def atomic_write(path: str | Path, write: Callable[[str], None]) -> Path:
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically."""
-    return atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
+    def write(tmp: str) -> None:
+        Path(tmp).write_bytes(data)
+
+    return atomic_write(path, write)
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:
@@ -106,7 +109,7 @@ def read_csv(path: str | Path, **kwargs: Any) -> pd.DataFrame:
     has_units = len(rows) == 2 and _is_units_row(rows[1])
     frame = pd.read_csv(path, skiprows=[1] if has_units else None, **kwargs)
     if has_units:
-        frame.attrs["units"] = {name: unit.strip()[1:-1] for name, unit in zip(rows[0], rows[1]) if unit.strip() not in ("", "[]")}
+        frame.attrs["units"] = {name: unit.strip()[1:-1] for name, unit in zip(rows[0], rows[1], strict=True) if unit.strip() not in ("", "[]")}
     return frame
 
 

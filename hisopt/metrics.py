@@ -18,6 +18,13 @@ class Metric:
     unit: str
     description: str
 
+    @property
+    def signal(self) -> str:
+        """The output a ``max`` or ``rms`` metric reduces (``ValueError`` for the others)."""
+        if self.output is None:
+            raise ValueError(f"{self.name} ({self.kind}) reduces no single output")
+        return self.output
+
 
 METRICS: dict[str, Metric] = {
     m.name: m

@@ -167,7 +167,7 @@ def name_modes(u: np.ndarray, total_energy: np.ndarray) -> list[str | None]:
     score = np.array([energy[list(g.coords)].sum(0) / total_energy for g, _ in slots])
     rows, cols = linear_sum_assignment(-score)
     members: dict[int, list[int]] = {}
-    for r, c in zip(rows, cols):
+    for r, c in zip(rows, cols, strict=True):
         members.setdefault(_GROUPS.index(slots[r][0]), []).append(int(c))
     names: list[str | None] = [None] * u.shape[1]
     for gi, modes in members.items():
@@ -286,7 +286,7 @@ def modal_table(model: CoupledModel, tol: float = 1e-8) -> pd.DataFrame:
                 "motion": motion,
                 "motion_share": share,
                 "mechanical_share": mechanical[c],
-                **dict(zip(_SHAPE_COLUMNS, shape.real)),
+                **dict(zip(_SHAPE_COLUMNS, shape.real, strict=True)),
             }
         )
     table = pd.DataFrame.from_records(records)

@@ -16,8 +16,8 @@ from hisopt.constants import DOF_NAMES
 from hisopt.errors import ModelError
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import PipeModel, singular_shorts
-from hisopt.linalg import bsum
 from hisopt.hydraulics.realisation import Descriptor, Realisation, realise
+from hisopt.linalg import bsum
 from hisopt.vehicle import (
     VehicleParams,
     damping_matrix,
@@ -187,7 +187,7 @@ class CoupledModel:
         weights[..., 7:14] = m_diag
         return StateSpace(r.a, r.b0, r.b1, r.labels, weights[..., r.kept], r)
 
-    def groups(self) -> list[tuple[np.ndarray, "CoupledModel"]]:
+    def groups(self) -> list[tuple[np.ndarray, CoupledModel]]:
         """The batch split by the valves each design shorts (``R = 0``): ``(rows, model)`` pairs
         whose models have the shorted valves merged away (one group when none is shorted)."""
         if self.his is None or self.his.network.fidelity != "lumped":
@@ -200,7 +200,7 @@ class CoupledModel:
         if not flat.any():
             return [(np.arange(flat.shape[0]), self)]
         patterns, inverse = np.unique(flat, axis=0, return_inverse=True)
-        merges = [singular_shorts(net, frozenset(k for k, short in zip(valves, p) if short)) for p in patterns]
+        merges = [singular_shorts(net, frozenset(k for k, short in zip(valves, p, strict=True) if short)) for p in patterns]
         keys = sorted(set(merges), key=sorted)
         if keys == [frozenset()]:
             return [(np.arange(flat.shape[0]), self)]

@@ -81,12 +81,12 @@ def accumulators(his: HydraulicSystem) -> Accumulators:
     found = net.accumulators()
     circuits = [net.elements[k][0] for k, _, _ in found]
     names, gas = [], []
-    for i, ((k, _, _), c) in enumerate(zip(found, circuits)):
+    for i, ((k, _, _), c) in enumerate(zip(found, circuits, strict=True)):
         same = [j for j, cj in enumerate(circuits) if cj == c]
         name = net.layout.circuits[c].name
         names.append(name if len(same) == 1 else f"{name}{same.index(i) + 1}")
         gas.append(tuple(_single(v, "accumulator parameter") for v in his.values.gas[k]))
-    v0, p_abs0, gamma = (np.array(col, dtype=float) for col in zip(*gas)) if gas else (np.zeros(0),) * 3
+    v0, p_abs0, gamma = (np.array(col, dtype=float) for col in zip(*gas, strict=True)) if gas else (np.zeros(0),) * 3
     rows = np.array([row for _, _, row in found], dtype=int)
     return Accumulators(tuple(names), rows, v0, p_abs0, gamma, p_abs0 - P_ATM_PA)
 
@@ -138,7 +138,7 @@ class NonlinearModel:
         acc_nodes = np.unique(self.acc.rows)
         self.acc_state = np.array([pos[int(r)] for r in acc_nodes], dtype=int)
         self.node_accs = [np.flatnonzero(self.acc.rows == r) for r in acc_nodes]
-        other = np.array([e[r] - self.acc.compliance[k].sum() for r, k in zip(acc_nodes, self.node_accs)])
+        other = np.array([e[r] - self.acc.compliance[k].sum() for r, k in zip(acc_nodes, self.node_accs, strict=True)])
         self.other_compliance = np.where(other > 1e-9 * e[acc_nodes], other, 0.0)
 
         # Algebraic part: pressures of nodes without compliance and valve flows.
@@ -176,7 +176,7 @@ class NonlinearModel:
     def node_pressure(self, w: np.ndarray) -> np.ndarray:
         """[Pa] Pressure rise of each accumulator node from its stored volume, ``(n_acc_nodes, k)``."""
         out = np.empty_like(w)
-        for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance)):
+        for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance, strict=True)):
             v0 = self.acc.v0[accs]
             if accs.size == 1 and c_o == 0.0:
                 dv = np.minimum(w[j], GAS_VOLUME_LIMIT * v0[0])
@@ -265,7 +265,7 @@ class NonlinearModel:
         h = self.hydraulic_state(w, vel)[:, 0]
         n_d = self.dyn.size
         dpdw = np.ones(n_d)
-        for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance)):
+        for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance, strict=True)):
             p = h[self.dyn[self.acc_state[j]]]
             gas = sum(laws.gas_compliance(p, self.acc.v0[i], self.acc.p_abs0[i], self.acc.gamma[i]) for i in accs)
             dpdw[self.acc_state[j]] = 1.0 / (c_o + gas)

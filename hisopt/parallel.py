@@ -104,7 +104,7 @@ def open_backend(workers: int | None = None, scheduler: str | None = None, clien
         finally:
             own.close()
         return
-    if workers < 1:
+    if workers is None or workers < 1:
         raise ConfigError(f"expected --workers >= 1, got {workers}", key="--workers")
     # One BLAS thread per worker process: the workers already use every core.
     saved = {k: os.environ.get(k) for k in _THREAD_VARS}
@@ -131,13 +131,13 @@ def chunks(n: int, size: int) -> list[slice]:
     return [slice(i, min(i + size, n)) for i in range(0, n, size)]
 
 
-def _evaluate_chunk(x: np.ndarray, problem: "DesignSpace") -> dict[str, np.ndarray]:
+def _evaluate_chunk(x: np.ndarray, problem: DesignSpace) -> dict[str, np.ndarray]:
     from hisopt.evaluate import evaluator_for
 
     return evaluator_for(problem)(x)
 
 
-def evaluate_designs(problem: "DesignSpace", designs: Any, backend: Backend | None = None, chunk_size: int = DEFAULT_CHUNK) -> dict[str, np.ndarray]:
+def evaluate_designs(problem: DesignSpace, designs: Any, backend: Backend | None = None, chunk_size: int = DEFAULT_CHUNK) -> dict[str, np.ndarray]:
     """Objectives/constraints of many designs through ``backend`` (same keys as the evaluator)."""
     backend = backend or Backend()
     x = problem.design_matrix(designs)

@@ -33,7 +33,7 @@ class Problem(DesignSpace):
         """Designs plus evaluated quantities as the docs/model.md §8.1 DataFrame."""
         return results_frame(self, designs, quantities)
 
-    def evaluate(self, designs: Any, *, backend: "Backend | None" = None, source: str | None = None, log: bool = True) -> pd.DataFrame:
+    def evaluate(self, designs: Any, *, backend: Backend | None = None, source: str | None = None, log: bool = True) -> pd.DataFrame:
         """Objectives and constraints of many designs (docs/model.md §8.1).
 
         Every row is checked first (:func:`hisopt.validation.check_designs`): an ``invalid`` row

@@ -60,7 +60,7 @@ def track_power(fl: Pair, fr: Pair, rl: Pair, rr: Pair, cos_t: Any, sin_t: Any, 
     return power
 
 
-def comfort_gain_squared(f_hz: np.ndarray, weighting: str, comfort: "Comfort", f_lo_hz: float, f_hi_hz: float) -> np.ndarray:
+def comfort_gain_squared(f_hz: np.ndarray, weighting: str, comfort: Comfort, f_lo_hz: float, f_hi_hz: float) -> np.ndarray:
     """``|W(f)|^2`` of an ISO 2631-1 weighting as the problem's comfort method applies it.
 
     ``"filter"``: the standard's analytic weighting; ``"band"``: the paper's method, the
@@ -77,7 +77,7 @@ Integral = Callable[[str, "str | None"], Any]
 
 def reduce_metrics(
     metrics: Sequence[Metric],
-    comfort: "Comfort",
+    comfort: Comfort,
     weighting_of: Callable[[str], str],
     integral: Integral,
     maximum: Callable[[str], Any],
@@ -111,7 +111,7 @@ def reduce_metrics(
     return out
 
 
-def roll_gradient(stiffness: Any, vehicle: "VehicleParams") -> Any:
+def roll_gradient(stiffness: Any, vehicle: VehicleParams) -> Any:
     """[rad/g] Static roll angle under the moment ``m_s g h_0s`` on the roll DOF.
 
     Parameters

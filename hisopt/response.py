@@ -35,7 +35,7 @@ class Output:
         h_x : X / z_g, shape ``(..., F, 7, 4)``
         s : [rad/s] Laplace variable, shape ``(..., F)``
         """
-        out = 0.0
+        out = np.zeros(np.broadcast_shapes(h_x.shape[:-2], s.shape) + (4,), dtype=np.result_type(h_x, s))
         for p in range(self.c.shape[0]):
             term = bmm(self.c[p][None, :], h_x)[..., 0, :] + self.d[p]
             out = out + s[..., None] ** p * term

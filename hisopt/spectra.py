@@ -47,7 +47,7 @@ class ResponseSpectra:
     design: dict[str, float]
     design_units: dict[str, str] = field(default_factory=dict)
 
-    def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
+    def plot(self, fig: go.Figure | None = None) -> go.Figure:
         """Log-log PSDs with and without HIS, one panel per output (plotly)."""
         from plotly.subplots import make_subplots
 
@@ -92,7 +92,7 @@ def frequency_grid(models: list[Any], f_lo_hz: float, f_hi_hz: float, n: int = 1
     return np.unique(f[(f >= f_lo_hz) & (f <= f_hi_hz)])
 
 
-def response_spectra(problem: "Problem", design: Any = None, outputs: tuple[str, ...] = FIG4_OUTPUTS) -> ResponseSpectra:
+def response_spectra(problem: Problem, design: Any = None, outputs: tuple[str, ...] = FIG4_OUTPUTS) -> ResponseSpectra:
     """Road-induced PSDs of ``outputs`` for ``design`` (baseline if None) and the car without HIS."""
     x = problem.design_matrix(problem.baseline if design is None else design)[:1]
     ev = Evaluator(problem)
@@ -108,5 +108,5 @@ def response_spectra(problem: "Problem", design: Any = None, outputs: tuple[str,
     units = {name: chosen[name].unit for name in outputs}
     columns = {f"{name}_{suffix}": psd_unit(units[name]) for name in outputs for suffix in models}
     with_units(frame, {"f_hz": "Hz"} | columns)
-    design = dict(zip(problem.variable_names, x[0]))
+    design = dict(zip(problem.variable_names, x[0], strict=True))
     return ResponseSpectra(frame, tuple(outputs), units, design, variable_units(problem))

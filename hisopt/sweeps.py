@@ -43,7 +43,6 @@ if TYPE_CHECKING:
     import plotly.graph_objects as go
 
     from hisopt.parallel import Backend
-
     from hisopt.problem import Problem
 
 SweepKey = Literal["roll", "pitch", "bounce", "tire"]
@@ -60,7 +59,7 @@ INDICATORS: tuple[str, ...] = ("sigma_aw", "max_roll_psd", "max_stroke_psd", "ma
 _LABELS = {"roll": "roll mode", "pitch": "pitch mode", "bounce": "bounce mode", "tire": "FL tyre force"}
 
 
-def _check_variable(problem: "Problem", name: str, option: str) -> None:
+def _check_variable(problem: Problem, name: str, option: str) -> None:
     if name not in problem.variable_names:
         raise ConfigError(f"expected a design variable of {problem.name} ({', '.join(problem.variable_names)}), got {name!r}", key=option)
 
@@ -94,7 +93,7 @@ _LIMIT_REASON = {
 
 # --- PSD peaks -------------------------------------------------------------------------------
 def response_peaks(
-    problem: "Problem",
+    problem: Problem,
     designs: Any,
     outputs: tuple[str, ...],
     centers_hz: Mapping[str, np.ndarray] | None = None,
@@ -193,7 +192,7 @@ class SweepResult:
         peaks = {f"{key}_peak_psd": unit for key, unit in self.units.items()}
         return attach_units(self.frame.copy(), extra={self.variable: self.unit} | peaks)
 
-    def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
+    def plot(self, fig: go.Figure | None = None) -> go.Figure:
         """Frequency (left axis) and peak PSD (right axis, log) against the variable, per mode."""
         from plotly.subplots import make_subplots
 
@@ -231,7 +230,7 @@ class SweepResult:
         return fig
 
 
-def _sweep_modes(problem: "Problem", x: np.ndarray, anchor: int, keys: list[str]) -> pd.DataFrame:
+def _sweep_modes(problem: Problem, x: np.ndarray, anchor: int, keys: list[str]) -> pd.DataFrame:
     """Frequency, damping ratio and motion share of each mode of ``keys`` along the sweep.
 
     Each mode is followed continuously from design to design (:func:`hisopt.modal.track_modes`),
@@ -248,7 +247,7 @@ def _sweep_modes(problem: "Problem", x: np.ndarray, anchor: int, keys: list[str]
     return frame
 
 
-def _sweep_peaks(item: tuple[np.ndarray, dict[str, np.ndarray]], problem: "Problem", chosen: dict[str, str]) -> pd.DataFrame:
+def _sweep_peaks(item: tuple[np.ndarray, dict[str, np.ndarray]], problem: Problem, chosen: dict[str, str]) -> pd.DataFrame:
     """Response peaks of the designs ``item[0]``, each mode's sought near ``item[1][key]`` [Hz]."""
     x, centers = item
     frame = pd.DataFrame(index=range(len(x)))
@@ -259,11 +258,11 @@ def _sweep_peaks(item: tuple[np.ndarray, dict[str, np.ndarray]], problem: "Probl
 
 
 def sweep(
-    problem: "Problem",
+    problem: Problem,
     vary: str,
     points: int = 41,
     responses: Mapping[str, str] | None = None,
-    backend: "Backend | None" = None,
+    backend: Backend | None = None,
 ) -> SweepResult:
     """Sweep ``vary`` across its bounds, the other variables at the baseline (paper Figs. 5-8).
 
@@ -312,7 +311,7 @@ def sweep(
 
     all_outputs = standard_outputs(problem.spec.vehicle)
     units = {key: psd_unit(all_outputs[name].unit) for key, name in chosen.items()}
-    baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n != vary}
+    baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline, strict=True) if n != vary}
     var_units = variable_units(problem)
     return SweepResult(problem.name, vary, var_units[vary], frame, chosen, units, baseline, var_units)
 
@@ -370,9 +369,9 @@ class RegionsResult:
             frame[name] = v.ravel()
         frame["valid"] = self.valid.ravel()
         frame["feasible"] = self.feasible.ravel()
-        return attach_units(frame, extra=dict(zip(self.pair, self.units)))
+        return attach_units(frame, extra=dict(zip(self.pair, self.units, strict=True)))
 
-    def plot(self, fig: "go.Figure | None" = None) -> "go.Figure":
+    def plot(self, fig: go.Figure | None = None) -> go.Figure:
         """Contours of log10 of each indicator; thresholds dashed, the infeasible set shaded."""
         from plotly.subplots import make_subplots
 
@@ -385,7 +384,7 @@ class RegionsResult:
         fig = fig or make_subplots(rows=2, cols=2, subplot_titles=titles, horizontal_spacing=0.2, vertical_spacing=0.16)
         feasible = self.feasible.astype(float)
         dashes = ["dash", "dot", "dashdot", "longdash", "longdashdot"]
-        sx, sy = (display_for(u, g) for u, g in zip(self.units, (self.grid_x, self.grid_y)))
+        sx, sy = (display_for(u, g) for u, g in zip(self.units, (self.grid_x, self.grid_y), strict=True))
         gx, gy = sx.values(self.grid_x), sy.values(self.grid_y)
         for n, name in enumerate(INDICATORS):
             r, c = n // 2 + 1, n % 2 + 1
@@ -434,7 +433,7 @@ class RegionsResult:
         return fig
 
 
-def indicator_problem(problem: "Problem") -> "Problem":
+def indicator_problem(problem: Problem) -> Problem:
     """The problem with the four indicators as objectives (constraints kept)."""
     from hisopt.problem import Problem, problem_from_dict
 
@@ -446,7 +445,7 @@ def indicator_problem(problem: "Problem") -> "Problem":
     return Problem(derived.spec, problem.path, None)
 
 
-def regions(problem: "Problem", pair: tuple[str, str], points: int = 41, backend: "Backend | None" = None) -> RegionsResult:
+def regions(problem: Problem, pair: tuple[str, str], points: int = 41, backend: Backend | None = None) -> RegionsResult:
     """The four indicators on a ``points x points`` grid over ``pair`` (paper Figs. 9-10).
 
     Parameters
@@ -493,7 +492,7 @@ def regions(problem: "Problem", pair: tuple[str, str], points: int = 41, backend
 
     var_units = variable_units(problem)
     units = (var_units[a], var_units[b])
-    baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline) if n not in pair}
+    baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline, strict=True) if n not in pair}
     return RegionsResult(
         problem.name, (a, b), units, grid_x, grid_y, values, np.asarray(q["valid"]).reshape(shape), thresholds, source, baseline,
         var_units,

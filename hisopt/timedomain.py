@@ -148,8 +148,8 @@ class TimeResponse:
         return frame
 
     def plot_signals(
-        self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: "go.Figure | None" = None
-    ) -> "go.Figure":
+        self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: go.Figure | None = None
+    ) -> go.Figure:
         """Stacked time histories of columns of :meth:`to_frame`, one panel each.
 
         Parameters
@@ -180,7 +180,7 @@ class TimeResponse:
         fig.update_xaxes(title_text="time [s]", row=len(columns), col=1)
         return fig
 
-    def plot_pressures(self, fig: "go.Figure | None" = None) -> "go.Figure":
+    def plot_pressures(self, fig: go.Figure | None = None) -> go.Figure:
         """Gauge accumulator pressures [MPa] against time."""
         import plotly.graph_objects as go
 

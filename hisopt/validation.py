@@ -38,7 +38,6 @@ from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
 
-
 class DesignSpace(Protocol):
     """What the checks need of a problem (:class:`hisopt.problem.Problem` has it)."""
 
@@ -344,7 +343,7 @@ def _mapping_matrix(problem: DesignSpace, designs: Mapping[str, Any], source: st
     if unknown:
         raise ConfigError(f"{prefix}unknown design variable {unknown[0]!r}; expected {', '.join(names)}", file=source)
     cols = []
-    for name, base in zip(names, problem.baseline):
+    for name, base in zip(names, problem.baseline, strict=True):
         value = np.asarray(designs.get(name, base), dtype=object)
         if value.ndim > 1:
             raise ConfigError(f"{prefix}{name}: expected a number or a 1-D sequence, got shape {value.shape}", file=source)
@@ -352,7 +351,7 @@ def _mapping_matrix(problem: DesignSpace, designs: Mapping[str, Any], source: st
     try:
         return np.stack(np.broadcast_arrays(*[np.atleast_1d(c) for c in cols]), axis=-1)
     except ValueError:
-        sizes = ", ".join(f"{n}: {np.size(c)}" for n, c in zip(names, cols))
+        sizes = ", ".join(f"{n}: {np.size(c)}" for n, c in zip(names, cols, strict=True))
         raise ConfigError(f"{prefix}values of different lengths ({sizes}); expected one value or one per design each", file=source) from None
 
 

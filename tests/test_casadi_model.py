@@ -165,5 +165,5 @@ def test_compiled_function_gives_the_same_numbers(problem, tmp_path, monkeypatch
     fs: FrequencySet = model.frequency_set(np.array([0.5, 1.3, 2.7, 11.0, 80.0]))
     x = problem.baseline
     for k in range(fs.size):
-        for a, b in zip(fn(x, fs.params[:, k]), fast(x, fs.params[:, k])):
+        for a, b in zip(fn(x, fs.params[:, k]), fast(x, fs.params[:, k]), strict=True):
             np.testing.assert_allclose(np.array(b), np.array(a), rtol=1e-13, atol=0)

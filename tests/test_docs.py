@@ -112,6 +112,6 @@ def test_reference_tables_match_the_evaluator(problem):
     everything = problem_from_dict(data, "all-metrics")
     designs = np.array(list(tables))
     df = everything.evaluate(designs)
-    for row, expected in zip(df.itertuples(), tables.values()):
+    for row, expected in zip(df.itertuples(), tables.values(), strict=True):
         for name, value in expected.items():
             assert getattr(row, name) == pytest.approx(value, rel=1e-3), (name, row)

@@ -29,7 +29,7 @@ def all_metrics_problem(problem):
 
 def test_design_section_5_reference_values(problem):
     df = problem.evaluate(np.array(list(REFERENCE)))
-    for row, expected in zip(df.itertuples(), REFERENCE.values()):
+    for row, expected in zip(df.itertuples(), REFERENCE.values(), strict=True):
         got = (row.sigma_aw, row.max_roll_psd, row.max_stroke_psd, row.max_tire_load_psd)
         np.testing.assert_allclose(got, expected, rtol=5e-3)
         # ... and in fact within 0.1 % (the evaluator's quadrature error is ~5e-4 at most).

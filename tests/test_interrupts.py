@@ -93,7 +93,8 @@ def test_interrupt_then_resume_gives_the_identical_front(tmp_path, reference, si
     resumed = run_cli("resume", run_dir)
     assert resumed.code == 0, resumed.stderr
     if state.status == "finished":
-        assert resumed.error_lines == [f"{run_dir}: finished, {GENERATIONS} of {GENERATIONS} generations; results in {run_dir / 'front.csv'}; nothing to resume"]
+        expected = f"{run_dir}: finished, {GENERATIONS} of {GENERATIONS} generations; results in {run_dir / 'front.csv'}; nothing to resume"
+        assert resumed.error_lines == [expected]
     assert_same_run(run_dir, reference)
 
 

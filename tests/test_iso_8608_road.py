@@ -102,7 +102,7 @@ def test_isotropic_coherence_from_two_dimensional_spectrum(waviness: float) -> N
     # ~ |kappa|^-(w+1): int cos(2 pi m b) (n^2+m^2)^-(w+1)/2 dm / int (n^2+m^2)^-(w+1)/2 dm.
     b = 1.5
     for n in (0.02, 0.1, 0.3, 1.0):
-        kernel = lambda m: (n * n + m * m) ** (-(waviness + 1) / 2)  # noqa: E731
+        kernel = lambda m, n=n: (n * n + m * m) ** (-(waviness + 1) / 2)  # noqa: E731
         cross, _ = quad(kernel, 0.0, np.inf, weight="cos", wvar=2 * np.pi * b)
         auto, _ = quad(kernel, 0.0, np.inf)
         np.testing.assert_allclose(isotropic_coherence(n, b, waviness), cross / auto, rtol=1e-7)

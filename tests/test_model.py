@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from hisopt.model import CoupledModel
 from hisopt.modal import refine_roots
+from hisopt.model import CoupledModel
 from tests.conftest import random_designs
 
 F_HZ = np.geomspace(0.3, 100, 80)

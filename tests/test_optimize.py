@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 
 import hisopt
-from hisopt.io import read_csv
 from hisopt.errors import ConfigError, RunError
+from hisopt.io import read_csv
 from hisopt.optim import rundir
 from hisopt.optim.archive import Archive, non_dominated_mask, pareto_update, weakly_dominates
 from hisopt.optim.decision import asf_index, grid_designs, hypervolume, knee_index, reference_from_sample

@@ -1,6 +1,5 @@
 """Dask backend: a 2-process LocalCluster gives results equal to serial ones within 1e-12."""
 
-from hisopt.io import read_csv
 import subprocess
 import sys
 
@@ -8,6 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hisopt.io import read_csv
 from hisopt.parallel import Backend, chunks, evaluate_designs, open_backend
 from tests.conftest import DEFAULT_PROBLEM, random_designs
 

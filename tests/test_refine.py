@@ -9,10 +9,8 @@ timing is printed here and checked by ``benchmarks/bench_refine.py``.
 
 from __future__ import annotations
 
-import os
-
-from hisopt.io import read_csv
 import json
+import os
 import subprocess
 import sys
 import time
@@ -22,6 +20,7 @@ import pandas as pd
 import pytest
 
 import hisopt
+from hisopt.io import read_csv
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.casadi_model import CasadiModel
 from hisopt.optim.refine import (
@@ -34,8 +33,8 @@ from hisopt.optim.refine import (
     refine_run,
     select_points,
 )
-from hisopt.optim.rundir import read_front
 from hisopt.optim.run import optimize
+from hisopt.optim.rundir import read_front
 from tests.conftest import ROOT
 
 HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"
@@ -208,7 +207,6 @@ def test_refinement_gains_hypervolume_on_a_40_by_40_run(problem):
 def test_optimize_with_refine_flag_writes_refined_front(tmp_path):
     import subprocess
     import sys
-
 
     from tests.conftest import DEFAULT_PROBLEM
 

@@ -255,7 +255,7 @@ def test_log_axes_tick_decades_or_round_values_labelled_in_full(small_figures, n
     for axis in log_axes:
         values, labels = list(axis.tickvals), list(axis.ticktext)
         assert len(values) >= 2 and values == sorted(values)
-        for value, label in zip(values, labels):
+        for value, label in zip(values, labels, strict=True):
             assert _tick_value(label) == pytest.approx(value, rel=1e-9)
             mantissa = f"{value:.6e}".split("e")[0].rstrip("0")
             assert len(re.sub(r"[^0-9]", "", mantissa)) <= 3  # round values: 2, 0.0375, 5e-5

@@ -55,7 +55,6 @@ the Fig. 4 acceleration responses, which is why :data:`hisopt.sweeps.SWEEP_RESPO
 
 from __future__ import annotations
 
-from hisopt.io import read_csv
 import subprocess
 import sys
 
@@ -64,6 +63,7 @@ import pandas as pd
 import pytest
 
 import hisopt
+from hisopt.io import read_csv
 from hisopt.sweeps import INDICATORS, regions, response_peaks, sweep
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 

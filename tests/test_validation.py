@@ -74,7 +74,7 @@ def test_check_designs_flags_each_row_with_a_reason(problem):
 def test_evaluate_never_evaluates_an_invalid_row_as_another(problem, caplog):
     # dA = -1e-3 used to give the result of +1e-3 (the model squares it).
     with caplog.at_level(logging.WARNING, logger="hisopt"):
-        df = problem.evaluate([dict(zip(problem.variable_names, BASE)), {"dA": -1e-3}, {"p0": 9e6}])
+        df = problem.evaluate([dict(zip(problem.variable_names, BASE, strict=True)), {"dA": -1e-3}, {"p0": 9e6}])
     assert df.loc[0, "status"] == "ok" and df.loc[0, "feasible"]
     assert df.loc[1, "status"] == "invalid" and np.isnan(df.loc[1, "sigma_aw"]) and not df.loc[1, "feasible"]
     assert df.loc[2, "status"] == "out_of_bounds" and np.isfinite(df.loc[2, "sigma_aw"]) and not df.loc[2, "feasible"]
@@ -109,7 +109,10 @@ def test_model_refuses_a_rule_breaking_design_naming_the_row(problem):
         (np.array([True, False, True, True]), r"got the boolean True"),
         (pd.DataFrame({"p0": [1.0], "dA": [1e-3], "lam": [True], "Rv": [0.0]}), r"column 'lam' holds booleans"),
         (pd.DataFrame({"p0": [1.0], "dA": [1e-3], "lam": ["x"], "Rv": [0.0]}), r"row 1, column 'lam': expected a number"),
-        (pd.DataFrame({"p0": [1.0], "P0": [1.0], "dA": [1e-3], "lam": [0.4], "Rv": [0.0]}), r"columns 'p0', 'P0' all name the design variable 'p0'; expected one column"),
+        (
+            pd.DataFrame({"p0": [1.0], "P0": [1.0], "dA": [1e-3], "lam": [0.4], "Rv": [0.0]}),
+            r"columns 'p0', 'P0' all name the design variable 'p0'; expected one column",
+        ),
         ({"p0": [1.0, 2.0], "dA": [1e-3, 2e-3, 3e-3]}, r"values of different lengths"),
     ],
 )
@@ -120,10 +123,11 @@ def test_library_entry_errors_name_the_row_and_column(problem, designs, match):
 
 def test_every_entry_form_gives_the_same_matrix(problem):
     names = problem.variable_names
-    rows = [dict(zip(names, BASE)), dict(zip(names, [0.0, 1e-4, 0.1, 0.0]))]
+    rows = [dict(zip(names, BASE, strict=True)), dict(zip(names, [0.0, 1e-4, 0.1, 0.0], strict=True))]
     expected = np.array([BASE, [0.0, 1e-4, 0.1, 0.0]])
     frame = pd.DataFrame(rows)
-    for form in (expected, expected.tolist(), rows, frame, frame.rename(columns={"p0": "P0", "lam": " LAM "}), {n: expected[:, j] for j, n in enumerate(names)}):
+    renamed = frame.rename(columns={"p0": "P0", "lam": " LAM "})
+    for form in (expected, expected.tolist(), rows, frame, renamed, {n: expected[:, j] for j, n in enumerate(names)}):
         assert np.array_equal(problem.design_matrix(form), expected)
 
 

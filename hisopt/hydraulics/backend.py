@@ -43,34 +43,34 @@ class Complex:
     re: Any
     im: Any
 
-    def __add__(self, other: Any) -> "Complex":
+    def __add__(self, other: Any) -> Complex:
         o = as_complex(other)
         return Complex(self.re + o.re, self.im + o.im)
 
     __radd__ = __add__
 
-    def __sub__(self, other: Any) -> "Complex":
+    def __sub__(self, other: Any) -> Complex:
         o = as_complex(other)
         return Complex(self.re - o.re, self.im - o.im)
 
-    def __rsub__(self, other: Any) -> "Complex":
+    def __rsub__(self, other: Any) -> Complex:
         return as_complex(other) - self
 
-    def __neg__(self) -> "Complex":
+    def __neg__(self) -> Complex:
         return Complex(-self.re, -self.im)
 
-    def __mul__(self, other: Any) -> "Complex":
+    def __mul__(self, other: Any) -> Complex:
         o = as_complex(other)
         return Complex(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
 
     __rmul__ = __mul__
 
-    def __truediv__(self, other: Any) -> "Complex":
+    def __truediv__(self, other: Any) -> Complex:
         o = as_complex(other)
         m = o.re * o.re + o.im * o.im
         return Complex((self.re * o.re + self.im * o.im) / m, (self.im * o.re - self.re * o.im) / m)
 
-    def __rtruediv__(self, other: Any) -> "Complex":
+    def __rtruediv__(self, other: Any) -> Complex:
         return as_complex(other) / self
 
 

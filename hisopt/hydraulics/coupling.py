@@ -108,17 +108,17 @@ class HydraulicSystem:
         r = [np.broadcast_to(np.asarray(self.values.resistance[k], dtype=float), self.batch_shape) for k, _, _ in valves]
         return np.stack(r, axis=-1) == 0.0
 
-    def subset(self, rows: np.ndarray) -> "HydraulicSystem":
+    def subset(self, rows: np.ndarray) -> HydraulicSystem:
         """The designs ``rows`` of a batch of shape ``(n,)``."""
         params = {k: (np.asarray(v)[rows] if np.ndim(v) else v) for k, v in self.params.items()}
         return HydraulicSystem(self.network, params)
 
-    def contracted(self, shorted: frozenset[int]) -> "HydraulicSystem":
+    def contracted(self, shorted: frozenset[int]) -> HydraulicSystem:
         """The same designs with the valves ``shorted`` (element indices) merged away."""
         layout = nw.contract_shorts(self.network.layout, shorted)
         return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params)
 
-    def lumped(self) -> "HydraulicSystem":
+    def lumped(self) -> HydraulicSystem:
         """The same designs with lumped (pi-section) pipes: the rational model whose state
         space places the frequency nodes of a distributed-pipe problem."""
         if self.network.fidelity == "lumped":

@@ -13,11 +13,11 @@ a node of a circuit (docs/model.md §3).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Union
+from typing import Literal
 
 Chamber = Literal["top", "bottom"]
 
-ParamRef = Union[float, str]
+ParamRef = float | str
 """A parameter value [SI] or the name of a parameter resolved per design."""
 
 WHEEL_LABELS = ("1", "2", "3", "4")
@@ -62,9 +62,9 @@ class Pipe:
     diameter: ParamRef
 
 
-Element = Union[Accumulator, ChamberCompliance, Valve, Pipe]
-SeriesElement = Union[Valve, Pipe]
-ShuntElement = Union[Accumulator, ChamberCompliance]
+Element = Accumulator | ChamberCompliance | Valve | Pipe
+SeriesElement = Valve | Pipe
+ShuntElement = Accumulator | ChamberCompliance
 
 
 PARAMETER_FIELDS: dict[type, tuple[str, ...]] = {

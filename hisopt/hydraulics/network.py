@@ -338,10 +338,11 @@ def port_impedance(network: Network, values: ElementValues, s: Any) -> Any:
     if bk.is_casadi(m):
         blocks = []
         for c in range(network.n_circuits):
-            rows = [int(r) for r in network.circuit_rows(c)]
+            rows = network.circuit_rows(c)
             ports = np.flatnonzero(network.port_circuit == c)
             p = network.injection[np.ix_(rows, ports)]
-            sub = bk.Complex(m.re[rows, rows], m.im[rows, rows])
+            index = [int(r) for r in rows]
+            sub = bk.Complex(m.re[index, index], m.im[index, index])
             blocks.append((ports, bk.matmul(p.T, bk.solve(sub, p))))
         return _block_diag_casadi(blocks, n_ports)
     out = np.zeros(m.shape[:-2] + (n_ports, n_ports), dtype=complex)
@@ -481,30 +482,30 @@ def contract_shorts(layout: Layout, shorted: frozenset[int]) -> Layout:
     out = []
     k = 0
     for circuit in layout.circuits:
-        alias: dict[str, str] = {}
-
-        def root(name: str) -> str:
-            while name in alias:
-                name = alias[name]
-            return name
-
+        alias: dict[str, str] = {}  # merged node -> the node it joined
         kept: list[Element] = []
         for element in circuit.elements:
             if k in shorted and isinstance(element, Valve):
-                a, b = root(element.a), root(element.b)
+                a, b = _root(alias, element.a), _root(alias, element.b)
                 if a != b:
                     alias[b] = a
             else:
                 kept.append(element)
             k += 1
-        renamed = [_rename(e, root) for e in kept]
+        renamed = [_rename(e, alias) for e in kept]
         renamed = [e for e in renamed if not (isinstance(e, Valve) and e.a == e.b)]
-        ports = tuple(replace(p, node=root(p.node)) for p in circuit.ports)
+        ports = tuple(replace(p, node=_root(alias, p.node)) for p in circuit.ports)
         out.append(Circuit(circuit.name, tuple(renamed), ports))
     return Layout(tuple(out), layout.name)
 
 
-def _rename(element: Element, root: Any) -> Element:
+def _root(alias: dict[str, str], name: str) -> str:
+    while name in alias:
+        name = alias[name]
+    return name
+
+
+def _rename(element: Element, alias: dict[str, str]) -> Element:
     if isinstance(element, (Valve, Pipe)):
-        return replace(element, a=root(element.a), b=root(element.b))
-    return replace(element, node=root(element.node))
+        return replace(element, a=_root(alias, element.a), b=_root(alias, element.b))
+    return replace(element, node=_root(alias, element.node))

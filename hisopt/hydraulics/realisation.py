@@ -132,7 +132,7 @@ def realise(d: Descriptor) -> Realisation:
         a=a_ss[..., keep, :] @ t,
         b0=b0[..., keep, :],
         b1=b1[..., keep, :],
-        labels=tuple(d.labels[u] for u, k in zip(dyn, keep) if k),
+        labels=tuple(d.labels[u] for u, k in zip(dyn, keep, strict=True) if k),
         kept=dyn[keep],
         expand=t,
         recover=recover,

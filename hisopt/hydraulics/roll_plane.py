@@ -58,7 +58,7 @@ class RollPlaneHIS(BaseModel):
     pipe_model: PipeModel = "lumped"
 
     @model_validator(mode="after")
-    def _distributed_needs_pipes(self) -> "RollPlaneHIS":
+    def _distributed_needs_pipes(self) -> RollPlaneHIS:
         if self.pipe_model == "distributed" and self.pipes is None:
             raise ValueError("pipe_model = 'distributed' needs a [his.pipes] layout")
         return self

@@ -82,7 +82,7 @@ def pareto_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray,
     if len(archive_f) and accept.any():
         # no archived design weakly dominates an accepted one, so "weakly dominates" from an
         # accepted design to an archived one is strict domination here
-        keep = ~weakly_dominates(new_f[accept], archive_f).any(axis=0)
+        keep = np.asarray(~weakly_dominates(new_f[accept], archive_f).any(axis=0), dtype=bool)
     return keep, accept
 
 
@@ -105,14 +105,14 @@ class Archive:
     ids: np.ndarray
 
     @classmethod
-    def empty(cls, n_var: int, n_obj: int, n_q: int) -> "Archive":
+    def empty(cls, n_var: int, n_obj: int, n_q: int) -> Archive:
         """An archive with no designs."""
         return cls(np.empty((0, n_var)), np.empty((0, n_obj)), np.empty((0, n_q)), np.empty(0, dtype=np.int64))
 
     def __len__(self) -> int:
         return len(self.ids)
 
-    def update(self, x: np.ndarray, f: np.ndarray, q: np.ndarray, ids: np.ndarray, feasible: np.ndarray) -> "Archive":
+    def update(self, x: np.ndarray, f: np.ndarray, q: np.ndarray, ids: np.ndarray, feasible: np.ndarray) -> Archive:
         """The archive after offering a batch of evaluated designs.
 
         Parameters

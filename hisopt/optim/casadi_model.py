@@ -32,6 +32,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -153,13 +154,13 @@ class CasadiModel:
     names : objective and constraint names, each once
     """
 
-    def __init__(self, problem: "Problem", compile: bool = True):
+    def __init__(self, problem: Problem, compile: bool = True):
         from hisopt.evaluate import Evaluator
 
         self.compile = compile
         self.problem = problem
         ev = Evaluator(problem)
-        self.outputs: dict[str, "Output"] = dict(ev.outputs)
+        self.outputs: dict[str, Output] = dict(ev.outputs)
         self.output_index = dict(ev.output_index)
         self.names: tuple[str, ...] = ev.names
         self.metrics = [METRICS[n] for n in self.names]
@@ -169,9 +170,9 @@ class CasadiModel:
         self.tau = v.wheelbase / spec.road.speed
         self.gd_n0 = class_gd_n0(spec.road.road_class)
         self.n_par = _HEADER + 64 + 16 * len(self.outputs)
-        self._psd: "ca.Function | None" = None
-        self._mapped: dict[int, "ca.Function"] = {}
-        self._nodes: dict[str, "ca.Function"] = {}
+        self._psd: ca.Function | None = None
+        self._mapped: dict[int, ca.Function] = {}
+        self._nodes: dict[str, ca.Function] = {}
 
     # -- numeric, per frequency set -----------------------------------------------------------
     def frequency_set(self, f_hz: np.ndarray, weight_hz: np.ndarray | None = None) -> FrequencySet:
@@ -239,7 +240,7 @@ class CasadiModel:
         largest = max(int(np.sum(net.circuit == c)) for c in range(net.n_circuits))
         return ca.SX if largest <= SX_MAX_UNKNOWNS else ca.MX
 
-    def psd_function(self) -> "ca.Function":
+    def psd_function(self) -> ca.Function:
         """``psd(d_re 4x4, d_im 4x4, p n_par) -> (n_out,)`` output PSDs at one node from the HIS's
         stroke dynamic stiffness ``D`` (SX).
 
@@ -265,14 +266,14 @@ class CasadiModel:
             ar, ai, rr, ri = (p[base + 16 * i + 4 * k : base + 16 * i + 4 * (k + 1)].T for k in range(4))
             h_re = ar - (rr @ zd.re - ri @ zd.im)
             h_im = ai - (rr @ zd.im + ri @ zd.re)
-            wheel = [(h_re[k], h_im[k]) for k in range(4)]
-            psd.append(g_road * track_power(*wheel, cos_t, sin_t, coh))
+            w_fl, w_fr, w_rl, w_rr = ((h_re[k], h_im[k]) for k in range(4))
+            psd.append(g_road * track_power(w_fl, w_fr, w_rl, w_rr, cos_t, sin_t, coh))
         self._psd = ca.Function(
             "psd", [dr, di, p], [ca.vertcat(*psd)], ["d_re", "d_im", "p"], ["psd"], {"is_diff_in": [True, True, False]}
         )
         return self._psd
 
-    def node_function(self, jacobian: bool = False) -> "ca.Function":
+    def node_function(self, jacobian: bool = False) -> ca.Function:
         """``node(x, p) -> psd (n_out,)[, dpsd_dx (n_out, n_var)]`` at one node, design ``x``.
 
         The Jacobian (forward AD, ``n_var`` directions) is with respect to the design
@@ -289,7 +290,7 @@ class CasadiModel:
             self._nodes[key] = ca.Function(key, [x, p], outs, {"is_diff_in": [True, False]})
         return self._nodes[key]
 
-    def fast_node_function(self, jacobian: bool = False) -> "ca.Function":
+    def fast_node_function(self, jacobian: bool = False) -> ca.Function:
         """:meth:`node_function` compiled to machine code when a C compiler is available.
 
         The same operations in the same order (no fast-math), a few times faster than
@@ -301,7 +302,7 @@ class CasadiModel:
             self._nodes[key] = compiled(fn) if self.compile and self.symbolic is ca.SX else fn
         return self._nodes[key]
 
-    def spectra(self, x: "ca.MX", params: "ca.MX | np.ndarray") -> "ca.MX":
+    def spectra(self, x: ca.MX, params: ca.MX | np.ndarray) -> ca.MX:
         """[output unit^2/Hz] Output PSDs at every node, shape ``(n_out, F)``.
 
         Parameters
@@ -315,7 +316,7 @@ class CasadiModel:
         return self._mapped[n](x, params)
 
     # -- quantities -----------------------------------------------------------------------------
-    def roll_gradient(self, x: "ca.MX") -> "ca.MX":
+    def roll_gradient(self, x: ca.MX) -> ca.MX:
         """[rad/g] Static roll angle under the moment ``m_s g h_0s`` (``K + G^T K_his G``)."""
         veh = self.problem.spec.vehicle
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
@@ -323,12 +324,12 @@ class CasadiModel:
         g = stroke_matrix(veh)
         return roll_gradient(ca.DM(stiffness_matrix(veh)) + ca.DM(g.T) @ k_his @ ca.DM(g), veh)
 
-    def _reduce(self, x: "ca.MX", fs: FrequencySet, psd: "ca.MX", with_maxima: bool) -> dict[str, "ca.MX"]:
-        def integral(output: str, weighting: str | None) -> "ca.MX":
+    def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool) -> dict[str, ca.MX]:
+        def integral(output: str, weighting: str | None) -> ca.MX:
             weights = fs.weight_hz if weighting is None else fs.comfort_weight[output]
             return psd[self.output_index[output], :] @ ca.DM(weights)
 
-        def maximum(output: str) -> "ca.MX":
+        def maximum(output: str) -> ca.MX:
             return ca.mmax(psd[self.output_index[output], :])
 
         metrics = [m for m in self.metrics if with_maxima or m.kind != "max"]
@@ -341,17 +342,17 @@ class CasadiModel:
             lambda name: self.roll_gradient(x),
         )
 
-    def integrals(self, x: "ca.MX", fs: FrequencySet, spectra: "ca.MX | None" = None) -> dict[str, "ca.MX"]:
+    def integrals(self, x: ca.MX, fs: FrequencySet, spectra: ca.MX | None = None) -> dict[str, ca.MX]:
         """Quadrature quantities (``sigma_aw``, ``rms_*``) and ``roll_gradient`` on ``fs``."""
         psd = self.spectra(x, fs.params) if spectra is None else spectra
         return self._reduce(x, fs, psd, with_maxima=False)
 
-    def quantities(self, x: "ca.MX", fs: FrequencySet) -> dict[str, "ca.MX"]:
+    def quantities(self, x: ca.MX, fs: FrequencySet) -> dict[str, ca.MX]:
         """Every objective and constraint on ``fs``: integrals by quadrature, maxima over all nodes."""
         out = self._reduce(x, fs, self.spectra(x, fs.params), with_maxima=True)
         return {name: out[name] for name in self.names}
 
-    def function(self, fs: FrequencySet) -> "ca.Function":
+    def function(self, fs: FrequencySet) -> ca.Function:
         """``f(x) -> (quantities (n_q,), jacobian (n_q, n_var))`` on the fixed nodes ``fs``.
 
         Quantities in :attr:`names` order, physical units; the Jacobian is exact (AD).
@@ -375,7 +376,7 @@ def cache_directory() -> Path:
     return Path(base) / "hisopt"
 
 
-def compiled(fn: "ca.Function") -> "ca.Function":
+def compiled(fn: ca.Function) -> ca.Function:
     """``fn`` as C code compiled to a shared library (cached by content), or ``fn`` itself.
 
     The C source comes from CasADi's code generator; the library is named by the SHA-256 of
@@ -431,7 +432,8 @@ class SpectraCallback(ca.Callback):
         ca.Callback.__init__(self)
         self.model = model
         self.lower, self.span = np.asarray(lower, dtype=float), np.asarray(span, dtype=float)
-        self.n_out, self.n_nodes = len(model.outputs), fs.size
+        # not n_out / n_nodes: those are methods of every CasADi Function
+        self.outputs_count, self.nodes_count = len(model.outputs), fs.size
         self.params = ca.DM(fs.params)
         self.value = model.fast_node_function().map(fs.size, "serial")
         self.value_jac = model.fast_node_function(jacobian=True).map(fs.size, "serial")
@@ -446,19 +448,19 @@ class SpectraCallback(ca.Callback):
     def get_n_out(self) -> int:
         return 1
 
-    def get_sparsity_in(self, i: int) -> "ca.Sparsity":
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
         return ca.Sparsity.dense(self.model.n_var, 1)
 
-    def get_sparsity_out(self, i: int) -> "ca.Sparsity":
-        return ca.Sparsity.dense(self.n_out, self.n_nodes)
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.outputs_count, self.nodes_count)
 
-    def eval(self, arg: list[Any]) -> list[Any]:
+    def eval(self, arg: Sequence[Any]) -> list[Any]:
         return [self.evaluate(np.array(arg[0]).ravel(), jacobian=False)[0]]
 
     def has_jacobian(self, *args: Any) -> bool:
         return True
 
-    def get_jacobian(self, name: str, inames: list[str], onames: list[str], opts: dict[str, Any]) -> "ca.Function":
+    def get_jacobian(self, name: str, inames: Sequence[str], onames: Sequence[str], opts: Mapping[str, Any]) -> ca.Function:
         self._jacobian = _SpectraJacobian(name, self, opts)
         return self._jacobian
 
@@ -472,8 +474,8 @@ class SpectraCallback(ca.Callback):
         x = self.lower + self.span * u
         if jacobian:
             psd, jac = self.value_jac(x, self.params)
-            jac = np.array(jac).reshape(self.n_out, self.n_nodes, -1, order="C")
-            jac = np.transpose(jac, (1, 0, 2)).reshape(self.n_nodes * self.n_out, -1) * self.span
+            jac = np.array(jac).reshape(self.outputs_count, self.nodes_count, -1, order="C")
+            jac = np.transpose(jac, (1, 0, 2)).reshape(self.nodes_count * self.outputs_count, -1) * self.span
             result = (np.array(psd), jac)
         else:
             result = (np.array(self.value(x, self.params)), None)
@@ -487,10 +489,10 @@ class SpectraCallback(ca.Callback):
 class _SpectraJacobian(ca.Callback):
     """Jacobian of :class:`SpectraCallback`: ``(u, nominal output) -> (n_out F, n_var)``."""
 
-    def __init__(self, name: str, parent: SpectraCallback, opts: dict[str, Any]):
+    def __init__(self, name: str, parent: SpectraCallback, opts: Mapping[str, Any]):
         ca.Callback.__init__(self)
         self.parent = parent
-        self.construct(name, opts)
+        self.construct(name, dict(opts))
 
     def get_n_in(self) -> int:
         return 2
@@ -498,11 +500,11 @@ class _SpectraJacobian(ca.Callback):
     def get_n_out(self) -> int:
         return 1
 
-    def get_sparsity_in(self, i: int) -> "ca.Sparsity":
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
         return self.parent.get_sparsity_in(0) if i == 0 else self.parent.get_sparsity_out(0)
 
-    def get_sparsity_out(self, i: int) -> "ca.Sparsity":
-        return ca.Sparsity.dense(self.parent.n_out * self.parent.n_nodes, self.parent.model.n_var)
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.parent.outputs_count * self.parent.nodes_count, self.parent.model.n_var)
 
-    def eval(self, arg: list[Any]) -> list[Any]:
+    def eval(self, arg: Sequence[Any]) -> list[Any]:
         return [self.parent.evaluate(np.array(arg[0]).ravel(), jacobian=True)[1]]

@@ -61,7 +61,7 @@ def grid_designs(lower: np.ndarray, upper: np.ndarray, max_designs: int = 1000) 
     """
     n_var = len(lower)
     levels = max(2, int(np.floor(max_designs ** (1.0 / n_var) + 1e-9)))
-    axes = [np.linspace(lo, hi, levels) for lo, hi in zip(lower, upper)]
+    axes = [np.linspace(lo, hi, levels) for lo, hi in zip(lower, upper, strict=True)]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, n_var)
 
 
@@ -73,7 +73,7 @@ def reference_from_sample(f: np.ndarray) -> np.ndarray:
     return nadir + np.maximum(REFERENCE_MARGIN * (nadir - ideal), MIN_MARGIN_DECADES)
 
 
-def reference_point(problem: "Problem") -> np.ndarray:
+def reference_point(problem: Problem) -> np.ndarray:
     """[decades] The problem's fixed hypervolume reference point in ``log10`` space, ``(n_obj,)``.
 
     Cached per problem specification (the grid evaluation costs a few hundred evaluations).
@@ -94,7 +94,7 @@ def reference_point(problem: "Problem") -> np.ndarray:
 _REFERENCE_CACHE: dict[str, np.ndarray] = {}
 
 
-def _reference_point(problem: "Problem") -> np.ndarray:
+def _reference_point(problem: Problem) -> np.ndarray:
     x = grid_designs(problem.lower, problem.upper)
     q = problem.evaluator()(x)
     valid = np.asarray(q["valid"], dtype=bool)

@@ -36,7 +36,7 @@ NORM_FIELDS = ("ideal_point", "worst_point", "nadir_point", "extreme_points")
 class Engine:
     """The state of a run between generations, with checkpoint round trips."""
 
-    def __init__(self, problem: "Problem", settings: RunSettings, reference_log: np.ndarray):
+    def __init__(self, problem: Problem, settings: RunSettings, reference_log: np.ndarray):
         from pymoo.core.termination import NoTermination
 
         self.problem = problem
@@ -101,7 +101,7 @@ class Engine:
         """``(meta, arrays)`` for :func:`hisopt.optim.rundir.save_checkpoint`."""
         alg = self.algorithm
         arrays: dict[str, np.ndarray] = {}
-        pop = alg.pop if self.generation > 0 else []
+        pop: Any = alg.pop if self.generation > 0 else []
         n_var, n_g = self.pymoo_problem.n_var, self.pymoo_problem.n_ieq_constr
         arrays["pop_X"] = np.asarray(pop.get("X"), dtype=float) if len(pop) else np.empty((0, n_var))
         arrays["pop_F"] = np.asarray(pop.get("F"), dtype=float) if len(pop) else np.empty((0, self.n_obj))
@@ -168,7 +168,7 @@ class Engine:
         pop.set("F", arrays["pop_F"], "G", arrays["pop_G"])
         for name in SURVIVAL_FIELDS:
             values = arrays[f"pop_{name}"]
-            for ind, v in zip(pop, values):
+            for ind, v in zip(pop, values, strict=True):
                 if not np.isnan(v):
                     ind.set(name, int(v) if name in ("rank", "niche") else float(v))
         norm = getattr(alg.survival, "norm", None)
@@ -190,7 +190,7 @@ class Engine:
         if not self.hist:
             n_var, n_q = len(self.problem.variable_names), len(self.quantity_names)
             return np.empty((0, n_var)), np.empty((0, n_q)), np.empty(0, dtype=bool), np.empty(0, dtype=np.int64)
-        return tuple(np.concatenate(parts) for parts in zip(*self.hist))  # type: ignore[return-value]
+        return tuple(np.concatenate(parts) for parts in zip(*self.hist, strict=True))  # type: ignore[return-value]
 
     def front(self) -> pd.DataFrame:
         """[physical units] The archive as the front table (variables, quantities)."""

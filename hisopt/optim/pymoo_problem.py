@@ -55,7 +55,7 @@ def constraint_matrix(
     valid = np.asarray(quantities["valid"], dtype=bool)
     n = valid.size
     g = np.empty((n, len(names) + 1))
-    for j, (name, limit) in enumerate(zip(names, limits)):
+    for j, (name, limit) in enumerate(zip(names, limits, strict=True)):
         g[:, j] = np.asarray(quantities[name], dtype=float) / limit - 1.0
     g[:, -1] = 0.0
     bad = ~valid | ~np.all(np.isfinite(g), axis=1)
@@ -76,7 +76,7 @@ class HisoptPymooProblem(PymooProblem):
     problem : [-] the hisopt problem (variables, objectives, constraints)
     """
 
-    def __init__(self, problem: "Problem"):
+    def __init__(self, problem: Problem):
         self.hisopt_problem = problem
         self.objective_names = problem.objective_names
         self.constraint_names = problem.constraint_names

@@ -232,7 +232,7 @@ class NodePlan:
     max_nodes : node indices of each band-maximum quantity's epigraph
     """
 
-    fs: "FrequencySet"
+    fs: FrequencySet
     max_nodes: dict[str, np.ndarray]
 
 
@@ -254,7 +254,7 @@ def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, st
     return float(zoom_maximum(values_at, f, values_at(f), steps - 1, points)[0][0])
 
 
-def node_plan(problem: "Problem", model: "CasadiModel", x: np.ndarray, settings: RefineSettings) -> NodePlan:
+def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: RefineSettings) -> NodePlan:
     """Nodes of the NLP at design ``x`` [variable units], ``(n_var,)`` (module docstring)."""
     from hisopt.evaluate import DirectOutputs, poles
 
@@ -266,20 +266,20 @@ def node_plan(problem: "Problem", model: "CasadiModel", x: np.ndarray, settings:
     w = np.bincount(inverse, weights=w[0], minlength=f.size)
     frf = DirectOutputs(coupled, ev.outputs)
     psd = ev.spectra(f[None], frf(2j * np.pi * f[None]))[0]
-    poles = lam[0][lam[0].imag > 0]
+    upper = lam[0][lam[0].imag > 0]  # one of each conjugate pair
     offsets = np.array(settings.cluster_offsets)
     offsets = np.r_[-offsets[::-1], 0.0, offsets]
     clusters: dict[str, list[np.ndarray]] = {}
     for m in model.metrics:
         if m.kind != "max":
             continue
-        j = model.output_index[m.output]
+        j = model.output_index[m.signal]
         y = psd[:, j]
         is_peak = np.r_[y[0] > y[1], (y[1:-1] >= y[:-2]) & (y[1:-1] >= y[2:]), y[-1] > y[-2]]
         clusters[m.name] = []
-        for k in np.flatnonzero(is_peak & (y >= settings.peak_share * y.max())):
+        for k in (int(i) for i in np.flatnonzero(is_peak & (y >= settings.peak_share * y.max()))):
             f_pk = peak_location(frf, ev, j, f[max(k - 1, 0)], f[min(k + 1, f.size - 1)])
-            nearest = poles[np.argmin(np.abs(poles.imag / (2 * np.pi) - f_pk))] if poles.size else 0j
+            nearest = upper[np.argmin(np.abs(upper.imag / (2 * np.pi) - f_pk))] if upper.size else 0j
             half_width = max(abs(nearest.real) / (2 * np.pi), 1e-3 * f_pk)
             c = f_pk + half_width * offsets
             clusters[m.name].append(c[(c >= ev.f_lo) & (c <= ev.f_hi)])
@@ -289,7 +289,7 @@ def node_plan(problem: "Problem", model: "CasadiModel", x: np.ndarray, settings:
     psd_all = ev.spectra(f_all[None], frf(2j * np.pi * f_all[None]))[0]
     max_nodes = {}
     for name, cs in clusters.items():
-        y = psd_all[:, model.output_index[METRICS[name].output]]
+        y = psd_all[:, model.output_index[METRICS[name].signal]]
         in_cluster = np.isin(f_all, np.concatenate(cs)) if cs else np.zeros(f_all.size, dtype=bool)
         max_nodes[name] = np.flatnonzero(in_cluster | (y >= settings.node_share * y.max()))
     return NodePlan(model.frequency_set(f_all, w_all), max_nodes)
@@ -315,8 +315,8 @@ class SolveOutcome:
 
 
 def solve_asf(
-    problem: "Problem",
-    model: "CasadiModel",
+    problem: Problem,
+    model: CasadiModel,
     plan: NodePlan,
     u_c: np.ndarray,
     ref_log: np.ndarray,
@@ -359,7 +359,7 @@ def solve_asf(
     z = {name: log10(value) for name, value in model.integrals(x, plan.fs, psd).items()}
     peaks = {}
     for j, name in enumerate(max_names):
-        row = model.output_index[METRICS[name].output]
+        row = model.output_index[METRICS[name].signal]
         peaks[name] = log10(psd[row, [int(k) for k in plan.max_nodes[name]]].T)
         z[name] = t[j]
     gap = ca.vertcat(*[weights[i] * (z[name] - ref_log[i]) for i, name in enumerate(objectives)])
@@ -382,7 +382,7 @@ def solve_asf(
     ubx = np.r_[np.minimum(1.0, u_c + radius), np.full(n_free, np.inf)]
 
     # ---- solve NLP ------------------------------------------------------------------------------
-    options = {
+    options: dict[str, Any] = {
         "print_time": False,
         "ipopt.print_level": 0,
         "ipopt.sb": "yes",
@@ -395,7 +395,8 @@ def solve_asf(
         "ipopt.limited_memory_initialization": "constant",
         "ipopt.limited_memory_init_val": 1e-3,
     }
-    solver = ca.nlpsol("asf", "ipopt", {"x": ca.vertcat(u, s, t), "f": objective, "g": ca.vertcat(*g)}, options)
+    nlp: dict[str, Any] = {"x": ca.vertcat(u, s, t), "f": objective, "g": ca.vertcat(*g)}
+    solver = ca.nlpsol("asf", "ipopt", nlp, options)
     sol = solver(x0=np.r_[u_c, s0, t0], lbx=lbx, ubx=ubx, lbg=-np.inf, ubg=0.0)
     stats = solver.stats()
     opt = np.array(sol["x"]).ravel()
@@ -410,18 +411,18 @@ def _merit(gap: np.ndarray, rho: float) -> float:
     return float(np.max(gap) + rho * np.sum(gap))
 
 
-def _evaluate(problem: "Problem", x: np.ndarray) -> dict[str, float]:
+def _evaluate(problem: Problem, x: np.ndarray) -> dict[str, float]:
     q = problem.evaluator()(np.asarray(x, dtype=float)[None, :])
     return {k: float(v[0]) for k, v in q.items()}
 
 
-def _feasible(problem: "Problem", q: dict[str, float]) -> bool:
+def _feasible(problem: Problem, q: dict[str, float]) -> bool:
     return bool(q["valid"]) and all(q[c.name] <= c.limit for c in problem.spec.constraints)
 
 
 def refine_point(
-    problem: "Problem",
-    model: "CasadiModel",
+    problem: Problem,
+    model: CasadiModel,
     source_index: int,
     x0: np.ndarray,
     f0: np.ndarray,
@@ -487,7 +488,7 @@ _WORKER: dict[str, Any] = {}
 """Per-process cache: the problem and its CasADi model (built once per worker)."""
 
 
-def _worker_model(problem: "Problem") -> "CasadiModel":
+def _worker_model(problem: Problem) -> CasadiModel:
     from hisopt.optim.casadi_model import CasadiModel
 
     key = problem.spec.model_dump_json()
@@ -496,19 +497,19 @@ def _worker_model(problem: "Problem") -> "CasadiModel":
     return _WORKER["model"]
 
 
-def _refine_task(task: tuple[int, np.ndarray, np.ndarray], problem: "Problem", weights: np.ndarray, settings: RefineSettings) -> PointResult:
+def _refine_task(task: tuple[int, np.ndarray, np.ndarray], problem: Problem, weights: np.ndarray, settings: RefineSettings) -> PointResult:
     """Refine one ``(source_index, x0, f0)`` in whichever process runs it."""
     model = _worker_model(problem)
     return refine_point(_WORKER["problem"], model, task[0], task[1], task[2], weights, settings)
 
 
 def refine_front(
-    problem: "Problem",
+    problem: Problem,
     front: pd.DataFrame,
     max_points: int = 40,
     *,
     settings: RefineSettings | None = None,
-    backend: "Backend | None" = None,
+    backend: Backend | None = None,
     reference_log: np.ndarray | None = None,
     progress: Callable[[PointResult], None] | None = None,
     source: str = "front",
@@ -569,7 +570,7 @@ def refine_front(
     )
 
 
-def start_designs(problem: "Problem", front: pd.DataFrame, source: str = "front") -> tuple[np.ndarray, np.ndarray]:
+def start_designs(problem: Problem, front: pd.DataFrame, source: str = "front") -> tuple[np.ndarray, np.ndarray]:
     """Start designs ``x`` (n, n_var) and their objectives ``f`` (n, n_obj) from a front, checked
     by the same rules as every design (:mod:`hisopt.validation`).
 
@@ -591,11 +592,11 @@ def start_designs(problem: "Problem", front: pd.DataFrame, source: str = "front"
     bad = np.flatnonzero(~np.all(np.isfinite(f), axis=1))
     if len(bad):
         i = int(bad[0])
-        raise ConfigError(f"row {i + 1}: expected finite objective values, got {dict(zip(problem.objective_names, f[i].tolist()))}", file=source)
+        raise ConfigError(f"row {i + 1}: expected finite objective values, got {dict(zip(problem.objective_names, f[i].tolist(), strict=True))}", file=source)
     return x, f
 
 
-def _points_frame(problem: "Problem", results: list[PointResult]) -> pd.DataFrame:
+def _points_frame(problem: Problem, results: list[PointResult]) -> pd.DataFrame:
     rows = []
     for r in results:
         row = {
@@ -608,13 +609,13 @@ def _points_frame(problem: "Problem", results: list[PointResult]) -> pd.DataFram
             "seconds": r.seconds,
             "status": r.status,
         }
-        row |= dict(zip(problem.variable_names, r.x.tolist()))
+        row |= dict(zip(problem.variable_names, r.x.tolist(), strict=True))
         row |= r.quantities
         rows.append(row)
     return pd.DataFrame(rows)
 
 
-def _refined_front(problem: "Problem", front: pd.DataFrame, results: list[PointResult]) -> pd.DataFrame:
+def _refined_front(problem: Problem, front: pd.DataFrame, results: list[PointResult]) -> pd.DataFrame:
     """The kept refined designs plus the original designs none of them dominates."""
     original = front.copy()
     original["source_index"] = np.arange(len(front))
@@ -623,7 +624,7 @@ def _refined_front(problem: "Problem", front: pd.DataFrame, results: list[PointR
         if not r.accepted:
             continue
         row = {c: np.nan for c in front.columns}
-        row |= dict(zip(problem.variable_names, r.x.tolist()))
+        row |= dict(zip(problem.variable_names, r.x.tolist(), strict=True))
         row |= {k: v for k, v in r.quantities.items() if k in front.columns}
         row["source_index"] = r.source_index
         rows.append(row)
@@ -641,7 +642,7 @@ def refine_run(
     max_points: int = 40,
     *,
     settings: RefineSettings | None = None,
-    backend: "Backend | None" = None,
+    backend: Backend | None = None,
     progress: Callable[[PointResult], None] | None = None,
 ) -> RefineResult:
     """Refine a run directory's ``front.csv``; write ``front_refined.csv`` and ``refine.json``.

@@ -62,7 +62,7 @@ class OptimizationResult:
     completed : [-] False when the algorithm stopped early (no new offspring possible)
     """
 
-    problem: "Problem"
+    problem: Problem
     settings: RunSettings
     front: pd.DataFrame
     history: pd.DataFrame
@@ -132,7 +132,7 @@ def _by_objective(values: Mapping[str, float] | Sequence[float], names: tuple[st
         unknown = [k for k in values if k not in names]
         if unknown:
             raise ConfigError(f"unknown objective {unknown[0]!r} in the ASF {what}; expected names from {', '.join(names)}")
-        return np.array([float(values.get(n, d)) for n, d in zip(names, default)])
+        return np.array([float(values.get(n, d)) for n, d in zip(names, default, strict=True)])
     out = np.asarray(values, dtype=float)
     if out.shape != (len(names),):
         raise ConfigError(f"expected {len(names)} ASF {what} values (order {', '.join(names)}), got {out.shape[0] if out.ndim else 1}")

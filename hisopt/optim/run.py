@@ -93,7 +93,7 @@ def _record(run_dir: Path, info: dict[str, Any], session: dict[str, Any], status
 
 
 def optimize(
-    problem: "Problem | str | Path",
+    problem: Problem | str | Path,
     *,
     out: str | Path | None = None,
     seed: int | None = None,

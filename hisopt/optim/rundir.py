@@ -113,7 +113,7 @@ def prepare_run_directory(run_dir: Path, *, fresh: bool) -> Path:
 def save_checkpoint(path: Path, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
     """Write a checkpoint (``arrays`` plus the JSON ``meta``) atomically to ``path``."""
     buffer = io.BytesIO()
-    payload = {"meta": np.array(json.dumps(meta | {"format": CHECKPOINT_FORMAT}))}
+    payload: dict[str, Any] = {"meta": np.array(json.dumps(meta | {"format": CHECKPOINT_FORMAT}))}
     payload.update({name: np.asarray(value) for name, value in arrays.items()})
     np.savez(buffer, **payload)
     atomic_write_bytes(path, buffer.getvalue())
@@ -164,8 +164,8 @@ def set_generator_state(rng: np.random.Generator, state: dict[str, Any]) -> None
 
 def legacy_state() -> dict[str, Any]:
     """The global numpy RNG state (``np.random.get_state()``) as plain lists and ints."""
-    name, keys, pos, has_gauss, cached = np.random.get_state()
-    return {"name": name, "keys": keys.tolist(), "pos": int(pos), "has_gauss": int(has_gauss), "cached_gaussian": float(cached)}
+    name, keys, pos, has_gauss, cached = np.random.get_state(legacy=True)
+    return {"name": name, "keys": np.asarray(keys).tolist(), "pos": int(pos), "has_gauss": int(has_gauss), "cached_gaussian": float(cached)}
 
 
 def set_legacy_state(state: dict[str, Any]) -> None:
@@ -206,7 +206,7 @@ def read_front(path: str | Path) -> pd.DataFrame:
         raise RunError(f"{path}: unreadable front ({exc})") from None
 
 
-def run_problem(run_dir: Path) -> tuple["Problem", np.ndarray | None]:
+def run_problem(run_dir: Path) -> tuple[Problem, np.ndarray | None]:
     """The problem of a run directory and its recorded hypervolume reference point.
 
     Reads ``run.json`` and the run's problem copy (:func:`load_run_problem`, which refuses an
@@ -249,7 +249,7 @@ def versions() -> dict[str, str]:
     }
 
 
-def problem_copy(problem: "Problem") -> tuple[str, bytes, dict[str, Any]]:
+def problem_copy(problem: Problem) -> tuple[str, bytes, dict[str, Any]]:
     """The run's copy of the problem: ``(file name, bytes, run.json record)``.
 
     The problem file itself (``problem.toml``) when the problem was loaded from a file that
@@ -270,7 +270,7 @@ def problem_copy(problem: "Problem") -> tuple[str, bytes, dict[str, Any]]:
             except (ConfigError, tomllib.TOMLDecodeError, UnicodeDecodeError):
                 same = False
             if same:
-                record = {
+                record: dict[str, Any] = {
                     "name": problem.name,
                     "path": str(Path(path).resolve()),
                     "sha256": problem.sha256,
@@ -291,7 +291,7 @@ def problem_copy(problem: "Problem") -> tuple[str, bytes, dict[str, Any]]:
     return PROBLEM_JSON, raw, record
 
 
-def load_run_problem(run_dir: Path, record: dict[str, Any], check_original: bool = True) -> "Problem":
+def load_run_problem(run_dir: Path, record: dict[str, Any], check_original: bool = True) -> Problem:
     """The problem of a run from its own copy, after the checks of the module's resume rule
     (``check_original=False``: only the copy's own checksum, e.g. for a report).
 
@@ -324,7 +324,7 @@ def load_run_problem(run_dir: Path, record: dict[str, Any], check_original: bool
     return problem_from_dict(json.loads(copy.read_text(encoding="utf-8")), str(copy))
 
 
-def _summary(result: "OptimizationResult") -> dict[str, Any]:
+def _summary(result: OptimizationResult) -> dict[str, Any]:
     out: dict[str, Any] = {
         "generations": int(len(result.generations)),
         "evaluations": int(len(result.history)),
@@ -338,7 +338,7 @@ def _summary(result: "OptimizationResult") -> dict[str, Any]:
     return out
 
 
-def write_outputs(run_dir: Path, result: "OptimizationResult") -> None:
+def write_outputs(run_dir: Path, result: OptimizationResult) -> None:
     """``front.csv``, the evaluations and ``generations.csv`` (each atomically)."""
     write_csv(result.front, run_dir / FRONT_CSV)
     interrupt.hook_point("final-write")
@@ -349,7 +349,7 @@ def write_outputs(run_dir: Path, result: "OptimizationResult") -> None:
 
 
 def update_run_json(
-    run_dir: Path, info: dict[str, Any], session: dict[str, Any], status: str, result: "OptimizationResult", session_s: float, evaluation_s: float
+    run_dir: Path, info: dict[str, Any], session: dict[str, Any], status: str, result: OptimizationResult, session_s: float, evaluation_s: float
 ) -> None:
     """Record ``status``, the session's end, the timings and the result summary in ``run.json``."""
     info["status"] = status

@@ -44,7 +44,7 @@ class RunSettings:
 
 
 def resolve_settings(
-    problem: "Problem",
+    problem: Problem,
     *,
     algorithm: AlgorithmChoice | None = None,
     pop_size: int | None = None,

@@ -57,7 +57,7 @@ SUMMARY_COLUMNS = ("seed", "evaluations", "hypervolume", "wall_time_s", "front_s
 """Columns of :attr:`StudyResult.runs` (and of each progress report)."""
 
 
-def _run_seed(seed: int, problem: "Problem", out: str | None, pop_size: int | None, generations: int | None) -> dict[str, Any]:
+def _run_seed(seed: int, problem: Problem, out: str | None, pop_size: int | None, generations: int | None) -> dict[str, Any]:
     from hisopt.optim.run import optimize
 
     run_dir = None if out is None else str(Path(out) / f"seed-{seed}")
@@ -74,13 +74,13 @@ def _run_seed(seed: int, problem: "Problem", out: str | None, pop_size: int | No
 
 
 def study(
-    problem: "Problem",
+    problem: Problem,
     seeds: list[int],
     *,
     out: str | Path | None = None,
     pop_size: int | None = None,
     generations: int | None = None,
-    backend: "Backend | None" = None,
+    backend: Backend | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
 ) -> StudyResult:
     """Run one optimisation per seed (one task each on ``backend``) and merge the fronts.

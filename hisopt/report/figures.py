@@ -32,7 +32,7 @@ def displays(frame: pd.DataFrame, columns: Sequence[str], units: Mapping[str, st
 
 def _hover(frame: pd.DataFrame, shown: Mapping[str, Display]) -> list[str]:
     rows = frame[list(shown)].to_numpy(dtype=float)
-    return ["<br>".join(f"{c} = {d(v)}" for (c, d), v in zip(shown.items(), row)) for row in rows]
+    return ["<br>".join(f"{c} = {d(v)}" for (c, d), v in zip(shown.items(), row, strict=True)) for row in rows]
 
 
 def front_scatter_matrix(
@@ -42,7 +42,7 @@ def front_scatter_matrix(
     highlights: Mapping[str, pd.Series] | None = None,
     refined: pd.DataFrame | None = None,
     units: Mapping[str, str] | None = None,
-) -> "go.Figure":
+) -> go.Figure:
     """Scatter matrix of the objectives; hovering a point shows its whole design."""
     import plotly.graph_objects as go
 
@@ -79,7 +79,7 @@ def parallel_coordinates(
     objectives: Sequence[str],
     color_by: str,
     units: Mapping[str, str] | None = None,
-) -> "go.Figure":
+) -> go.Figure:
     """Parallel coordinates of variables and objectives, coloured by ``color_by``."""
     import plotly.graph_objects as go
 
@@ -112,7 +112,7 @@ def parallel_coordinates(
     return fig
 
 
-def convergence(generations: pd.DataFrame, n_objectives: int | None = None) -> "go.Figure":
+def convergence(generations: pd.DataFrame, n_objectives: int | None = None) -> go.Figure:
     """Hypervolume, front size and feasible share per generation.
 
     ``n_objectives`` sets the hypervolume's unit (``decades^n``); default from the frame's

@@ -26,7 +26,6 @@ from hisopt.units import (
     hypervolume_unit,
 )
 
-
 _CSS = """
 body{font-family:Inter,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1280px;padding:0 16px;color:#1d2330}
 h1{margin-bottom:4px} h2{margin-top:40px;margin-bottom:12px;border-bottom:1px solid #e3e6ea;padding-bottom:4px}
@@ -85,7 +84,7 @@ def html_table(
         return f'<td{f" class={chr(34)}{classes}{chr(34)}" if classes else ""}>{html.escape(str(value))}</td>'
 
     head = "".join(header(str(c)) for c in shown.columns)
-    body = "".join("<tr>" + "".join(cell(str(c), v) for c, v in zip(shown.columns, row)) + "</tr>" for row in shown.itertuples(index=False))
+    body = "".join("<tr>" + "".join(cell(str(c), v) for c, v in zip(shown.columns, row, strict=True)) + "</tr>" for row in shown.itertuples(index=False))
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     return f'<table class="data">{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 

@@ -120,6 +120,7 @@ def random_profile(
     amplitude = np.sqrt(2.0 * temporal_psd(f[sel], gd_n0, speed_mps, waviness) / (n_per * dt))
     phase_left, phase_other = np.exp(2j * np.pi * rng.random((2, int(sel.sum()))))
     if coherence == "isotropic":
+        assert track_m is not None  # checked above
         g = isotropic_coherence(f[sel] / speed_mps, track_m, waviness)
         phase_right = g * phase_left + np.sqrt(1.0 - g**2) * phase_other
     else:
@@ -136,7 +137,7 @@ def step_profile(
     t_s: ArrayLike,
     height_m: float,
     t0_s: float,
-    wheels: tuple[Wheel, ...] = WHEEL_NAMES,
+    wheels: tuple[Wheel, ...] = ("fl", "fr", "rl", "rr"),
     rise_time_s: float = 0.0,
 ) -> NDArray[np.float64]:
     """Step of ``height_m`` at time ``t0_s`` under the selected wheels, simultaneously.
@@ -178,7 +179,7 @@ def bump_profile(
     length_m: float,
     speed_mps: float,
     wheelbase_m: float,
-    wheels: tuple[Wheel, ...] = WHEEL_NAMES,
+    wheels: tuple[Wheel, ...] = ("fl", "fr", "rl", "rr"),
     t0_s: float = 0.0,
 ) -> NDArray[np.float64]:
     """Smooth 1-cos bump ``h (1 - cos(2 pi s / L)) / 2``, ``0 <= s <= L``, driven over at speed v.
