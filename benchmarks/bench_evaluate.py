@@ -1,124 +1,111 @@
-"""Throughput of the fast evaluator against a straightforward one, side by side.
+"""Evaluator throughput on one core: the new evaluator, today's, and a plain baseline, side by side.
 
-Baseline: the straightforward evaluator, written here in plain numpy: the lumped model's
-``K`` and ``C`` (HIS included, ``D(s) = K_his + s C_his``), ``s^2 M + s C + K`` on a plain
-1000-point log grid (0.5-80 Hz), one batched ``numpy.linalg.solve`` for all designs and
-frequencies, the same outputs, road spectra and ISO weightings, trapezoid integrals and
-sample maxima. Fast: ``problem.evaluate`` (pole-residue evaluation on
-a pole-aware Gauss-Legendre grid with refined maxima). Also prints each method's largest
-relative error against a converged reference on a few designs, so speed is never bought with
-accuracy.
+Three ways to the same quantities, timed in one run on the same designs (interleaved, best of
+``--repeats``, one BLAS thread), with each one's largest relative error against a converged
+reference (a direct solve on a fine pole-clustered grid, :mod:`hisopt.reference`) on random
+designs and box corners:
 
-    python benchmarks/bench_evaluate.py [--designs 2000] [--problem problems/roll_plane_his.toml]
+- **new**: :class:`hisopt.evaluate.Evaluator` (symmetric halves, compiled pole-residue
+  kernel, error-controlled panels, parabolic peak search);
+- **today's**: ``benchmarks/legacy_evaluate.py``, the evaluator before this work, kept as the
+  reference path;
+- **plain baseline**: the batched direct solve on a 1000-point log grid with trapezoid
+  integrals and sample maxima (:func:`hisopt.reference.grid_quantities`).
+
+Then the distributed-pipe problem (no exact state space: the direct solve on the nodes the
+lumped twin's poles place), new against today's.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_evaluate.py [--designs 2000] [--repeats 5]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 import hisopt
-from hisopt.evaluate import Evaluator, grid_quantities
-from hisopt.metrics import COMFORT_OUTPUTS
-from hisopt.quadrature import base_edges
-from hisopt.standards.iso_2631_1_1997 import weighting_gain_squared
-from hisopt.vehicle import damping_matrix, mass_matrix, road_stiffness_input, stroke_matrix
+from hisopt.evaluate import Evaluator
+from hisopt.linalg import one_blas_thread
+from hisopt.reference import converged_grid, grid_quantities
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import legacy_evaluate  # noqa: E402
+
+Method = Callable[[np.ndarray], dict[str, np.ndarray]]
 
 
-def converged_grid(problem: hisopt.Problem, x: np.ndarray) -> np.ndarray:
-    """[Hz] a very fine grid: dense log spacing plus tan-clustered points around every mode."""
+def methods(problem: hisopt.Problem) -> dict[str, Method]:
     band = problem.spec.band
-    lam = np.linalg.eigvals(problem.model(x[None]).state_space().a[0])
-    parts = [np.geomspace(band.f_min_hz, band.f_max_hz, 100_001)]
-    theta = np.linspace(-np.pi / 2, np.pi / 2, 8001)[1:-1]
-    for pole in lam[lam.imag > 1e-6]:
-        f_d, b = pole.imag / (2 * np.pi), max(-pole.real / (2 * np.pi), 1e-9)
-        parts.append(f_d + b * np.tan(theta))
-    f = np.concatenate(parts)
-    return np.unique(f[(f >= band.f_min_hz) & (f <= band.f_max_hz)])
+    grid = np.geomspace(band.f_min_hz, band.f_max_hz, 1000)
+    new, legacy = Evaluator(problem), legacy_evaluate.Evaluator(problem)
+
+    def baseline(x: np.ndarray) -> dict[str, np.ndarray]:
+        with one_blas_thread():
+            return grid_quantities(problem, x, grid)
+
+    return {"new": new, "today's": legacy, "plain baseline": baseline}
 
 
-def output_frf(output, h_x: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """``sum_p s^p (c_p H_X + d_p)`` with plain numpy products."""
-    terms = [p for p in range(output.c.shape[0]) if np.any(output.c[p]) or np.any(output.d[p])]
-    return sum(s[:, None] ** p * (output.c[p] @ h_x + output.d[p]) for p in terms)
+def rates(named: dict[str, Method], designs: dict[str, np.ndarray], repeats: int) -> dict[str, float]:
+    """[designs/s] Best of ``repeats`` interleaved runs of each method on its designs."""
+    for name, fn in named.items():
+        fn(designs[name][:8])  # warm-up (compiled kernels load from their cache)
+    best = dict.fromkeys(named, np.inf)
+    for _ in range(repeats):
+        for name, fn in named.items():
+            t0 = time.perf_counter()
+            fn(designs[name])
+            best[name] = min(best[name], time.perf_counter() - t0)
+    return {name: len(designs[name]) / best[name] for name in named}
 
 
-def baseline(problem: hisopt.Problem, evaluator: Evaluator, x: np.ndarray, f_hz: np.ndarray, chunk: int = 16) -> dict[str, np.ndarray]:
-    """Straightforward evaluation: dense solve on a fixed grid (lumped, no-pipe model)."""
-    v = problem.spec.vehicle
-    m, g, b0 = mass_matrix(v), stroke_matrix(v), road_stiffness_input(v)
-    s = 2j * np.pi * f_hz
-    names = list(evaluator.outputs)
-    out: dict[str, list[np.ndarray]] = {name: [] for name in evaluator.names}
-    for i in range(0, len(x), chunk):
-        model = problem.model(x[i : i + chunk])
-        k = model.stiffness()  # K + G^T K_his G
-        w0 = 2 * np.pi  # C_his from D(j w0) = K_his + j w0 C_his
-        c = damping_matrix(v) + g.T @ (model.his.stroke_impedance(np.array([1j * w0]))[:, 0].imag / w0) @ g
-        kdyn = s[None, :, None, None] ** 2 * m + s[None, :, None, None] * c[:, None] + k[:, None]
-        h_x = np.linalg.solve(kdyn, np.broadcast_to(b0, kdyn.shape[:-1] + (4,)))
-        h_out = np.stack([output_frf(evaluator.all_outputs[n], h_x, s) for n in names], axis=-1)
-        psd = evaluator.spectra(np.broadcast_to(f_hz, (len(k), f_hz.size)), h_out)
-        spectra = {n: psd[..., j] for j, n in enumerate(names)}
-        for metric in evaluator.metrics:
-            if metric.kind == "comfort":
-                ms = sum(np.trapezoid(weighting_gain_squared(f_hz, evaluator.outputs[o].weighting) * spectra[o], f_hz, axis=1)
-                         for o in COMFORT_OUTPUTS.values())
-                out[metric.name].append(np.sqrt(ms))
-            else:
-                out[metric.name].append(spectra[metric.output].max(axis=1))
-    return {k: np.concatenate(v) for k, v in out.items()}
+def errors(problem: hisopt.Problem, named: dict[str, Method], check: np.ndarray) -> dict[str, float]:
+    """Largest relative error of any quantity against the converged reference, per method."""
+    names = list(dict.fromkeys(problem.objective_names + problem.constraint_names))
+    parts = [grid_quantities(problem, c[None], converged_grid(problem, c), chunk_size=1) for c in check]
+    ref = {k: np.array([p[k][0] for p in parts]) for k in names}
+    return {m: max(float(np.max(np.abs(fn(check)[k] / ref[k] - 1))) for k in names) for m, fn in named.items()}
+
+
+def check_designs(problem: hisopt.Problem, x: np.ndarray) -> np.ndarray:
+    corners = np.array(np.meshgrid(*[[0, 1]] * x.shape[1], indexing="ij")).reshape(x.shape[1], -1).T
+    return np.vstack([x[:4], problem.lower + (problem.upper - problem.lower) * corners[[0, 3, 5, 10, 12, 15]]])
+
+
+def report(title: str, rate: dict[str, float], error: dict[str, float]) -> None:
+    print(title)
+    print(f"  {'method':16s} {'designs/s':>11s} {'new is':>8s} {'max rel. error':>15s}")
+    for name, r in rate.items():
+        print(f"  {name:16s} {r:11.0f} {rate['new'] / r:7.2f}x {error.get(name, float('nan')):15.1e}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--designs", type=int, default=2000)
+    parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--problem", default=str(ROOT / "problems" / "roll_plane_his.toml"))
-    parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
 
     problem = hisopt.load_problem(args.problem)
     rng = np.random.default_rng(0)
     x = problem.lower + (problem.upper - problem.lower) * rng.random((args.designs, len(problem.lower)))
-    band = problem.spec.band
-    grid = np.geomspace(band.f_min_hz, band.f_max_hz, 1000)
-    evaluator = Evaluator(problem)
-    evaluator(x[:8])  # warm-up
+    named = methods(problem)
+    n_base = min(args.designs, 200)  # the baseline is slow; timed on fewer designs
+    rate = rates(named, {"new": x, "today's": x, "plain baseline": x[:n_base]}, args.repeats)
+    print(f"problem: {problem.name} ({', '.join(problem.objective_names)}), {args.designs} random designs in the box")
+    report("lumped HIS (exact state space):", rate, errors(problem, named, check_designs(problem, x)))
 
-    def best_of(fn) -> float:
-        times = []
-        for _ in range(args.repeats):
-            t0 = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - t0)
-        return min(times)
-
-    n_base = min(args.designs, 400)  # the baseline is slow; time it on a subset
-    t_fast = best_of(lambda: evaluator(x))
-    t_base = best_of(lambda: baseline(problem, evaluator, x[:n_base], grid))
-    fast_rate, base_rate = args.designs / t_fast, n_base / t_base
-    print(f"problem: {problem.name}, objectives: {', '.join(evaluator.names)}")
-    print(f"fast evaluator     : {fast_rate:10.0f} designs/s  ({args.designs} designs, best of {args.repeats})")
-    print(f"baseline (1000-pt) : {base_rate:10.0f} designs/s  ({n_base} designs, best of {args.repeats})")
-    print(f"speed-up           : {fast_rate / base_rate:10.1f} x")
-
-    # Accuracy against a converged reference, including the box corners.
-    corners = np.array(np.meshgrid(*[[0, 1]] * x.shape[1], indexing="ij")).reshape(x.shape[1], -1).T
-    check = np.vstack([x[:4], problem.lower + (problem.upper - problem.lower) * corners[[0, 5, 10, 15]]])
-    ref = {k: np.concatenate([grid_quantities(problem, c[None], converged_grid(problem, c))[k] for c in check]) for k in evaluator.names}
-    fast = evaluator(check)
-    base = baseline(problem, evaluator, check, grid)
-    for name in evaluator.names:
-        e_fast = np.max(np.abs(fast[name] / ref[name] - 1))
-        e_base = np.max(np.abs(base[name] / ref[name] - 1))
-        print(f"max rel. error {name:18s}: fast {e_fast:8.1e}   baseline {e_base:8.1e}")
-    print(f"nodes per design (fast): {base_edges(band.f_min_hz, band.f_max_hz).size} base edges + pole panels")
+    pipes = problem.with_values(pipes={"diameter": 0.01, "length_front": 1.0, "length_rear": 2.5}, pipe_model="distributed")
+    named = {k: v for k, v in methods(pipes).items() if k != "plain baseline"}
+    n_pipes = min(args.designs, 300)
+    rate = rates(named, {"new": x[:n_pipes], "today's": x[:n_pipes]}, max(1, args.repeats // 2))
+    report(f"distributed pipes (direct solve on the nodes), {n_pipes} designs:", rate, errors(pipes, named, check_designs(pipes, x)[:5]))
 
 
 if __name__ == "__main__":

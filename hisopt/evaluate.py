@@ -11,33 +11,32 @@ against a direct solve; designs that are unstable or singular give NaN, never an
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import pandas as pd
 
 from hisopt import psd as psd_kernels
 from hisopt.errors import ModelError
-from hisopt.linalg import bmm, cbmm, cmul, one_blas_thread, split
-from hisopt.metrics import COMFORT_OUTPUTS, METRICS
-from hisopt.psd import comfort_gain_squared, reduce_metrics, track_power, zoom_maximum
-from hisopt.quadrature import base_edges, panel_nodes, pole_edges
+from hisopt.linalg import one_blas_thread
+from hisopt.metrics import COMFORT_OUTPUTS, METRICS, Metric
+from hisopt.peaks import refine_maximum
+from hisopt.pole_residue import PoleResidue
+from hisopt.psd import channel_power, comfort_gain_squared, reduce_metrics
+from hisopt.quadrature import panel_nodes, panels, peak_samples, ripple_splits, singularities, split_nodes
 from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
+from hisopt.symmetry import channel_inputs, split, state_mirror
 from hisopt.units import NO_UNIT, attach_units
 from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
 
 if TYPE_CHECKING:
+    from hisopt.config import Comfort
     from hisopt.design_space import DesignSpace
-    from hisopt.model import CoupledModel
-
-FrfFn = Callable[..., Any]
-"""``frf(s, output=None)``: output FRFs (n, F, 4 inputs, n_out) at ``s`` (n, F), or one output;
-complex, or as (real, imag) parts (both accepted by :meth:`Evaluator.spectra`)."""
-
+    from hisopt.model import CoupledModel, StateSpace
 
 class Evaluator:
     """Objective/constraint evaluator of one problem, reusable across many calls.
@@ -47,7 +46,7 @@ class Evaluator:
     problem : the problem (vehicle, HIS, road, band, comfort, objectives, constraints)
     chunk_size : designs per vectorised batch (bounds memory for any number of designs)
     order : Gauss-Legendre nodes per panel
-    zoom_iterations : refinement steps of each PSD maximum (each shrinks the bracket 3x)
+    peak_steps : new samples of each PSD maximum (:func:`hisopt.peaks.refine_maximum`)
     base_panels : log- and linearly spaced panels over the band (each)
     pole_ratio : growth of the panel breakpoints' distance from each resonance
 
@@ -60,15 +59,14 @@ class Evaluator:
         problem: DesignSpace,
         chunk_size: int = 256,
         order: int = 4,
-        zoom_iterations: int = 5,
-        base_panels: int = 8,
-        pole_ratio: float = 5.0,
+        peak_steps: int = 2,
+        tolerance: float = 1e-4,
     ):
         spec = problem.spec
         self.problem = problem
         self.chunk_size = chunk_size
         self.order = order
-        self.zoom_iterations = zoom_iterations
+        self.peak_steps = peak_steps
         self.names = tuple(dict.fromkeys(problem.objective_names + problem.constraint_names))
         self.metrics = [METRICS[n] for n in self.names]
         self.all_outputs = standard_outputs(spec.vehicle)
@@ -82,16 +80,28 @@ class Evaluator:
         self.output_index = {name: i for i, name in enumerate(self.outputs)}
         self.bases, self.derived = _share_outputs(self.outputs)
         self.base_index = {name: i for i, name in enumerate(self.bases)}
+        self._feed = channel_feedthrough(list(self.bases.values()))
         self.f_lo, self.f_hi = spec.band.f_min_hz, spec.band.f_max_hz
         self.gd_n0 = class_gd_n0(spec.road.road_class)
         self.speed = spec.road.speed
         self.tau = spec.vehicle.wheelbase / self.speed
-        extra = None
-        if spec.comfort.method == "band":
+        self.tolerance = tolerance
+        self.forced_edges = np.empty(0)
+        if spec.comfort.method == "band":  # the band method's weighting steps at the band edges
             bands = iso2631.third_octave_bands(self.f_lo, self.f_hi)
-            extra = np.r_[bands.lower_hz, bands.upper_hz]
-        self.base_edges = base_edges(self.f_lo, self.f_hi, base_panels, base_panels, extra_hz=extra)
-        self.pole_ratio = pole_ratio
+            self.forced_edges = np.r_[bands.lower_hz, bands.upper_hz]
+        weightings = sorted({wt for o in self.outputs.values() if (wt := o.weighting)})
+        fixed = np.r_[0.0, *(iso2631.weighting_poles_hz(wt) for wt in weightings)]  # type: ignore[arg-type]
+        self.fixed_singularities = np.unique(np.round(fixed.real, 12) + 1j * np.round(np.abs(fixed.imag), 12))
+        self.integrals = _integral_keys(self.metrics, spec.comfort, self.outputs)
+        self.weightings = sorted({wt for _, wt in self.integrals if wt})
+        derived = [self.derived[output] for output, _ in self.integrals]
+        self._sums = (  # the integrals for hisopt.kernels.weighted_sums
+            np.array([self.base_index[b] for b, _, _ in derived], dtype=np.int64),
+            np.array([p for _, _, p in derived], dtype=np.int64),
+            np.array([sc**2 for _, sc, _ in derived]),
+            np.array([self.weightings.index(wt) if wt else -1 for _, wt in self.integrals], dtype=np.int64),
+        )
 
     # --- public ------------------------------------------------------------------------
     def __call__(self, designs: Any) -> dict[str, np.ndarray]:
@@ -136,69 +146,133 @@ class Evaluator:
 
     def _solve(self, model: CoupledModel) -> tuple[dict[str, np.ndarray], np.ndarray]:
         ss = model.state_space()
-        lam, vec = np.linalg.eig(ss.a)
-        scale = np.abs(lam).max(axis=1)
-        stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1)
+        channels: Channels
+        repaired = np.ones(len(ss.a), dtype=bool)
         if model.pipe_model == "distributed":
-            frf: FrfFn = DirectOutputs(model, self.bases)
+            lam = np.linalg.eigvals(ss.a)  # the lumped twin's poles place the nodes
+            channels = DirectOutputs(model, self.bases)
         else:
-            fast = PoleResidueOutputs(ss, lam, vec, self.bases)
-            # Near-defective eigenvector bases make residues inaccurate: solve those directly.
-            frf = fast
-            if np.any(fast.conditioning > 1e8):
-                frf = _mixed_frf(fast, DirectOutputs(model, self.bases), fast.conditioning > 1e8)
-        values = self.quantities(lam, frf, model)
+            modal = ModalChannels(model, ss, self.bases, self._feed)
+            lam = modal.lam
+            channels = modal
+            flagged = modal.conditioning > CONDITION_LIMIT
+            if np.any(flagged):  # eigenvectors too ill-conditioned for accurate poles and residues
+                sub = model.subset(flagged)
+                lam = lam.copy()
+                lam[flagged], repaired[flagged] = repair_poles(sub, lam[flagged], self.f_hi)
+                channels = MixedChannels(modal, DirectOutputs(sub, self.bases), flagged)
+        scale = np.abs(lam).max(axis=1)
+        stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
+        values = self.quantities(lam, channels, model)
         ok = stable & np.all([np.isfinite(v) for v in values.values()], axis=0)
         return values, ok
 
-    def nodes(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Quadrature nodes and weights per design (plus zero-weight band limits), sorted."""
-        n = lam.shape[0]
-        edges = np.concatenate([np.broadcast_to(self.base_edges, (n, self.base_edges.size)), pole_edges(lam, self.f_lo, self.f_hi, self.pole_ratio)], axis=1)
-        f, w = panel_nodes(edges, self.order)
-        f = np.concatenate([np.full((n, 1), self.f_lo), f, np.full((n, 1), self.f_hi)], axis=1)
-        w = np.concatenate([np.zeros((n, 1)), w, np.zeros((n, 1))], axis=1)
-        order = np.argsort(f, axis=1)
+    def nodes(self, lam: np.ndarray, model: CoupledModel | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """[Hz] Quadrature nodes and weights per design, sorted (docs/model.md §10.3): the
+        panels the poles ``lam`` [rad/s] call for, split where ``model``'s response needs it
+        for the delay ripple (without a model, as laid before any response is known), and
+        the maxima's extra samples (band limits, damped frequencies) with weight 0."""
+        if model is None:
+            f, w = panel_nodes(self._panels(lam), self.order)
+            f_peak = peak_samples(lam, self.f_lo, self.f_hi)
+            f, w = np.concatenate([f, f_peak], axis=1), np.concatenate([w, np.zeros_like(f_peak)], axis=1)
+        else:
+            s = self._sample(lam, DirectOutputs(model, self.bases))
+            f = np.concatenate([s.f, s.f_split, s.f_peak], axis=1)
+            w = np.concatenate([s.w, s.w_split, np.zeros_like(s.f_peak)], axis=1)
+        order = np.argsort(f, axis=1, kind="stable")
         return np.take_along_axis(f, order, 1), np.take_along_axis(w, order, 1)
 
-    def spectra(self, f_hz: np.ndarray, h_out: np.ndarray | tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their FRFs (n, F, 4, n_out),
-        complex or as (real, imag) parts.
+    def _panels(self, lam: np.ndarray) -> np.ndarray:
+        sing = singularities(lam, self.fixed_singularities)
+        return panels(self.f_lo, self.f_hi, self.forced_edges, sing, self.order, self.tolerance)
 
-        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`hisopt.psd.track_power`).
+    def _sample(self, lam: np.ndarray, source: Channels) -> Samples:
+        """The PSDs at the pole-aware panels' nodes, at the nodes of the panels split for the
+        delay ripple (where its bound times the panel's share of an integral exceeds the
+        tolerance) and at the peak samples."""
+        edges = self._panels(lam)
+        f, w = panel_nodes(edges, self.order)
+        n_panels = edges.shape[1] - 1
+        f_peak = peak_samples(lam, self.f_lo, self.f_hi)
+        both = self.psd(np.concatenate([f, f_peak], axis=1), source)
+        psd = both[:, :, : f.shape[1]]
+        totals, panel_abs, panel_sum = self._sums_at(f, w, psd, n_panels)
+        share = np.max(panel_abs / np.where(totals != 0, np.abs(totals), np.inf)[:, None, :], axis=2, initial=0.0)
+        top = np.nanmax(edges, axis=1, keepdims=True)
+        e = np.where(np.isfinite(edges), edges, top)
+        parts = ripple_splits(0.5 * (e[:, 1:] - e[:, :-1]), share, self.tau, self.order, self.tolerance)
+        f_split, w_split = split_nodes(e, parts)
+        if f_split.shape[1]:
+            psd_split = self.psd(f_split, source)
+            # The split panels' sums are replaced by their parts' (summed in panel order).
+            kept = np.cumsum(np.where((parts > 0)[..., None], 0.0, panel_sum), axis=1)[:, -1]
+            totals = kept + self._sums_at(f_split, w_split, psd_split, 0)[0]
+        else:
+            psd_split = np.zeros((len(self.bases),) + f_split.shape)
+        w = np.where(np.repeat(parts > 0, self.order, axis=1), 0.0, w)  # the split panels' nodes stay as samples
+        return Samples(f, w, psd, totals, f_split, w_split, psd_split, f_peak, both)
+
+    def _sums_at(self, f: np.ndarray, w: np.ndarray, psd: np.ndarray, n_panels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every integral's quadrature sum at nodes ``f`` (n, F) with weights ``w``, and per
+        panel (the first ``n_panels`` groups of ``order`` nodes) its sums of ``|w g|``, ``w g``
+        (:func:`hisopt.kernels.weighted_sums`)."""
+        from hisopt.kernels import weighted_sums
+
+        n, r = len(f), len(self.integrals)
+        spec = self.problem.spec
+        gains = np.empty((max(len(self.weightings), 1),) + f.shape)
+        for k, wt in enumerate(self.weightings):
+            gains[k] = comfort_gain_squared(f, wt, spec.comfort, self.f_lo, self.f_hi)
+        totals, panel_abs, panel_sum = np.empty((n, r)), np.empty((n, n_panels, r)), np.empty((n, n_panels, r))
+        weighted_sums(np.ascontiguousarray(f), np.ascontiguousarray(w), np.ascontiguousarray(psd), gains, *self._sums, self.order, totals, panel_abs, panel_sum)
+        return totals, panel_abs, panel_sum
+
+    def coherence(self, f_hz: np.ndarray) -> np.ndarray | None:
+        """[-] Left-right coherence of the road's tracks at ``f_hz`` (None: independent)."""
+        if self.problem.spec.road.coherence != "isotropic":
+            return None
+        v = self.problem.spec.vehicle
+        return isotropic_coherence(f_hz / self.speed, v.t_f + v.t_r)
+
+    def spectra(self, f_hz: np.ndarray, channels: dict[str, Pair]) -> np.ndarray:
+        """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their road channels' FRFs
+        (``"sym"``, ``"anti"``: (real, imag) parts, each (n, F, 2 axles, n_out)).
+
+        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`hisopt.psd.channel_power`).
         """
-        re, im = h_out if isinstance(h_out, tuple) else split(h_out)
-        phase = 2 * np.pi * f_hz * self.tau
-        cos, sin = np.cos(phase)[..., None], np.sin(phase)[..., None]
-        coherence = None
-        if self.problem.spec.road.coherence == "isotropic":
-            v = self.problem.spec.vehicle
-            coherence = isotropic_coherence(f_hz / self.speed, v.t_f + v.t_r)[..., None]
-        fl, fr, rl, rr = ((re[..., k, :], im[..., k, :]) for k in range(4))
-        power = track_power(fl, fr, rl, rr, cos, sin, coherence)
+        power = frf_power(channels, f_hz, self.tau, self.coherence(f_hz))
         return temporal_psd(f_hz, self.gd_n0, self.speed)[..., None] * power
 
-    def quantities(self, lam: np.ndarray, frf: FrfFn, model: CoupledModel) -> dict[str, np.ndarray]:
-        """All requested metrics from poles (for the nodes) and an FRF function of the bases."""
-        f, w = self.nodes(lam)
-        psd = self.spectra(f, frf(2j * np.pi * f))
-        spectra = {name: self._derive(name, f, psd[..., self.base_index[base]]) for name, (base, _, _) in self.derived.items()}
-        spec = self.problem.spec
-        gains: dict[str, np.ndarray] = {}
+    def psd(self, f_hz: np.ndarray, source: Channels, output_of: np.ndarray | None = None) -> np.ndarray:
+        """One-sided PSDs ``(n_out, n, F)`` of the outputs of ``source`` at ``f_hz`` (n, F)
+        (``output_of``: per column, the one output needed there, or -1 for all)."""
+        return source.power(f_hz, self.tau, self.coherence(f_hz), output_of, temporal_psd(f_hz, self.gd_n0, self.speed))
+
+    def quantities(self, lam: np.ndarray, frf: Channels, model: CoupledModel) -> dict[str, np.ndarray]:
+        """All requested metrics from poles (for the nodes) and the road channels' FRFs."""
+        s = self._sample(lam, frf)
+        column = {key: r for r, key in enumerate(self.integrals)}
 
         def integral(output: str, weighting: str | None) -> np.ndarray:
-            if weighting is None:
-                return _total(w * spectra[output])
-            if weighting not in gains:
-                gains[weighting] = comfort_gain_squared(f, weighting, spec.comfort, self.f_lo, self.f_hi)
-            return _total(w * gains[weighting] * spectra[output])
+            return s.totals[:, column[(output, weighting)]]
 
+        peaks = [m.signal for m in self.metrics if m.kind == "max"]
+        maxima: dict[str, np.ndarray] = {}
+        if peaks:  # searched on the panels' nodes and the peak samples, sorted
+            f = np.concatenate([s.f, s.f_peak], axis=1)
+            order = np.argsort(f, axis=1, kind="stable")
+            f = np.take_along_axis(f, order, 1)
+            bases = [self.base_index[self.derived[name][0]] for name in peaks]
+            values = np.take_along_axis(s.psd_all[bases], order[None], 2)
+            spectra = np.stack([self._derive(name, f, values[j]) for j, name in enumerate(peaks)])
+            maxima = self._refined_maxima(peaks, f, spectra, frf)
         return reduce_metrics(
             self.metrics,
-            spec.comfort,
+            self.problem.spec.comfort,
             lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
             integral,
-            lambda output: self._refined_max(output, f, spectra[output], frf),
+            lambda output: maxima[output],
             lambda name: roll_gradient(model),
         )
 
@@ -207,120 +281,237 @@ class Evaluator:
         _, scale, power = self.derived[name]
         if power == 0 and scale == 1.0:
             return base_psd
-        return scale**2 * (2 * np.pi * f_hz) ** (2 * power) * base_psd
+        factor = np.full(f_hz.shape, scale**2)
+        omega2 = np.square(2 * np.pi * f_hz)
+        for _ in range(power):
+            factor *= omega2
+        return factor * base_psd
 
-    def _refined_max(self, name: str, f: np.ndarray, psd: np.ndarray, frf: FrfFn) -> np.ndarray:
-        """Continuous maximum of output ``name``'s PSD (:func:`hisopt.psd.zoom_maximum`)."""
-        base = self.derived[name][0]
+    def _refined_maxima(self, names: list[str], f: np.ndarray, spectra: np.ndarray, frf: Channels) -> dict[str, np.ndarray]:
+        """Continuous maxima of the outputs ``names``' PSDs (``spectra``: ``(k, n, F)`` at the
+        sorted samples ``f``), searched together (:func:`hisopt.peaks.refine_maximum`: one
+        kernel call per step for all of them)."""
+        n, k = len(f), len(names)
+        bases = [self.base_index[self.derived[name][0]] for name in names]
 
-        def values_at(pts: np.ndarray) -> np.ndarray:
-            return self._derive(name, pts, self.spectra(pts, frf(2j * np.pi * pts, self.base_index[base]))[..., 0])
+        def values_at(pts: np.ndarray) -> np.ndarray:  # (k n, P): row block j is output j's
+            per = pts.reshape(k, n, -1).transpose(1, 0, 2).reshape(n, -1)  # (n, k P)
+            output_of = np.repeat(bases, pts.shape[1])
+            psd = self.psd(per, frf, output_of).reshape(len(self.bases), n, k, -1)
+            blocks = per.reshape(n, k, -1)
+            parts = [self._derive(name, blocks[:, j], psd[bases[j], :, j]) for j, name in enumerate(names)]
+            return np.concatenate(parts, axis=0)
 
-        return zoom_maximum(values_at, f, psd, self.zoom_iterations)[1]
+        best = refine_maximum(values_at, f, spectra.reshape(k * n, -1), self.peak_steps)[1]
+        return {name: best[j * n : (j + 1) * n] for j, name in enumerate(names)}
 
 
-class PoleResidueOutputs:
-    """Output FRFs from poles and residues (exact for the lumped model).
+Pair = tuple[np.ndarray, np.ndarray]
 
-    ``H_X(s) = C (sI - A)^-1 (B0 + s B1)``; with ``B' = B0 + A B1`` and displacement rows ``C``
-    (``C B1 = 0``) this is ``C (sI - A)^-1 B'``. For an output ``sum_p s^p (c_p X + d_p z_g)``,
-    ``s^p / (s - lam) = lam^p / (s - lam) + sum_j s^(p-1-j) lam^j`` gives
-    ``H_y(s) = sum_k rho_k / (s - lam_k) + sum_m s^m D_m``: residues
-    ``rho_k = sum_p lam_k^p (c_p v_k)(w_k B')`` and exact Markov terms ``D_m`` from ``C A^j B'``.
+
+@dataclass(frozen=True)
+class Samples:
+    """A batch's PSDs where the evaluator samples them (:meth:`Evaluator._sample`), each
+    ``(n, F...)`` with PSDs ``(n_bases, n, F...)``.
+
+    Attributes
+    ----------
+    f, w, psd : the pole-aware panels' nodes, weights (0 where the panel was split) and PSDs
+        (sorted by frequency)
+    totals : ``(n, R)`` the quadrature sum of each integral (:attr:`Evaluator.integrals`)
+    f_split, w_split, psd_split : the nodes of the panels split for the delay ripple
+    f_peak : the maxima's extra samples (band limits, damped frequencies)
+    psd_all : the PSDs at ``f`` then ``f_peak``
     """
 
-    def __init__(self, ss: Any, lam: np.ndarray, vec: np.ndarray, outputs: dict[str, Output]):
-        # Complex arithmetic on (real, imag) pairs: the products below are real gemm calls.
-        self.names = tuple(outputs)
-        self.lam = lam
-        lam_c = split(lam)
-        bp = ss.b0 + bmm(ss.a, ss.b1)
-        w_inv = np.linalg.inv(vec)
-        wb = cbmm(split(w_inv), (bp, np.zeros_like(bp)))  # (n, ns, 4)
-        # Condition estimate of the eigenvector basis (columns of unit norm).
-        self.conditioning = np.max(np.abs(w_inv), axis=(1, 2)) * np.sqrt(vec.shape[1])
-        n_pow = max(o.c.shape[0] for o in outputs.values())
-        powers = [bp]  # A^j B', for the Markov terms C A^j B'
-        for _ in range(n_pow - 2):
-            powers.append(bmm(ss.a, powers[-1]))
-        markov = [pw[:, :7, :] for pw in powers]
-        lam_pow = [(np.ones_like(lam_c[0]), np.zeros_like(lam_c[0]))]
-        for _ in range(n_pow - 1):
-            lam_pow.append(cmul(lam_pow[-1], lam_c))
-        vec7 = split(vec[:, :7, :])
-        rho_re, rho_im, poly = [], [], []
-        for o in outputs.values():
-            weight: tuple[Any, Any] = (0.0, 0.0)
-            for p_ in range(o.c.shape[0]):
-                cv = (bmm(o.c[p_][None, :], vec7[0])[:, 0, :], bmm(o.c[p_][None, :], vec7[1])[:, 0, :])  # (n, ns)
-                term = cmul(cv, lam_pow[p_])
-                weight = (weight[0] + term[0], weight[1] + term[1])
-            r = cmul((weight[0][:, :, None], weight[1][:, :, None]), wb)
-            rho_re.append(r[0])
-            rho_im.append(r[1])
-            d = np.zeros((len(lam), n_pow, 4))
-            d[:, : o.d.shape[0], :] += o.d
-            for p_ in range(o.c.shape[0]):
-                for j in range(p_):
-                    d[:, p_ - 1 - j, :] += bmm(o.c[p_][None, :], markov[j])[:, 0, :]
-            poly.append(d)
-        # Columns ordered input-major (4 inputs x n_out outputs) so that the front inputs
-        # (FL, FR) and the rear inputs (RL, RR) are contiguous blocks for the track sums.
-        n_out = len(rho_re)
-        order = lambda parts: np.stack(parts, axis=3).reshape(len(lam), -1, 4 * n_out)  # noqa: E731
-        self.rho = (order(rho_re), order(rho_im))  # (n, ns, 4 * n_out)
-        self.n_out = n_out
-        # [Re P, Im P] @ [[Re rho, Im rho], [-Im rho, Re rho]] = [Re h, Im h]: one real gemm.
-        self.rho_block = _complex_block(*self.rho)
-        self.poly = np.stack(poly, axis=3)  # (n, n_pow, 4, n_out), real
+    f: np.ndarray
+    w: np.ndarray
+    psd: np.ndarray
+    totals: np.ndarray
+    f_split: np.ndarray
+    w_split: np.ndarray
+    psd_split: np.ndarray
+    f_peak: np.ndarray
+    psd_all: np.ndarray
 
-    def __call__(self, s: np.ndarray, output: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Output FRFs at ``s = j omega`` (n, F), as (real, imag) parts each (n, F, 4, n_out)
-        (inputs FL, FR, RL, RR, then outputs; (n, F, 4, 1) for one ``output``)."""
-        rho, poly = self.rho_block, self.poly
-        if output is not None:
-            cols = np.arange(4) * self.n_out + output
-            rho = _complex_block(self.rho[0][:, :, cols], self.rho[1][:, :, cols])
-            poly = poly[..., output : output + 1]
-        omega = np.asarray(s).imag
-        # 1 / (j omega - lam) in real arithmetic, real and imaginary parts side by side.
-        ns = self.lam.shape[1]
-        a = -self.lam.real[:, None, :]
-        b = omega[..., None] - self.lam.imag[:, None, :]
-        inv = 1.0 / (a * a + b * b)
-        p = np.empty(omega.shape + (2 * ns,))
-        np.multiply(a, inv, out=p[..., :ns])
-        np.multiply(-b, inv, out=p[..., ns:])
-        h = bmm(p, rho)
-        half = h.shape[-1] // 2
-        shape = omega.shape + poly.shape[2:]
-        h_re, h_im = h[..., :half].reshape(shape), h[..., half:].reshape(shape)
-        for m in range(poly.shape[1]):
-            if np.any(poly[:, m]):
-                # (j omega)^m is real for even m, imaginary for odd m.
-                w_m = (omega**m * (-1.0) ** (m // 2))[..., None, None]
-                term = w_m * poly[:, None, m]
-                if m % 2 == 0:
-                    h_re = h_re + term
-                else:
-                    h_im = h_im + term
-        return h_re, h_im
+
+class Channels(Protocol):
+    """A batch of models' road channels (:mod:`hisopt.symmetry`), as FRFs or as PSDs."""
+
+    def __call__(self, omega: np.ndarray) -> dict[str, Pair]:
+        """The channels' output FRFs at ``s = j omega`` [rad/s] (n, F): ``{"sym": (re, im),
+        "anti": (re, im)}``, each (n, F, 2 axles, n_out)."""
+        ...
+
+    def power(
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Output PSDs per unit road PSD at ``f_hz`` (n, F), ``(n_out, n, F)``, times ``scale``
+        (n, F) if given (``output_of``: per column, the one output needed there, or -1 for
+        all; the others may be left 0)."""
+        ...
+
+
+def frf_power(channels: dict[str, Pair], f_hz: np.ndarray, tau: float, coherence: np.ndarray | None) -> np.ndarray:
+    """Output PSDs per unit road PSD ``(n, F, n_out)`` from the channels' FRFs (numpy;
+    :func:`hisopt.psd.channel_power`)."""
+    phase = 2 * np.pi * f_hz * tau
+    (s_re, s_im), (a_re, a_im) = channels["sym"], channels["anti"]
+    return channel_power(
+        ((s_re[..., 0, :], s_im[..., 0, :]), (s_re[..., 1, :], s_im[..., 1, :])),
+        ((a_re[..., 0, :], a_im[..., 0, :]), (a_re[..., 1, :], a_im[..., 1, :])),
+        np.cos(phase)[..., None],
+        np.sin(phase)[..., None],
+        None if coherence is None else coherence[..., None],
+    )
+
+
+CONDITION_LIMIT = 1e8
+"""[-] Eigenvalue condition number (balanced) beyond which poles and residues are not trusted:
+such a design's responses come from the direct solve, its poles from :func:`repair_poles`."""
+
+
+def repair_poles(model: CoupledModel, lam: np.ndarray, f_hi_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """[rad/s] Poles below ``4 f_hi`` refined by Newton's method on ``det K_dyn(s)`` (the 7x7
+    dynamic stiffness, well conditioned where the state matrix is not, e.g. with pipes of
+    micrometres), and whether every one converged (the others are flagged, never guessed).
+
+    Parameters
+    ----------
+    model : the designs' models; ``lam`` their state matrices' eigenvalues ``(n, k)``
+    """
+    from hisopt.modal import refine_roots
+
+    near = np.isfinite(lam) & (np.abs(lam) < 2 * np.pi * 4 * f_hi_hz)
+    start = np.where(near, lam, 2j * np.pi * f_hi_hz)  # far poles stay as they are
+    with np.errstate(all="ignore"):
+        try:
+            refined = refine_roots(model, start)
+            check = refine_roots(model, refined, iterations=1)
+        except np.linalg.LinAlgError:
+            return lam, np.zeros(len(lam), dtype=bool)
+    converged = np.isfinite(check) & (np.abs(check - refined) <= 1e-8 * np.abs(refined))
+    ok = np.all(converged | ~near, axis=1)
+    return np.where(near, refined, lam), ok
+
+
+class ModalChannels:
+    """The road channels' FRFs of a lumped model from poles and residues.
+
+    A mirror-symmetric batch (:func:`hisopt.symmetry.split`) gets one half-size pole-residue
+    form per channel; any other one form with both channels' inputs over all poles.
+    """
+
+    def __init__(self, model: CoupledModel, ss: StateSpace, outputs: dict[str, Output], feed: dict[str, list[np.ndarray]] | None = None):
+        outs = list(outputs.values())
+        feed = channel_feedthrough(outs) if feed is None else feed
+        halves = split(ss, state_mirror(model, ss))
+        if halves is not None:
+            self.forms = {name: PoleResidue(h.a, h.inputs, h.positions, outs, feed[name]) for name, h in halves.items()}
+            self.lam = np.concatenate([f.lam for f in self.forms.values()], axis=1)
+            self.conditioning = np.maximum(self.forms["sym"].conditioning, self.forms["anti"].conditioning)
+        else:
+            chan = channel_inputs(ss.b0 + ss.a @ ss.b1)
+            inputs = np.concatenate([chan["sym"], chan["anti"]], axis=-1)
+            both = [np.concatenate([s_, a_], axis=-1) for s_, a_ in zip(feed["sym"], feed["anti"], strict=True)]
+            form = PoleResidue(ss.a, inputs, np.eye(ss.a.shape[-1])[:7], outs, both)
+            self.forms = {"both": form}
+            self.lam = form.lam
+            self.conditioning = form.conditioning
+        self.n_out = len(outs)
+        self._arguments = self._kernel_arguments()
+
+    def _kernel_arguments(self) -> tuple[tuple[np.ndarray, ...], ...]:
+        if "both" in self.forms:  # one form, the channels' inputs side by side
+            return (self.forms["both"].kernel_terms([0, 1]), self.forms["both"].kernel_terms([2, 3]))
+        return (self.forms["sym"].kernel_terms([0, 1]), self.forms["anti"].kernel_terms([0, 1]))
+
+    def power(
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+    ) -> np.ndarray:
+        from hisopt.kernels import channel_psd
+
+        f_hz = np.ascontiguousarray(f_hz, dtype=float)
+        out = np.empty((self.n_out,) + f_hz.shape)
+        g = np.zeros(f_hz.shape) if coherence is None else np.ascontiguousarray(coherence, dtype=float)
+        which = np.full(f_hz.shape[1], -1, dtype=np.int64) if output_of is None else np.asarray(output_of, dtype=np.int64)
+        factor = np.ones_like(f_hz) if scale is None else np.ascontiguousarray(scale, dtype=float)
+        channel_psd(f_hz, float(tau), g, *self._arguments, which, factor, out)
+        return out
+
+    def __call__(self, omega: np.ndarray) -> dict[str, Pair]:
+        if "both" in self.forms:
+            re, im = self.forms["both"](omega)
+            return {"sym": (re[..., :2, :], im[..., :2, :]), "anti": (re[..., 2:, :], im[..., 2:, :])}
+        return {name: form(omega) for name, form in self.forms.items()}
 
 
 class DirectOutputs:
-    """Output FRFs by direct solve of the dynamic stiffness (any pipe model; reference path)."""
+    """The road channels' FRFs by direct solve of the dynamic stiffness (any pipe model; the
+    reference path)."""
 
     def __init__(self, model: CoupledModel, outputs: dict[str, Output]):
         self.model = model
         self.outputs = outputs
         self.names = tuple(outputs)
 
-    def __call__(self, s: np.ndarray, output: int | None = None) -> np.ndarray:
-        """Complex output FRFs (n, F, 4, n_out), as :class:`PoleResidueOutputs`."""
+    def __call__(self, omega: np.ndarray, output: int | None = None) -> dict[str, Pair]:
+        """Channel FRFs at ``s = j omega`` [rad/s] (n, F), as :data:`Channels` gives them
+        (``output``: only that one, ``n_out = 1``)."""
+        s = 1j * np.asarray(omega)
         h_x = self.model.frequency_response(s)
         outputs = list(self.outputs.values())
         chosen = outputs if output is None else [outputs[output]]
-        return np.stack([o.frf(h_x, s) for o in chosen], axis=-1)
+        wheels = np.stack([o.frf(h_x, s) for o in chosen], axis=-1)  # (n, F, 4, n_out)
+        fl, fr, rl, rr = (wheels[..., k, :] for k in range(4))
+        sym, anti = np.stack([fl + fr, rl + rr], axis=-2), np.stack([fl - fr, rl - rr], axis=-2)
+        return {"sym": (sym.real, sym.imag), "anti": (anti.real, anti.imag)}
+
+    def power(
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+    ) -> np.ndarray:
+        power = np.moveaxis(frf_power(self(2 * np.pi * f_hz), f_hz, tau, coherence), -1, 0)
+        return power if scale is None else scale * power
+
+
+class MixedChannels:
+    """Channels from ``fast`` except for the designs flagged in ``use_slow``, from ``slow``."""
+
+    def __init__(self, fast: Channels, slow: DirectOutputs, use_slow: np.ndarray):
+        self.fast, self.slow, self.use_slow = fast, slow, use_slow
+
+    def __call__(self, omega: np.ndarray) -> dict[str, Pair]:
+        out = self.fast(omega)
+        exact = self.slow(omega[self.use_slow])
+        for name, (re, im) in out.items():
+            re[self.use_slow], im[self.use_slow] = exact[name]
+        return out
+
+    def power(
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+    ) -> np.ndarray:
+        out = self.fast.power(f_hz, tau, coherence, output_of, scale)
+        g = None if coherence is None else coherence[self.use_slow]
+        out[:, self.use_slow] = self.slow.power(f_hz[self.use_slow], tau, g, None, None if scale is None else scale[self.use_slow])
+        return out
+
+
+def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, Output]) -> list[tuple[str, str | None]]:
+    """The ``(output, weighting)`` integrals :func:`hisopt.psd.reduce_metrics` asks for (found
+    by running it once on placeholders, so the dispatch stays in one place)."""
+    keys: list[tuple[str, str | None]] = []
+
+    def record(output: str, weighting: str | None) -> float:
+        keys.append((output, weighting))
+        return 0.0
+
+    reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
+    return list(dict.fromkeys(keys))
+
+
+def channel_feedthrough(outputs: list[Output]) -> dict[str, list[np.ndarray]]:
+    """Each output's road feedthrough ``d`` on the two channels' inputs (front, rear axle)."""
+    return {name: [channel_inputs(o.d[:, None, :])[name][:, 0, :] for o in outputs] for name in ("sym", "anti")}
 
 
 def _total(terms: np.ndarray) -> np.ndarray:
@@ -353,23 +544,6 @@ def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[
             pure[name] = vec
             derived[name] = (name, 1.0, p)
     return bases, derived
-
-
-def _complex_block(re: np.ndarray, im: np.ndarray) -> np.ndarray:
-    """``[[re, im], [-im, re]]`` along the last two axes (real form of a complex right factor)."""
-    return np.concatenate([np.concatenate([re, im], axis=-1), np.concatenate([-im, re], axis=-1)], axis=-2)
-
-
-def _mixed_frf(fast: FrfFn, slow: FrfFn, use_slow: np.ndarray) -> FrfFn:
-    """FRF from ``fast`` except for the designs flagged in ``use_slow``."""
-
-    def frf(s: np.ndarray, output: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-        re, im = fast(s, output)
-        exact = slow(s, output)[use_slow]
-        re[use_slow], im[use_slow] = exact.real, exact.imag
-        return re, im
-
-    return frf
 
 
 def evaluator_for(space: DesignSpace) -> Evaluator:
@@ -419,41 +593,3 @@ def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.n
     df["status"] = status.astype(str)
     df["reason"] = reason.astype(str)
     return attach_units(df, problem, {"reason": NO_UNIT})
-
-
-def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, np.ndarray]:
-    """:func:`grid_quantities` of one chunk of designs on their grids ``f`` (n, F)."""
-    spec = ev.problem.spec
-    psd = ev.spectra(f, DirectOutputs(model, ev.outputs)(2j * np.pi * f))
-    spectra = {name: psd[..., j] for name, j in ev.output_index.items()}
-
-    def integral(output: str, weighting: str | None) -> np.ndarray:
-        gain = 1.0 if weighting is None else comfort_gain_squared(f, weighting, spec.comfort, ev.f_lo, ev.f_hi)
-        return np.trapezoid(gain * spectra[output], f, axis=1)
-
-    return reduce_metrics(
-        ev.metrics,
-        spec.comfort,
-        lambda name: ev.outputs[name].weighting,  # type: ignore[arg-type,return-value]
-        integral,
-        lambda output: spectra[output].max(axis=1),
-        lambda name: roll_gradient(model),
-    )
-
-
-def grid_quantities(problem: DesignSpace, designs: Any, f_hz: np.ndarray, chunk_size: int = 32) -> dict[str, np.ndarray]:
-    """Reference evaluator: direct solve on a given grid, trapezoid integrals, sample maxima.
-
-    With a fine pole-clustered grid per design it is the converged reference of the tests
-    and of ``benchmarks/bench_evaluate.py``; on a plain grid it shows what sampling misses.
-    Same track model, comfort method and metric dispatch as the evaluator (:mod:`hisopt.psd`).
-
-    Parameters
-    ----------
-    f_hz : [Hz] grid, shape ``(F,)`` shared by all designs or ``(n, F)`` per design, sorted
-    """
-    ev = Evaluator(problem)
-    x = problem.design_matrix(designs)
-    f_all = np.broadcast_to(np.asarray(f_hz, dtype=float), (len(x), np.shape(f_hz)[-1]))
-    parts = [_grid_chunk(ev, problem.model(x[i : i + chunk_size]), f_all[i : i + chunk_size]) for i in range(0, len(x), chunk_size)]
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

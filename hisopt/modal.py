@@ -299,14 +299,17 @@ def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -
     """Newton refinement of roots of ``det K_dyn(s)`` (batched over the roots).
 
     The step is ``-1 / tr(K^-1 dK/ds)`` with ``dK/ds`` from a complex central difference.
+
+    Parameters
+    ----------
+    roots : ``(R,)`` roots of a one-design model, or ``(n, R)``, row ``i`` design ``i``'s
     """
     s = np.asarray(roots, dtype=complex).copy()
     for _ in range(iterations):
         h = 1e-6 * np.abs(s)
         k = model.dynamic_stiffness(s)
         dk = (model.dynamic_stiffness(s + h) - model.dynamic_stiffness(s - h)) / (2 * h)[..., None, None]
-        k, dk = k.reshape((-1,) + k.shape[-3:]), dk.reshape((-1,) + dk.shape[-3:])
-        logdet_prime = np.trace(np.linalg.solve(k, dk), axis1=-2, axis2=-1)[0]
+        logdet_prime = np.trace(np.linalg.solve(k, dk), axis1=-2, axis2=-1).reshape(s.shape)
         step = -1.0 / logdet_prime
         s = s + step
         if np.all(np.abs(step) < 1e-12 * np.abs(s)):

@@ -142,14 +142,19 @@ class CoupledModel:
         b0[7:14], b1[7:14] = road_stiffness_input(v), road_damping_input(v)
         dynamic = np.concatenate([np.ones(14, dtype=bool), net.dynamic])
         invariants = []
+        accumulator_rows = {row for _, _, row in net.accumulators()}
         for c in range(net.n_circuits):
             rows = net.circuit_rows(c)
             stored = rows[net.dynamic[rows] & ~net.is_flow[rows]]
+            # The pivot is an accumulator's node where there is one: the largest compliance
+            # (best conditioned), and the node a mirror image of the circuit maps to its own.
+            with_gas = [int(r) for r in stored if int(r) in accumulator_rows]
+            pivot = with_gas[0] if with_gas else int(stored[0])
             coeff = np.zeros(batch + (size,))
             coeff[..., 14 + stored] = e[..., 14 + stored]
             # (B, 1, 4) @ (4, 7): one small product per design, the same in any batch
             coeff[..., :7] = -(bsum(n_inc[..., net.port_circuit == c, :], axis=-2)[..., None, :] @ g)[..., 0, :]
-            invariants.append((14 + int(stored[0]), coeff))
+            invariants.append((14 + pivot, coeff))
         labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES) + net.labels
         return Descriptor(e, a, b0, b1, dynamic, tuple(invariants), labels)
 
@@ -186,6 +191,10 @@ class CoupledModel:
         weights = np.where(is_flow, d.e, 0.0)
         weights[..., 7:14] = m_diag
         return StateSpace(r.a, r.b0, r.b1, r.labels, weights[..., r.kept], r)
+
+    def subset(self, rows: np.ndarray) -> CoupledModel:
+        """The designs ``rows`` (indices or a boolean mask) of a batch of models."""
+        return CoupledModel(self.vehicle, None if self.his is None else self.his.subset(rows))
 
     def groups(self) -> list[tuple[np.ndarray, CoupledModel]]:
         """The batch split by the valves each design shorts (``R = 0``): ``(rows, model)`` pairs

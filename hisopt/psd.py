@@ -3,14 +3,14 @@
 One kernel each, used by the numpy evaluator, the reference evaluator, sweeps, the CasADi
 refinement and the report:
 
-- :func:`track_power`: the two tracks' FRFs (front wheel plus the rear wheel delayed by
-  ``tau``) and the output PSD per unit road PSD, with optional left-right coherence;
+- :func:`channel_power`: the output PSD per unit road PSD from the two road channels (tracks
+  together, tracks apart; each a front input plus the rear input delayed by ``tau``), with
+  optional left-right coherence;
 - :func:`comfort_gain_squared`: the ISO 2631-1 weighting a problem's comfort method uses
   (the analytic filter or the paper's one-third-octave bands);
 - :func:`reduce_metrics`: the one dispatch from spectra to quantities (comfort, RMS,
   maximum, static);
 - :func:`roll_gradient`: the static roll angle per 1 g;
-- :func:`zoom_maximum`: the continuous maximum of a PSD off any grid.
 
 Kernels are arithmetic on their arguments, so they serve numpy arrays (batched over designs
 and frequencies) and CasADi expressions alike.
@@ -36,28 +36,34 @@ Pair = tuple[Any, Any]
 """A complex value as (real, imaginary) parts."""
 
 
-def track_power(fl: Pair, fr: Pair, rl: Pair, rr: Pair, cos_t: Any, sin_t: Any, coherence: Any = None) -> Any:
-    """Output PSD per unit single-track road PSD from the FRFs of the four wheel inputs.
+def channel_power(sym: tuple[Pair, Pair], anti: tuple[Pair, Pair], cos_t: Any, sin_t: Any, coherence: Any = None) -> Any:
+    """Output PSD per unit single-track road PSD from the two road channels' FRFs.
 
-    With ``e = exp(-j omega tau)`` the rear wheels see the front input delayed by
-    ``tau = wheelbase / speed``: the left track's FRF is ``l = H_FL + e H_RL``, the right
-    one's ``r = H_FR + e H_RR``, and ``S_y / G = |l|^2 + |r|^2 + 2 g Re(l conj r)`` with the
-    left-right coherence ``g`` (``None``: independent tracks) (paper Eq. 24).
+    Each track's rear wheel sees the front input delayed by ``tau = wheelbase / speed``
+    (``e = exp(-j omega tau)``). With ``H_s = h_L + h_R`` the response to both tracks moving
+    together and ``H_a = h_L - h_R`` to them moving apart (each ``front + e rear``), tracks of
+    equal PSD ``G`` and coherence ``g`` give ``S_y / G = [(1+g) |H_s|^2 + (1-g) |H_a|^2] / 2``,
+    which is ``|h_L|^2 + |h_R|^2 + 2 g Re(h_L conj h_R)`` (paper Eq. 24, docs/model.md §4.4).
 
     Parameters
     ----------
-    fl, fr, rl, rr : [output unit / m] FRF of each wheel input as (re, im)
+    sym, anti : [output unit / m] each channel's FRF of the front-axle and rear-axle inputs,
+        as ((re, im), (re, im))
     cos_t, sin_t : [-] ``cos(omega tau)``, ``sin(omega tau)``
-    coherence : [-] left-right coherence ``g(f)`` or None
+    coherence : [-] left-right coherence ``g(f)`` or None (independent tracks)
     """
-    l_re = fl[0] + cos_t * rl[0] + sin_t * rl[1]
-    l_im = fl[1] + cos_t * rl[1] - sin_t * rl[0]
-    r_re = fr[0] + cos_t * rr[0] + sin_t * rr[1]
-    r_im = fr[1] + cos_t * rr[1] - sin_t * rr[0]
-    power = l_re * l_re + l_im * l_im + r_re * r_re + r_im * r_im
-    if coherence is not None:
-        power = power + 2.0 * coherence * (l_re * r_re + l_im * r_im)
-    return power
+
+    # Each channel: front + e rear, e = cos - j sin (written out: numba compiles this).
+    (sf_re, sf_im), (sr_re, sr_im) = sym
+    (af_re, af_im), (ar_re, ar_im) = anti
+    s_re = sf_re + cos_t * sr_re + sin_t * sr_im
+    s_im = sf_im + cos_t * sr_im - sin_t * sr_re
+    a_re = af_re + cos_t * ar_re + sin_t * ar_im
+    a_im = af_im + cos_t * ar_im - sin_t * ar_re
+    together, apart = s_re * s_re + s_im * s_im, a_re * a_re + a_im * a_im
+    if coherence is None:
+        return 0.5 * (together + apart)
+    return 0.5 * ((1.0 + coherence) * together + (1.0 - coherence) * apart)
 
 
 def comfort_gain_squared(f_hz: np.ndarray, weighting: str, comfort: Comfort, f_lo_hz: float, f_hi_hz: float) -> np.ndarray:
@@ -126,40 +132,3 @@ def roll_gradient(stiffness: Any, vehicle: VehicleParams) -> Any:
     k = np.asarray(stiffness)
     x = np.linalg.solve(k, np.broadcast_to(load[:, None], k.shape[:-1] + (1,)))
     return np.atleast_1d(x[..., 1, 0])
-
-
-def zoom_maximum(
-    values_at: Callable[[np.ndarray], np.ndarray],
-    f_hz: np.ndarray,
-    values: np.ndarray,
-    steps: int,
-    points: int = 7,
-) -> tuple[np.ndarray, np.ndarray]:
-    """[Hz], [value] Continuous maximum of a function sampled at sorted nodes, per row.
-
-    The bracket of the best node (its neighbours) holds the peak when the nodes resolve
-    every resonance (pole-aware panels do); each step samples ``points`` evenly in the
-    bracket and keeps the neighbours of the best, shrinking it by ``2 / (points - 1)``.
-
-    Parameters
-    ----------
-    values_at : the function at frequencies ``(n, points)`` [Hz] -> ``(n, points)``
-    f_hz, values : nodes and values, ``(n, F)`` (a node of value ``-inf`` is never chosen)
-    steps : zoom steps
-    """
-    rows = np.arange(len(f_hz))
-    i = np.argmax(values, axis=1)
-    best, f_best = values[rows, i], f_hz[rows, i]
-    lo = f_hz[rows, np.maximum(i - 1, 0)]
-    hi = f_hz[rows, np.minimum(i + 1, f_hz.shape[1] - 1)]
-    t = np.linspace(0.0, 1.0, points)
-    for _ in range(steps):
-        pts = lo[:, None] + (hi - lo)[:, None] * t
-        vals = values_at(pts)
-        j = np.argmax(vals, axis=1)
-        better = vals[rows, j] > best
-        best = np.where(better, vals[rows, j], best)
-        f_best = np.where(better, pts[rows, j], f_best)
-        lo = pts[rows, np.maximum(j - 1, 0)]
-        hi = pts[rows, np.minimum(j + 1, points - 1)]
-    return f_best, best

@@ -102,7 +102,7 @@ def response_spectra(problem: Problem, design: Any = None, outputs: tuple[str, .
     f = frequency_grid(list(models.values()), band.f_min_hz, band.f_max_hz)[None, :]
     frame = pd.DataFrame({"f_hz": f[0]})
     for suffix, model in models.items():
-        psd = ev.spectra(f, DirectOutputs(model, chosen)(2j * np.pi * f))
+        psd = ev.spectra(f, DirectOutputs(model, chosen)(2 * np.pi * f))
         for i, name in enumerate(outputs):
             frame[f"{name}_{suffix}"] = psd[0, :, i]
     units = {name: chosen[name].unit for name in outputs}

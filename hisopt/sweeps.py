@@ -14,8 +14,8 @@ acceleration, FL dynamic tyre load. A mode's peak is the continuous maximum of i
 PSD within an octave of the modal frequency (so that, e.g., the wheel-hop hump of the roll
 acceleration near 11 Hz does not stand in for the roll mode); the tyre force's peak is its
 maximum over the whole band, wherever it is. Maxima are found as the evaluator finds its
-own: the largest value on the pole-aware nodes (:meth:`hisopt.evaluate.Evaluator.nodes`),
-then repeated zooming into its bracket.
+own: from the pole-aware nodes and peak samples (:meth:`hisopt.evaluate.Evaluator.nodes`),
+refined off them (:func:`hisopt.peaks.refine_maximum`).
 
 **Regions** (:func:`regions`): a 2-D grid over two variables' bounds, the others at the
 baseline, of the four indicators of docs/model.md §6 (paper Section V) and of the problem's
@@ -98,8 +98,7 @@ def response_peaks(
     outputs: tuple[str, ...],
     centers_hz: Mapping[str, np.ndarray] | None = None,
     window: float = 2.0,
-    zoom_steps: int = 10,
-    points: int = 9,
+    steps: int = 8,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """[Hz], [unit^2/Hz] Frequency and value of the maximum of each output's PSD.
 
@@ -112,14 +111,14 @@ def response_peaks(
         sought within ``[center / window, center * window]`` (a mode's own peak, not another
         mode's); outputs without a centre use the whole band
     window : [-] frequency ratio of the search window each side of a centre
-    zoom_steps, points : refinement of each maximum (each step keeps ``2 / (points - 1)`` of
-        the bracket)
+    steps : new samples of each maximum (:func:`hisopt.peaks.refine_maximum`)
 
     Returns
     -------
     dict name -> ``(f_peak_hz (n,), psd_peak (n,))``
     """
     from hisopt.evaluate import DirectOutputs, Evaluator, poles
+    from hisopt.peaks import refine_maximum
 
     ev = Evaluator(problem)
     unknown = [o for o in outputs if o not in ev.all_outputs]
@@ -130,26 +129,21 @@ def response_peaks(
     lam = poles(model)
     f, _ = ev.nodes(lam)
     frf = DirectOutputs(model, {name: ev.all_outputs[name] for name in outputs})
-    psd = ev.spectra(f, frf(2j * np.pi * f))
-    rows = np.arange(len(x))
-    t = np.linspace(0.0, 1.0, points)
+    psd = ev.spectra(f, frf(2 * np.pi * f))
     out = {}
     for j, name in enumerate(outputs):
         y = psd[..., j]
+        lo_hz, hi_hz = np.full((len(x), 1), -np.inf), np.full((len(x), 1), np.inf)
         if centers_hz is not None and name in centers_hz:
             c = np.asarray(centers_hz[name], dtype=float)[:, None]
-            y = np.where((f >= c / window) & (f <= c * window), y, -np.inf)
-        i = np.argmax(y, axis=1)
-        best, f_best = y[rows, i], f[rows, i]
-        lo, hi = f[rows, np.maximum(i - 1, 0)], f[rows, np.minimum(i + 1, f.shape[1] - 1)]
-        for _ in range(zoom_steps):
-            pts = lo[:, None] + (hi - lo)[:, None] * t
-            vals = ev.spectra(pts, frf(2j * np.pi * pts, j))[..., 0]
-            k = np.argmax(vals, axis=1)
-            better = vals[rows, k] > best
-            best = np.where(better, vals[rows, k], best)
-            f_best = np.where(better, pts[rows, k], f_best)
-            lo, hi = pts[rows, np.maximum(k - 1, 0)], pts[rows, np.minimum(k + 1, points - 1)]
+            lo_hz, hi_hz = c / window, c * window
+            y = np.where((f >= lo_hz) & (f <= hi_hz), y, -np.inf)
+
+        def values_at(pts: np.ndarray, j: int = j, lo_hz: np.ndarray = lo_hz, hi_hz: np.ndarray = hi_hz) -> np.ndarray:
+            inside = (pts >= lo_hz) & (pts <= hi_hz)
+            return np.where(inside, ev.spectra(pts, frf(2 * np.pi * pts, j))[..., 0], -np.inf)
+
+        f_best, best = refine_maximum(values_at, f, y, steps)
         out[name] = (f_best, best)
     return out
 

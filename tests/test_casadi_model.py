@@ -37,8 +37,8 @@ def setup(request, problem, handling):
 def evaluator_nodes(problem: hisopt.Problem, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The evaluator's nodes and weights at design ``x`` (duplicates merged)."""
     ev = problem.evaluator()
-    lam = np.linalg.eigvals(problem.model(x[None]).state_space().a)
-    f, w = ev.nodes(lam)
+    model = problem.model(x[None])
+    f, w = ev.nodes(np.linalg.eigvals(model.state_space().a), model)
     f, inverse = np.unique(f[0], return_inverse=True)
     return f, np.bincount(inverse, weights=w[0], minlength=f.size)
 
@@ -55,7 +55,7 @@ def numpy_quantities(
 
     ev = problem.evaluator()
     model = problem.model(x[None])
-    psd = ev.spectra(f[None], DirectOutputs(model, ev.outputs)(2j * np.pi * f[None]))[0]
+    psd = ev.spectra(f[None], DirectOutputs(model, ev.outputs)(2 * np.pi * f[None]))[0]
     comfort = problem.spec.comfort
     out = {}
     for m in ev.metrics:
@@ -98,7 +98,7 @@ def test_spectra_equal_the_numpy_model(setup, rng):
         f, w = evaluator_nodes(problem, x)
         fs = model.frequency_set(f, w)
         mine = np.array(model.spectra(x, fs.params)).T
-        ref = ev.spectra(f[None], DirectOutputs(problem.model(x[None]), ev.outputs)(2j * np.pi * f[None]))[0]
+        ref = ev.spectra(f[None], DirectOutputs(problem.model(x[None]), ev.outputs)(2 * np.pi * f[None]))[0]
         np.testing.assert_allclose(mine, ref, rtol=1e-8, atol=0)
 
 

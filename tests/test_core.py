@@ -24,10 +24,13 @@ import numpy as np
 import pytest
 
 import hisopt
-from hisopt.evaluate import DirectOutputs, Evaluator, grid_quantities, poles
+from hisopt.evaluate import DirectOutputs, Evaluator, poles
+from hisopt.metrics import METRICS
 from hisopt.optim.casadi_model import CasadiModel
+from hisopt.peaks import refine_maximum
 from hisopt.problem import problem_from_dict
-from hisopt.psd import comfort_gain_squared, reduce_metrics, zoom_maximum
+from hisopt.psd import comfort_gain_squared, reduce_metrics
+from hisopt.reference import grid_quantities
 from hisopt.timedomain import simulate
 from tests.conftest import DEFAULT_PROBLEM, ROOT, random_designs
 
@@ -64,13 +67,14 @@ def evaluator_nodes(problem: hisopt.Problem, x: np.ndarray) -> tuple[np.ndarray,
     """The evaluator's nodes and weights at ``x``, plus the frequency of each continuous maximum."""
     ev = problem.evaluator()
     model = problem.model(x[None])
-    f, w = ev.nodes(poles(model))
     frf = DirectOutputs(model, ev.outputs)
-    psd = ev.spectra(f, frf(2j * np.pi * f))
+    f, w = ev.nodes(poles(model), model)
+    f_search, _ = ev.nodes(poles(model))  # maxima are sought from the panels' nodes and peak samples
+    psd = ev.spectra(f_search, frf(2 * np.pi * f_search))
     peaks = {}
     for name, j in ev.output_index.items():
-        at = lambda pts, j=j: ev.spectra(pts, frf(2j * np.pi * pts, j))[..., 0]  # noqa: E731
-        peaks[name] = float(zoom_maximum(at, f, psd[..., j], ev.zoom_iterations)[0][0])  # as the evaluator zooms
+        at = lambda pts, j=j: ev.spectra(pts, frf(2 * np.pi * pts, j))[..., 0]  # noqa: E731
+        peaks[name] = float(refine_maximum(at, f_search, psd[..., j], ev.peak_steps)[0][0])  # as the evaluator searches
     f, inverse = np.unique(f[0], return_inverse=True)
     return f, np.bincount(inverse, weights=w[0], minlength=f.size), peaks
 
@@ -79,7 +83,7 @@ def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.
     """Every quantity with the numpy core on fixed nodes (maxima over the nodes)."""
     ev = problem.evaluator()
     model = problem.model(x[None])
-    psd = ev.spectra(f[None], DirectOutputs(model, ev.outputs)(2j * np.pi * f[None]))[0]
+    psd = ev.spectra(f[None], DirectOutputs(model, ev.outputs)(2 * np.pi * f[None]))[0]
     spec = problem.spec
 
     def integral(output: str, weighting: str | None) -> float:
@@ -107,8 +111,11 @@ def test_numpy_and_casadi_engines_agree_within_1e9(problem_variant):
         ref = numpy_on_nodes(problem, x, f_all, w_all)
         for i, name in enumerate(model.names):
             assert q[i] == pytest.approx(ref[name], rel=1e-9), (name, q[i], ref[name])
-            # and the evaluator's own value: integrals on its nodes, maxima at its peaks
-            assert q[i] == pytest.approx(evaluated[name][k], rel=1e-9), (name, q[i], evaluated[name][k])
+            # and the evaluator's own value: integrals on its nodes (its frequency responses come
+            # from poles and residues, good to ~1e-7 with stiff chambers), maxima at its peaks
+            # (its search, on those responses, stops within ~1e-5 of where this one does)
+            rel = 1e-5 if METRICS[name].kind == "max" else 1e-6
+            assert q[i] == pytest.approx(evaluated[name][k], rel=rel), (name, q[i], evaluated[name][k])
 
 
 @pytest.mark.parametrize("name", [n for n in VARIANTS if n != "distributed_pipes"])

@@ -1,4 +1,4 @@
-"""Objectives: docs/model.md §7 references, converged accuracy over the box, exactness."""
+"""Objectives: docs/model.md §7 references, exactness, safeguards (accuracy over the box: test_accuracy)."""
 
 import tracemalloc
 import warnings
@@ -7,11 +7,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import hisopt
-from hisopt.evaluate import DirectOutputs, Evaluator, PoleResidueOutputs, grid_quantities
+from hisopt.evaluate import DirectOutputs, Evaluator
 from hisopt.linalg import join
 from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
+from hisopt.reference import converged_grid, grid_quantities
 from tests.conftest import random_designs
 
 REFERENCE = {  # docs/model.md §7.1 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
@@ -44,53 +44,36 @@ def test_evaluate_returns_contract_dataframe(problem):
     pd.testing.assert_frame_equal(df, problem.evaluate(x.to_numpy()))
 
 
-def _converged_grid(problem, x):
-    """Fine log grid plus tan-clustered points around every mode (Lorentzians become flat)."""
-    lam = np.linalg.eigvals(problem.model(x[None]).state_space().a[0])
-    parts = [np.geomspace(0.5, 80.0, 40_001)]
-    theta = np.linspace(-np.pi / 2, np.pi / 2, 4001)[1:-1]
-    for pole in lam[lam.imag > 1e-6]:
-        f_d, b = pole.imag / (2 * np.pi), -pole.real / (2 * np.pi)
-        parts.append(f_d + b * np.tan(theta))
-    f = np.concatenate(parts)
-    return np.unique(f[(f >= 0.5) & (f <= 80.0)])
-
-
-def test_within_half_percent_of_converged_reference_including_corners(all_metrics_problem, rng):
-    p = all_metrics_problem
-    x = random_designs(p, 3, rng)  # 3 random designs and all 16 corners of the box
-    fast = p.evaluator()(x)
-    zeta_roll = []
-    for i, xi in enumerate(x):
-        ref = grid_quantities(p, xi[None], _converged_grid(p, xi))
-        for name in METRICS:
-            assert fast[name][i] == pytest.approx(ref[name][0], rel=5e-3), (name, xi)
-        zeta_roll.append(hisopt.modal_analysis(p, xi).set_index("mode").loc["roll", "damping_ratio"])
-    assert min(zeta_roll) < 1e-3  # the box corners really contain nearly undamped roll
-
-
 def test_peaks_are_continuous_maxima_not_grid_samples(problem):
     """At a corner (roll damping ~1e-4) a 1000-point grid misses the roll peak by far."""
     corner = np.array([[4e6, 25e-4, 0.8, 0.0]])
     fast = problem.evaluator()(corner)["max_roll_psd"][0]
     plain = grid_quantities(problem, corner, np.geomspace(0.5, 80, 1000))["max_roll_psd"][0]
-    fine = grid_quantities(problem, corner, _converged_grid(problem, corner[0]))["max_roll_psd"][0]
+    fine = grid_quantities(problem, corner, converged_grid(problem, corner[0]))["max_roll_psd"][0]
     assert fast == pytest.approx(fine, rel=1e-3)
     assert plain < 0.5 * fine
 
 
-def test_pole_residue_path_equals_direct_solve(problem, rng):
+@pytest.mark.parametrize("split", [True, False], ids=["symmetric-halves", "full"])
+def test_pole_residue_path_equals_direct_solve(problem, rng, split, monkeypatch):
+    """The channels' FRFs from poles and residues, split into symmetric halves or not."""
+    import hisopt.evaluate as evaluate
+
+    if not split:
+        monkeypatch.setattr(evaluate, "split", lambda ss, mirror: None)
     ev = problem.evaluator()
     x = random_designs(problem, 20, rng)
     model = problem.model(x)
-    ss = model.state_space()
-    lam, vec = np.linalg.eig(ss.a)
-    fast = PoleResidueOutputs(ss, lam, vec, ev.all_outputs)
+    fast = evaluate.ModalChannels(model, model.state_space(), ev.all_outputs)
+    assert ("sym" in fast.forms) == split
     direct = DirectOutputs(model, ev.all_outputs)
-    s = 2j * np.pi * np.broadcast_to(np.geomspace(0.3, 120, 50), (len(x), 50))
-    h_fast, h_direct = join(*fast(s)), direct(s)
-    scale = np.abs(h_direct).max(axis=(1, 2), keepdims=True)  # per design and output
-    assert np.max(np.abs(h_fast - h_direct) / scale) < 1e-9
+    omega = 2 * np.pi * np.broadcast_to(np.geomspace(0.3, 120, 50), (len(x), 50))
+    h_fast, h_direct = fast(omega), direct(omega)
+    exact = {name: join(*h_direct[name]) for name in ("sym", "anti")}
+    # per design and output, over both channels (roll has no symmetric part, bounce no antisymmetric)
+    scale = np.maximum(*(np.abs(b).max(axis=(1, 2), keepdims=True) for b in exact.values()))
+    for name, b in exact.items():
+        assert np.max(np.abs(join(*h_fast[name]) - b) / scale) < 1e-9, name
 
 
 def test_nan_free_over_whole_box_without_warnings(all_metrics_problem, rng):

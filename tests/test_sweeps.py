@@ -249,7 +249,7 @@ def test_response_peaks_are_continuous_maxima(problem):
     ev = Evaluator(problem)
     f = np.geomspace(0.5, 80.0, 40001)[None, :].repeat(2, axis=0)
     outs = {n: ev.all_outputs[n] for n in ("acc_roll", "tire_load_fl")}
-    psd = ev.spectra(f, DirectOutputs(problem.model(x), outs)(2j * np.pi * f))
+    psd = ev.spectra(f, DirectOutputs(problem.model(x), outs)(2 * np.pi * f))
     for j, name in enumerate(outs):
         grid_max = psd[..., j].max(axis=1)
         assert np.all(peaks[name][1] >= grid_max * (1 - 1e-9))

@@ -442,6 +442,75 @@ def static_stiffness(network: Network, values: ElementValues, n_ports: Any) -> A
     return total
 
 
+MIRROR_WHEEL = (1, 0, 3, 2)
+"""The wheel on the other side: FL <-> FR, RL <-> RR."""
+
+
+def mirror_unknowns(network: Network) -> np.ndarray | None:
+    """The left-right mirror image of every unknown, or None when the layout is not mirror
+    symmetric in its structure.
+
+    A port's node maps to the node of the same chamber on the other wheel; from there the
+    map follows the elements: an element maps to one of the same kind and parameter names
+    between the mapped nodes (a flow keeps its orientation). Whether the values are mirror
+    symmetric too is for the caller to check numerically (the parameters may differ).
+
+    Returns
+    -------
+    ndarray of int, shape ``(n,)``: unknown ``i`` maps to unknown ``out[i]`` (an involution)
+    """
+    by_chamber = {(port.wheel, port.chamber): int(row) for port, row in zip(network.ports, network.port_rows, strict=True)}
+    node_map: dict[int, int] = {}
+    for port, row in zip(network.ports, network.port_rows, strict=True):
+        image = by_chamber.get((MIRROR_WHEEL[port.wheel], port.chamber))
+        if image is None or node_map.setdefault(int(row), image) != image:
+            return None
+    signatures = [_signature(e) for _, e in network.elements]
+    unmatched = set(range(len(network.elements)))
+    element_map: dict[int, int] = {}
+    progress = True
+    while unmatched and progress:
+        progress = False
+        for k in sorted(unmatched):
+            nodes = network.element_rows[k][: 1 if len(network.element_rows[k]) == 1 else 2]
+            known = [node_map.get(n) for n in nodes]
+            if all(v is None for v in known):
+                continue
+            candidates = [
+                j for j in range(len(network.elements))
+                if signatures[j] == signatures[k] and j not in element_map.values()
+                and all(v is None or v == network.element_rows[j][i] for i, v in enumerate(known))
+            ]
+            if len(candidates) != 1:
+                continue
+            j = candidates[0]
+            element_map[k] = j
+            for i, n in enumerate(nodes):
+                if node_map.setdefault(n, network.element_rows[j][i]) != network.element_rows[j][i]:
+                    return None
+            unmatched.discard(k)
+            progress = True
+    if unmatched:
+        return None
+    out = np.arange(network.size)
+    for a, b in node_map.items():
+        out[a] = b
+    for k, j in element_map.items():
+        rows_k, rows_j = network.element_rows[k], network.element_rows[j]
+        for a, b in zip(rows_k[2:] if len(rows_k) > 1 else (), rows_j[2:] if len(rows_j) > 1 else (), strict=True):
+            out[a] = b  # branch flows
+    if not np.array_equal(out[out], np.arange(network.size)):
+        return None
+    return out
+
+
+def _signature(element: Element) -> tuple[Any, ...]:
+    """An element's kind and parameter references: what its mirror image must share."""
+    from hisopt.hydraulics.layout import PARAMETER_FIELDS
+
+    return (type(element).__name__, *(getattr(element, f) for f in PARAMETER_FIELDS[type(element)]))
+
+
 def singular_shorts(network: Network, shorted: frozenset[int]) -> frozenset[int]:
     """The shorted valves (element indices, ``R = 0``) the lumped model cannot keep.
 

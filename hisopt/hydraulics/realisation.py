@@ -99,39 +99,51 @@ def realise(d: Descriptor) -> Realisation:
     """
     dyn = np.flatnonzero(d.dynamic)
     alg = np.flatnonzero(~d.dynamic)
-    a_dd = d.a[..., dyn[:, None], dyn[None, :]]
     batch = d.a.shape[:-2]
+    e_d = d.e[..., dyn]
+    if np.any(~(e_d > 0)):
+        raise ModelError("a hydraulic storage element has zero compliance or inertance")
+    position = {int(u): i for i, u in enumerate(dyn)}
+    keep = np.ones(dyn.size, dtype=bool)
+    pivot_rows = {}
+    for pivot, c in d.invariants:
+        r = position[pivot]
+        c_d = np.broadcast_to(c, batch + c.shape[-1:])[..., dyn]
+        row = -c_d / c_d[..., r, None]
+        row[..., r] = 0.0
+        pivot_rows[r] = row
+        keep[r] = False
+    rows = np.flatnonzero(keep)
+    kept = dyn[rows]
+    # Only the kept states' rows are needed: a pivot's derivative follows from its invariant.
+    a_kd = d.a[..., kept[:, None], dyn[None, :]]
     recover = np.zeros(batch + (alg.size, dyn.size))
     if alg.size:
         a_aa = d.a[..., alg[:, None], alg[None, :]]
         a_ad = d.a[..., alg[:, None], dyn[None, :]]
-        a_da = d.a[..., dyn[:, None], alg[None, :]]
         try:
             recover = -np.linalg.solve(a_aa, a_ad)
         except np.linalg.LinAlgError as exc:
             raise ModelError("the hydraulic network has an algebraic loop with no resistance") from exc
-        a_dd = a_dd + a_da @ recover
-    e_d = d.e[..., dyn]
-    if np.any(~(e_d > 0)):
-        raise ModelError("a hydraulic storage element has zero compliance or inertance")
-    a_ss = a_dd / e_d[..., :, None]
-    b0 = np.broadcast_to(d.b0, batch + d.b0.shape[-2:])[..., dyn, :] / e_d[..., :, None]
-    b1 = np.broadcast_to(d.b1, batch + d.b1.shape[-2:])[..., dyn, :] / e_d[..., :, None]
-
-    position = {int(u): i for i, u in enumerate(dyn)}
-    expand = np.broadcast_to(np.eye(dyn.size), batch + (dyn.size, dyn.size)).copy()
-    keep = np.ones(dyn.size, dtype=bool)
-    for pivot, c in d.invariants:
-        r = position[pivot]
-        c_d = np.broadcast_to(c, batch + c.shape[-1:])[..., dyn]
-        expand[..., r, :] = -c_d / c_d[..., r, None]
-        expand[..., r, r] = 0.0
-        keep[r] = False
-    t = expand[..., :, keep]
+        a_kd = a_kd + d.a[..., kept[:, None], alg[None, :]] @ recover
+    e_k = e_d[..., rows, None]
+    a_ks = a_kd / e_k
+    b0 = np.broadcast_to(d.b0, batch + d.b0.shape[-2:])[..., kept, :] / e_k
+    b1 = np.broadcast_to(d.b1, batch + d.b1.shape[-2:])[..., kept, :] / e_k
+    # T: the identity on the kept states, the invariants' rows on the pivots.
+    t = np.zeros(batch + (dyn.size, rows.size))
+    t[..., rows, np.arange(rows.size)] = 1.0
+    for r, row in pivot_rows.items():
+        t[..., r, :] = row[..., rows]
+    # a_ks @ t, written as the kept block plus one outer product per eliminated pivot
+    # (t is the identity but for the pivots' rows): the same sums, far fewer operations.
+    a_kept = a_ks[..., :, rows]
+    for r in pivot_rows:
+        a_kept = a_kept + a_ks[..., :, r][..., :, None] * t[..., r, None, :]
     return Realisation(
-        a=a_ss[..., keep, :] @ t,
-        b0=b0[..., keep, :],
-        b1=b1[..., keep, :],
+        a=a_kept,
+        b0=b0,
+        b1=b1,
         labels=tuple(d.labels[u] for u, k in zip(dyn, keep, strict=True) if k),
         kept=dyn[keep],
         expand=t,

@@ -42,7 +42,7 @@ import numpy as np
 
 from hisopt.hydraulics import backend as bk
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
-from hisopt.psd import comfort_gain_squared, reduce_metrics, roll_gradient, track_power
+from hisopt.psd import channel_power, comfort_gain_squared, reduce_metrics, roll_gradient
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
 from hisopt.vehicle import (
@@ -249,7 +249,7 @@ class CasadiModel:
         ``L D L^T`` factorisation without pivoting: ``S`` is complex symmetric (reciprocity)
         with a positive definite imaginary part (every stroke carries a damper), for which
         Gaussian elimination without pivoting is stable (Higham 1998). Then forms each
-        output's track PSD (:func:`hisopt.psd.track_power`).
+        output's PSD from its road channels (:func:`hisopt.psd.channel_power`).
         """
         if self._psd is not None:
             return self._psd
@@ -266,8 +266,9 @@ class CasadiModel:
             ar, ai, rr, ri = (p[base + 16 * i + 4 * k : base + 16 * i + 4 * (k + 1)].T for k in range(4))
             h_re = ar - (rr @ zd.re - ri @ zd.im)
             h_im = ai - (rr @ zd.im + ri @ zd.re)
-            w_fl, w_fr, w_rl, w_rr = ((h_re[k], h_im[k]) for k in range(4))
-            psd.append(g_road * track_power(w_fl, w_fr, w_rl, w_rr, cos_t, sin_t, coh))
+            sym = ((h_re[0] + h_re[1], h_im[0] + h_im[1]), (h_re[2] + h_re[3], h_im[2] + h_im[3]))
+            anti = ((h_re[0] - h_re[1], h_im[0] - h_im[1]), (h_re[2] - h_re[3], h_im[2] - h_im[3]))
+            psd.append(g_road * channel_power(sym, anti, cos_t, sin_t, coh))
         self._psd = ca.Function(
             "psd", [dr, di, p], [ca.vertcat(*psd)], ["d_re", "d_im", "p"], ["psd"], {"is_diff_in": [True, True, False]}
         )

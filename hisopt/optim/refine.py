@@ -237,21 +237,21 @@ class NodePlan:
 
 
 def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, steps: int = 12, points: int = 9) -> float:
-    """[Hz] Location of the PSD maximum of ``output`` in ``[lo_hz, hi_hz]`` by repeated zooming
-    (:func:`hisopt.psd.zoom_maximum`).
+    """[Hz] Location of the PSD maximum of ``output`` in ``[lo_hz, hi_hz]``, from ``points``
+    samples refined by :func:`hisopt.peaks.refine_maximum` (``steps`` new samples).
 
     Parameters
     ----------
     frf : output FRF function of one design, as :class:`hisopt.evaluate.DirectOutputs`
     ev : the problem's evaluator (for its road spectra)
     """
-    from hisopt.psd import zoom_maximum
+    from hisopt.peaks import refine_maximum
 
     def values_at(pts: np.ndarray) -> np.ndarray:
-        return ev.spectra(pts, frf(2j * np.pi * pts, output))[..., 0]
+        return ev.spectra(pts, frf(2 * np.pi * pts, output))[..., 0]
 
     f = np.linspace(lo_hz, hi_hz, points)[None, :]
-    return float(zoom_maximum(values_at, f, values_at(f), steps - 1, points)[0][0])
+    return float(refine_maximum(values_at, f, values_at(f), steps)[0][0])
 
 
 def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: RefineSettings) -> NodePlan:
@@ -261,11 +261,11 @@ def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: Ref
     ev = problem.evaluator()
     coupled = problem.model(np.asarray(x, dtype=float)[None, :])
     lam = poles(coupled)
-    f, w = ev.nodes(lam)
+    frf = DirectOutputs(coupled, ev.outputs)
+    f, w = ev.nodes(lam, coupled)
     f, inverse = np.unique(f[0], return_inverse=True)  # padding repeats the band limit
     w = np.bincount(inverse, weights=w[0], minlength=f.size)
-    frf = DirectOutputs(coupled, ev.outputs)
-    psd = ev.spectra(f[None], frf(2j * np.pi * f[None]))[0]
+    psd = ev.spectra(f[None], frf(2 * np.pi * f[None]))[0]
     upper = lam[0][lam[0].imag > 0]  # one of each conjugate pair
     offsets = np.array(settings.cluster_offsets)
     offsets = np.r_[-offsets[::-1], 0.0, offsets]
@@ -286,7 +286,7 @@ def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: Ref
     extra = [c for cs in clusters.values() for c in cs]
     f_all, inverse = np.unique(np.concatenate([f, *extra]), return_inverse=True)
     w_all = np.bincount(inverse[: f.size], weights=w, minlength=f_all.size)
-    psd_all = ev.spectra(f_all[None], frf(2j * np.pi * f_all[None]))[0]
+    psd_all = ev.spectra(f_all[None], frf(2 * np.pi * f_all[None]))[0]
     max_nodes = {}
     for name, cs in clusters.items():
         y = psd_all[:, model.output_index[METRICS[name].signal]]

@@ -17,7 +17,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import gamma, kv
 
 from hisopt.errors import ConfigError
 from hisopt.standards.iso_8608_2016 import WAVINESS, temporal_psd
@@ -124,6 +123,8 @@ def isotropic_coherence(
     K. Bogsjo, "Coherence of road roughness in left and right wheel-path", Vehicle System
     Dynamics 46(S1), 599-609, 2008 (compares this isotropic model with measured coherence).
     """
+    from scipy.special import gamma, kv  # on use: importing it costs 0.08 s
+
     if not waviness > 0.0:
         raise ConfigError(f"expected waviness > 0, got {waviness!r}")
     nu = waviness / 2.0

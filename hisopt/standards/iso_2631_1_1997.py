@@ -196,7 +196,16 @@ def weighting_gain_squared(f_hz: ArrayLike, name: WeightingName) -> NDArray[np.f
     _params(name)
     num, den = _GAIN2_POLYNOMIALS[name]
     x = np.square(np.asarray(f_hz, dtype=float))
-    return P.polyval(x, num) / P.polyval(x, den)
+    return _horner(x, num) / _horner(x, den)
+
+
+def _horner(x: NDArray[np.float64], coefficients: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``sum_k c_k x^k`` by Horner's rule, in place on one array (hot loops call this)."""
+    out = np.full(x.shape, coefficients[-1])
+    for c in coefficients[-2::-1]:
+        out *= x
+        out += c
+    return out
 
 
 class ThirdOctaveBands(NamedTuple):
@@ -389,3 +398,16 @@ __all__ = [
     "weighting_gain_squared",
     "weighting_response",
 ]
+
+
+def weighting_poles_hz(name: WeightingName) -> NDArray[np.complex128]:
+    """[Hz] Singularities of ``|W(f)|^2`` in the complex frequency plane (upper half plane
+    and the real axis), the roots of its denominator in ``f``: where a quadrature of a
+    weighted spectrum must keep its distance (:mod:`hisopt.quadrature`)."""
+    _params(name)
+    x = P.polyroots(_GAIN2_DEN[name])
+    f = np.sqrt(x.astype(complex))
+    return np.concatenate([f, -f])
+
+
+_GAIN2_DEN = {name: den for name, (_, den) in _GAIN2_POLYNOMIALS.items()}
