@@ -198,7 +198,7 @@ def used_parameters(layout: Layout) -> set[str]:
 def layout_problem(his: RollPlaneHIS) -> str | None:
     """What is wrong with the layout of a ``[his]`` table (None: nothing), as one line
     starting with the key: an unknown catalogue name, circuits without ``layout = "custom"``
-    (or the converse), a ``[his.parameters]`` entry that clashes with a ``[his]`` value, is not
+    (or the converse), circuits sharing a chamber or a name, a ``[his.parameters]`` entry that clashes with a ``[his]`` value, is not
     read by the layout or breaks the rule of an element field that reads it, an element that
     refers to an unknown parameter, a circuit whose compliance is zero at these values."""
     if his.layout == CUSTOM and not his.circuits:
@@ -207,6 +207,9 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
         return f'his.circuits: circuits are given but layout = {his.layout!r}; expected layout = "custom" to use them'
     if his.layout != CUSTOM and his.layout not in CATALOGUE_NAMES:
         return f"his.layout: unknown layout {his.layout!r}; expected one of {', '.join(CATALOGUE_NAMES)} or \"custom\" (see hisopt layouts)"
+    across = check_circuits(his.circuits or [])
+    if across:
+        return f"his.circuits: {across}"
     reserved = set(his_fields()) | set(PIPE_PARAMETERS) | set(FLUID_PARAMETERS) | set(CYLINDER_PARAMETERS)
     for name in his.parameters:
         if name in reserved:

@@ -21,8 +21,8 @@ between the nodes. Every element parameter is a number [SI] or the name of a par
 The pydantic models check what one circuit can check alone (element fields, numbers against
 each field's rule, declared nodes, dangling elements, one connected circuit closed by a
 compliance); :func:`check_circuits` what needs all of them (each chamber at most once,
-distinct names). Parameter names are checked against the problem's parameters by
-:func:`hisopt.hydraulics.catalogue.layout_problem`.
+distinct names) and :func:`hisopt.hydraulics.catalogue.layout_problem` the parameter names
+against the problem's parameters.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ class ElementSpec(BaseModel):
             if not math.isfinite(v):
                 raise ValueError(f"expected a finite number, got {v!r}")
             return float(v)
-        raise ValueError(f"expected a number [SI units] or the name of a parameter, got {v!r}")
+        raise ValueError("expected a number [SI units] or the name of a parameter")
 
     @model_validator(mode="after")
     def _keys_of_type(self) -> ElementSpec:
@@ -193,21 +193,21 @@ def circuit_problem(circuit: CircuitSpec) -> str | None:
     for label, node in circuit.chambers.items():
         del label
         touches[node] += 1
-    for i, e in enumerate(circuit.elements, start=1):
+    for e in circuit.elements:
         for node in e.nodes:
             if node not in touches:
-                return f"element {i} ({e.describe()}): unknown node {node!r}; expected one of the declared nodes {known}"
+                return f"{e.describe()}: unknown node {node!r}; expected one of the declared nodes {known}"
         if len(set(e.nodes)) < len(e.nodes):
-            return f"element {i} ({e.describe()}): joins node {e.nodes[0]!r} to itself; expected two different nodes"
+            return f"{e.describe()}: joins node {e.nodes[0]!r} to itself; expected two different nodes"
         for node in e.nodes:
             touches[node] += 1
     unused = [n for n, count in touches.items() if count == 0]
     if unused:
         return f"node {unused[0]!r} is declared but nothing connects to it; expected every node in nodes to be used"
-    for i, e in enumerate(circuit.elements, start=1):
+    for e in circuit.elements:
         ends = [n for n in e.nodes if touches[n] == 1] if e.node is None else []
         if ends:
-            return f"element {i} ({e.describe()}) dangles: nothing else connects to node {ends[0]!r}; expected both ends of a {e.type} connected"
+            return f"{e.describe()} dangles: nothing else connects to node {ends[0]!r}; expected both ends of a {e.type} connected"
     groups = _connected_groups(declared, [e.nodes for e in circuit.elements if e.node is None])
     if len(groups) > 1:
         parts = " and ".join("{" + ", ".join(g) + "}" for g in groups)

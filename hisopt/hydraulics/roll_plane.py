@@ -12,12 +12,12 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.fluid import Fluid
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
-from hisopt.hydraulics.layout_file import CircuitSpec, check_circuits
+from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
 
 CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = {
@@ -62,21 +62,15 @@ class RollPlaneHIS(BaseModel):
     pipe_model: PipeModel = "lumped"
     layout: str = Field("roll_plane", min_length=1, description="[-] catalogue layout (hisopt layouts) or 'custom'")
     parameters: dict[str, float] = Field(default_factory=dict, description="[SI] values of a layout's extra parameters")
-    circuits: list[CircuitSpec] | None = Field(None, min_length=1, description="the circuits of a custom layout")
+    circuits: list[CircuitSpec] | None = Field(
+        None, min_length=1, description="the circuits of a custom layout (checked together by hisopt.hydraulics.catalogue.layout_problem)"
+    )
 
     @model_validator(mode="after")
     def _distributed_needs_pipes(self) -> RollPlaneHIS:
         if self.pipe_model == "distributed" and self.pipes is None:
             raise ValueError("pipe_model = 'distributed' needs a [his.pipes] layout")
         return self
-
-    @field_validator("circuits")
-    @classmethod
-    def _circuits_together(cls, v: list[CircuitSpec] | None) -> list[CircuitSpec] | None:
-        problem = None if v is None else check_circuits(v)
-        if problem:
-            raise ValueError(problem)
-        return v
 
 
 def roll_plane_layout(pipes: bool = False, chamber: bool = False) -> Layout:
