@@ -61,6 +61,10 @@ PIPE_PARAMETERS = ("pipe_diameter", "pipe_length_front", "pipe_length_rear")
 CYLINDER_PARAMETERS = ("dA", "lam", "dA_rear", "lam_rear")
 """Parameters every layout reads through the cylinders (not through its elements)."""
 
+REAR_TIED = ("dA", "lam", "Rv")
+"""``[his]`` values whose rear counterpart (``Rv_rear``) follows them unless given
+(:func:`hisopt.hydraulics.roll_plane.parameter_values`)."""
+
 
 class LayoutFile(BaseModel):
     """A catalogue data file (module docstring)."""
@@ -192,7 +196,7 @@ def used_parameters(layout: Layout) -> set[str]:
     """[-] The names a layout's elements and cylinders read; a rear value's name (``Rv_rear``)
     counts its front one (``Rv``) too, which it follows unless given."""
     used = set(parameter_uses(layout)) | set(CYLINDER_PARAMETERS)
-    return used | {n.removesuffix("_rear") for n in used if n.endswith("_rear")}
+    return used | {n for n in REAR_TIED if f"{n}_rear" in used}
 
 
 def layout_problem(his: RollPlaneHIS) -> str | None:
@@ -201,12 +205,12 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
     (or the converse), circuits sharing a chamber or a name, a ``[his.parameters]`` entry that clashes with a ``[his]`` value, is not
     read by the layout or breaks the rule of an element field that reads it, an element that
     refers to an unknown parameter, a circuit whose compliance is zero at these values."""
+    if his.layout != CUSTOM and his.layout not in CATALOGUE_NAMES:
+        return f"his.layout: unknown layout {his.layout!r}; expected one of {', '.join(CATALOGUE_NAMES)} or \"custom\" (see hisopt layouts)"
     if his.layout == CUSTOM and not his.circuits:
         return 'his.layout: "custom" needs the circuits in [[his.circuits]] tables (docs/model.md §12.2)'
     if his.layout != CUSTOM and his.circuits:
         return f'his.circuits: circuits are given but layout = {his.layout!r}; expected layout = "custom" to use them'
-    if his.layout != CUSTOM and his.layout not in CATALOGUE_NAMES:
-        return f"his.layout: unknown layout {his.layout!r}; expected one of {', '.join(CATALOGUE_NAMES)} or \"custom\" (see hisopt layouts)"
     across = check_circuits(his.circuits or [])
     if across:
         return f"his.circuits: {across}"

@@ -125,7 +125,7 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
                       fillcolor="#eef1f5", layer="below")
         fig.add_annotation(x=x, y=y + 0.42, text=f"<b>{name}</b>", showarrow=False, font={"size": 12})
         for chamber in ("top", "bottom"):
-            _, py = port_position(Port("", wheel, chamber))  # type: ignore[arg-type]
+            _, py = port_position(Port("", wheel, chamber))
             fig.add_annotation(x=x, y=py, text=chamber[0], showarrow=False, font={"size": 11, "color": "#556"})
     pos = node_positions(layout)
     used_ports: set[tuple[int, str]] = set()
