@@ -472,3 +472,30 @@ def test_readme_custom_layout_example_is_valid():
     assert p.variable_names[-1] == "p_front" and p.layout().name == "custom"
     assert p.evaluate(p.baseline)["status"].iloc[0] == "ok"
     assert mode_stiffness(p).iloc[-1]["stiffness_coupling"] > 0.05
+
+
+def test_refinement_improves_a_design_of_another_layout_with_its_extra_variable():
+    """CasADi refinement on the accumulator-valve layout, Rv_acc a design variable: the
+    refined design dominates its start, checked by the numpy evaluator."""
+    from hisopt.optim.casadi_model import CasadiModel
+    from hisopt.optim.refine import RefineSettings, refine_point
+
+    p = hisopt.load_problem(ROOT / "problems" / "layout_roll_plane_accumulator_valves.toml")
+    x0 = p.baseline
+    q0 = p.evaluator()(x0[None])
+    f0 = np.array([q0[n][0] for n in p.objective_names])
+    result = refine_point(p, CasadiModel(p, compile=False), 0, x0, f0, np.ones(4) * 3.0, RefineSettings())
+    q = p.evaluator()(result.x[None])
+    f = np.array([q[n][0] for n in p.objective_names])
+    assert result.accepted and np.all(f <= f0) and np.any(f < f0)
+
+
+@pytest.mark.parametrize("name", CATALOGUE_NAMES)
+def test_every_catalogue_layout_is_left_right_symmetric(name):
+    """Mirroring left and right (FL<->FR, RL<->RR) maps D(s) onto itself (the data are mirror
+    images; round-off only), with chamber volumes too."""
+    mirror = np.array([[0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1], [0, 0, 1, 0]], float)
+    s = 2j * np.pi * np.geomspace(0.1, 100.0, 30)
+    for extra in ({}, {"chamber_volume": 1e-4}):
+        d = hisopt.load_problem(DEFAULT_PROBLEM).with_values(layout=name, **extra).hydraulic_system({}).stroke_impedance(s)
+        assert np.abs(mirror @ d @ mirror - d).max() <= 1e-14 * np.abs(d).max()

@@ -189,9 +189,8 @@ def circuit_problem(circuit: CircuitSpec) -> str | None:
             return f"unknown chamber {label!r} in chambers; expected one of {', '.join(CHAMBER_LABELS)} (wheel 1-4 FL FR RL RR, t top, b bottom)"
         if node not in declared:
             return f"chamber {label!r} feeds the unknown node {node!r}; expected one of the declared nodes {known}"
-    touches: dict[str, int] = dict.fromkeys(declared, 0)
-    for label, node in circuit.chambers.items():
-        del label
+    touches: dict[str, int] = dict.fromkeys(declared, 0)  # chambers and element ends at each node
+    for node in circuit.chambers.values():
         touches[node] += 1
     for e in circuit.elements:
         for node in e.nodes:

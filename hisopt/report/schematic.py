@@ -153,7 +153,16 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
         pipes_y: list[float | None] = []
         shunts_at: dict[str, int] = {}
         for e in circuit.elements:
-            if isinstance(e, (Valve, Pipe)):
+            if isinstance(e, (Accumulator, ChamberCompliance)):
+                k = shunts_at.get(e.node, 0)
+                shunts_at[e.node] = k + 1
+                nx, ny = pos[(c, e.node)]
+                sx, sy = nx + 0.16 * (k % 2 * 2 - 1) * (k // 2 + 1), ny + 0.16  # stacked beside the node
+                xs += [nx, sx, None]
+                ys += [ny, sy, None]
+                kind = "accumulator" if isinstance(e, Accumulator) else "oil volume"
+                marker(kind, sx, sy, f"{_hover(e, values)}<br>at {e.node}", colour)
+            else:
                 (ax, ay), (bx, by) = pos[(c, e.a)], pos[(c, e.b)]
                 if isinstance(e, Pipe):
                     pipes_x += [ax, bx, None]
@@ -164,16 +173,6 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
                 kind = "orifice" if isinstance(e, Orifice) else "valve" if isinstance(e, Valve) else "pipe"
                 at = MARKER_AT  # off the middle: mirrored circuits do not stack their markers
                 marker(kind, ax + at * (bx - ax), ay + at * (by - ay), f"{_hover(e, values)}<br>{e.a} -> {e.b}", colour)
-            else:
-                k = shunts_at.get(e.node, 0)
-                shunts_at[e.node] = k + 1
-                nx, ny = pos[(c, e.node)]
-                sx, sy = nx + 0.16 * (k % 2 * 2 - 1) * (k // 2 + 1), ny + 0.16
-                xs += [nx, sx, None]
-                ys += [ny, sy, None]
-                kind = "accumulator" if isinstance(e, Accumulator) else "oil volume"
-                assert isinstance(e, (Accumulator, ChamberCompliance))
-                marker(kind, sx, sy, f"{_hover(e, values)}<br>at {e.node}", colour)
         fig.add_scatter(x=xs, y=ys, mode="lines", line={"color": colour, "width": 2}, name=f"circuit {circuit.name}",
                         hoverinfo="skip")
         if pipes_x:
