@@ -25,7 +25,7 @@ app = typer.Typer(
 
 # The scalar [his] keys --set accepts (RollPlaneHIS fields; tests/test_cli.py keeps them in step).
 # Listed here rather than read from the model so that `hisopt --help` need not import it.
-SET_KEYS = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "pipe_model")
+SET_KEYS = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "pipe_model", "layout")
 
 ProblemArg = Annotated[
     Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
@@ -117,6 +117,44 @@ def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
     console.print(table)
     old = "wheel_hop_" + "/".join(k.removeprefix("wheel_hop_") for k in MODE_ALIASES)
     console.print(f"older names: {old} = {', '.join(MODE_ALIASES.values())}")
+
+
+@app.command()
+def layouts(
+    problem: Annotated[
+        Path | None, typer.Argument(metavar="[PROBLEM]", help="problem file whose [his] values are used (default: the paper's problem)")
+    ] = None,
+    set_: SetOpt = None,
+) -> None:
+    """Catalogue of HIS layouts and what each one stiffens.
+
+    For every catalogue layout (and the problem's own custom layout), at the problem's
+    baseline values: the static stiffness it adds per unit stroke pattern (bounce 1 1 1 1,
+    roll 1 -1 1 -1, pitch 1 1 -1 -1, warp 1 -1 -1 1 for FL FR RL RR; per metre of the
+    pattern's amplitude), its low-frequency damping and the largest static coupling between
+    patterns (docs/model.md §12.4). Select a layout with [his] layout = "NAME".
+    """
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    from hisopt.layouts import mode_stiffness
+    from hisopt.units import display_frame
+
+    p = load(problem, set_) if problem is not None else None
+    frame = mode_stiffness(p)
+    shown = display_frame(frame.drop(columns="summary"))
+    source = p.name if p is not None else "the paper's problem"
+    table = Table(title=Text(f"HIS layouts at the baseline of {source}: added stiffness and low-frequency damping per unit stroke pattern"))
+    for col in shown.columns:
+        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith("layout") else "right")
+    for row in shown.itertuples(index=False):
+        table.add_row(*[Text(v) for v in row])
+    console = Console(width=170)
+    console.print(table)
+    for name, summary in zip(frame["layout"], frame["summary"], strict=True):
+        console.print(Text(f"{name}: {summary}"))
+    console.print(Text('select one with [his] layout = "NAME"; descriptions and sources: docs/model.md §12.3'))
 
 
 @app.command()

@@ -16,6 +16,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
+from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_problem, used_parameters
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
@@ -142,8 +143,15 @@ class ProblemSpec(_Strict):
 
     @model_validator(mode="after")
     def _variables_are_his_fields(self) -> ProblemSpec:
-        # The rules come from RollPlaneHIS's fields (hisopt.validation), not from a list here.
-        allowed = design_parameters()
+        # The layout first: the variables may name its parameters (docs/model.md §12).
+        problem = layout_problem(self.his)
+        if problem:
+            raise ValueError(problem)
+        layout = his_layout(self.his)
+        # The rules come from RollPlaneHIS's fields and the layout's element fields
+        # (hisopt.validation), not from a list here.
+        allowed = design_parameters() + tuple(layout_defaults(self.his))
+        used = used_parameters(layout)
         if not self.variables:  # also for a file without [variables] (defaults are not validated)
             raise ValueError(
                 "variables: expected at least one design variable, e.g. [variables] p0 = { lower = 0.0, upper = 4.0e6 } "
@@ -152,7 +160,10 @@ class ProblemSpec(_Strict):
         for name, var in self.variables.items():
             if name not in allowed:
                 raise ValueError(f"variables.{name}: not a design parameter of [his]; expected one of {', '.join(allowed)}")
-            problem = bounds_problem(name, var.lower, var.upper) or switched_off(name, self.his)
+            problem = bounds_problem(name, var.lower, var.upper, layout) or switched_off(name, self.his)
+            if not problem and name not in used:
+                read = ", ".join(n for n in allowed if n in used)
+                problem = f"not read by layout {self.his.layout!r}, so it would do nothing; expected one of {read}"
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
         return self

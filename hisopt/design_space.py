@@ -17,12 +17,14 @@ import numpy as np
 
 from hisopt.config import ProblemSpec, parse_problem
 from hisopt.errors import ConfigError
+from hisopt.hydraulics.catalogue import his_layout, his_parameter_values, layout_defaults
 from hisopt.hydraulics.coupling import HydraulicSystem
-from hisopt.hydraulics.roll_plane import parameter_values, roll_plane_network
+from hisopt.hydraulics.network import compile_network
 from hisopt.model import CoupledModel
-from hisopt.validation import design_matrix, require_admissible
+from hisopt.validation import Rule, design_matrix, parameter_rule, require_admissible
 
 if TYPE_CHECKING:
+    from hisopt.hydraulics.layout import Layout
     from hisopt.hydraulics.network import Network
 
 
@@ -60,7 +62,8 @@ class DesignSpace:
     @property
     def baseline(self) -> np.ndarray:
         """The fixed ``[his]`` values of the design variables (the baseline design)."""
-        return np.array([getattr(self.spec.his, n) for n in self.variable_names], dtype=float)
+        extra = layout_defaults(self.spec.his)
+        return np.array([extra[n] if n in extra else getattr(self.spec.his, n) for n in self.variable_names], dtype=float)
 
     @property
     def objective_names(self) -> tuple[str, ...]:
@@ -81,12 +84,21 @@ class DesignSpace:
         return design_matrix(self, designs)
 
     def with_values(self, **values: Any) -> Self:
-        """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``), validated like the file."""
+        """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``), validated like the file.
+
+        A name of the layout's extra parameters (``Rv_acc``, ...) sets ``[his.parameters]``.
+        """
         data = self.spec.model_dump(by_alias=True)
+        extra = layout_defaults(self.spec.his)
         for key, value in values.items():
-            if key not in data["his"]:
-                raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(data['his'])}", key=key)
-            data["his"][key] = value.item() if isinstance(value, np.generic) else value
+            value = value.item() if isinstance(value, np.generic) else value
+            if key in extra:
+                data["his"]["parameters"][key] = value
+                continue
+            if key not in data["his"] or key in ("parameters", "circuits"):
+                known = [k for k in data["his"] if k not in ("parameters", "circuits")] + list(extra)
+                raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(known)}", key=key)
+            data["his"][key] = value
         return type(self)(parse_problem(data, str(self.path or "<problem>")), self.path, self.sha256)
 
     # --- models ----------------------------------------------------------------------
@@ -112,10 +124,22 @@ class DesignSpace:
     def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
         """The HIS with design variables set from ``overrides`` (numpy arrays of one batch
         shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values."""
-        return HydraulicSystem(self.network(), parameter_values(self.spec.his, overrides))
+        return HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides))
+
+    def layout(self) -> Layout:
+        """The HIS layout (``[his] layout`` or ``[[his.circuits]]``, with pipes and chamber
+        volumes; docs/model.md §12)."""
+        if "layout" not in self._cache:
+            self._cache["layout"] = his_layout(self.spec.his)
+        return self._cache["layout"]
 
     def network(self) -> Network:
         """The compiled HIS network (structure only; computed once per problem)."""
         if "network" not in self._cache:
-            self._cache["network"] = roll_plane_network(self.spec.his)
+            self._cache["network"] = compile_network(self.layout(), self.spec.his.pipe_model)
         return self._cache["network"]
+
+    def parameter_rule(self, name: str) -> Rule:
+        """The physical rule of parameter ``name`` (its ``[his]`` field and every element field
+        of the layout that reads it; :func:`hisopt.validation.parameter_rule`)."""
+        return parameter_rule(name, layout=self.layout())

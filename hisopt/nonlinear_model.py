@@ -7,8 +7,9 @@ The lumped network of the linear model with three nonlinearities (laws from
   flow balance), and its pressure follows the polytropic gas law in absolute pressure,
   ``p_abs = p_abs0 (V0 / (V0 - dV))^gamma`` (``dV`` the gas volume taken by oil, plus any
   linear compliance ``C_o p`` at the node: oil, pipe ends);
-- optional quadratic orifice valves ``dp = R_v q + K_q q |q|``, the algebraic valve network
-  solved by Newton's method at each right-hand-side evaluation;
+- optional quadratic orifice valves ``dp = R_v q + K_q q |q|`` (``valve_kq`` for every damper
+  valve, and each orifice element with its own ``R`` and ``K_q``; docs/model.md §12.2), the
+  algebraic valve network solved by Newton's method at each right-hand-side evaluation;
 - optional tyre lift-off: the tyre pushes but never pulls (contact force
   ``F_static - k_t (z_u - z_g) - c_t (dz_u - dz_g) >= 0``).
 
@@ -120,11 +121,17 @@ class NonlinearModel:
         net = his.network
         e_h, a_h = his.descriptor()
         e = _single_design(np.asarray(e_h), 1, "hydraulic descriptor")
-        a = _single_design(np.asarray(a_h), 2, "hydraulic descriptor")
+        a = _single_design(np.asarray(a_h), 2, "hydraulic descriptor").copy()
         n_inc = _single_design(np.asarray(his.incidence), 2, "cylinder incidence")
         self.acc = accumulators(his)
-        valve = np.zeros(net.size, dtype=bool)
-        valve[[rows[2] for _, _, rows in net.valves()]] = True
+        kq_row = np.zeros(net.size)  # quadratic coefficient of each valve flow row
+        for k, _, rows in net.valves():
+            if k in his.values.orifice:  # an orifice: its own law, its laminar part in A
+                r_lam, kq = (_single(v, "orifice parameter") for v in his.values.orifice[k])
+                a[rows[2], rows[2]] += _single(his.values.resistance[k], "orifice resistance") - r_lam
+                kq_row[rows[2]] = kq
+            else:
+                kq_row[rows[2]] = valve_kq
         self.dyn, self.alg = np.flatnonzero(net.dynamic), np.flatnonzero(~net.dynamic)
         self.n_h = e.size
         self.coupling = net.injection @ n_inc @ stroke_matrix(v)  # node inflow per velocity
@@ -153,7 +160,7 @@ class NonlinearModel:
             self.cp_alg = self.coupling[self.alg]
             self.solve_lin_d = -inv @ self.a_ad
             self.solve_lin_v = -inv @ self.cp_alg
-            self.kq_alg = np.where(valve[self.alg], valve_kq, 0.0)
+            self.kq_alg = kq_row[self.alg]
 
     def _no_network(self) -> None:
         empty = np.zeros(0)
@@ -210,7 +217,7 @@ class NonlinearModel:
         solution, Jacobian ``A_aa - diag(2 K_q |q|)``.
         """
         x = self.solve_lin_d @ h_dyn + self.solve_lin_v @ vel
-        if self.valve_kq == 0.0:
+        if not self.kq_alg.any():
             return x
         rhs = self.a_ad @ h_dyn + self.cp_alg @ vel
         scale = np.abs(x).max(axis=0, keepdims=True) + 1e-30

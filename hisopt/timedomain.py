@@ -302,7 +302,8 @@ def simulate(
         raise ConfigError(f"expected 0 < rtol < 1, got {rtol!r}")
     road = RoadInput(t_s, road_m, interpolation)
     ((_, contracted),) = model.groups()  # a single design: one group
-    if contracted is not model and valve_kq > 0.0:
+    quadratic = valve_kq > 0.0 or (mode == "nonlinear" and _has_quadratic_orifice(model))
+    if contracted is not model and quadratic:
         raise ModelError(
             "a valve with R_v = 0 between two oil volumes has no linear resistance for the orifice "
             "law to start from; give it R_v > 0 or set valve_kq = 0"
@@ -317,6 +318,13 @@ def simulate(
     if mode == "linear":
         return _simulate_linear(model, ss, road, chosen, rtol, u_scale)
     return _simulate_nonlinear(model, ss, road, chosen, rtol, u_scale, valve_kq, tyre_liftoff)
+
+
+def _has_quadratic_orifice(model: CoupledModel) -> bool:
+    """Whether an orifice element of the model's network has a quadratic coefficient."""
+    if model.his is None:
+        return False
+    return any(bool(np.any(np.asarray(kq) > 0.0)) for _, kq in model.his.values.orifice.values())
 
 
 def _simulate_linear(

@@ -18,6 +18,7 @@ SI unit                   shown as
 ``m^2``                   mm^2, cm^2 from 1 cm^2, m^2 from 1 m^2 (``12.8 cm^2``)
 ``m^3``                   cm^3, L from 0.1 L, m^3 from 1 m^3
 ``N``                     N, kN from 10 kN
+``N/m``, ``N s/m``        N/m, kN/m from 10 kN/m (and N s/m, kN s/m likewise)
 ``rad``, ``rad/g``        deg, deg/g: roll angles and roll gradients as vehicle engineers
                           quote them; the number shown is in the unit shown (180/pi x rad)
 PSDs (``<u>^2/Hz``)       scientific notation in the SI unit (``8.468e-5 rad^2/Hz``)
@@ -57,6 +58,8 @@ _STEPS: dict[str, tuple[tuple[float, str, float], ...]] = {
     "m^2": ((0.0, "mm^2", 1e6), (1e-4, "cm^2", 1e4), (1.0, "m^2", 1.0)),
     "m^3": ((0.0, "cm^3", 1e6), (1e-4, "L", 1e3), (1.0, "m^3", 1.0)),
     "N": ((0.0, "N", 1.0), (1e4, "kN", 1e-3)),
+    "N/m": ((0.0, "N/m", 1.0), (1e4, "kN/m", 1e-3)),
+    "N s/m": ((0.0, "N s/m", 1.0), (1e4, "kN s/m", 1e-3)),
     "rad": ((0.0, "deg", 180.0 / math.pi),),
     "rad/g": ((0.0, "deg/g", 180.0 / math.pi),),
 }
@@ -95,10 +98,12 @@ def hypervolume_unit(n_objectives: int) -> str:
 
 
 def variable_units(problem: DesignSpace) -> dict[str, str]:
-    """Unit of each design variable: the problem file's ``unit``, else the [his] field's.
+    """Unit of each design variable: the problem file's ``unit``, else the [his] field's, else
+    that of the element field the layout reads it as (a layout's extra parameter).
 
     The [his] fields document their unit first in their description (``[Pa] ...``).
     """
+    from hisopt.hydraulics.layout import FIELD_UNITS, parameter_uses
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
     out = {}
@@ -107,6 +112,9 @@ def variable_units(problem: DesignSpace) -> dict[str, str]:
         if not unit and name in RollPlaneHIS.model_fields:
             match = re.match(r"\[([^\]]*)\]", RollPlaneHIS.model_fields[name].description or "")
             unit = match.group(1) if match else ""
+        elif not unit:
+            uses = parameter_uses(problem.layout()).get(name, [])
+            unit = FIELD_UNITS[uses[0]] if uses else ""
         out[name] = unit
     return out
 

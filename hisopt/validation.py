@@ -26,7 +26,7 @@ import math
 import tomllib
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
@@ -35,6 +35,7 @@ import pandas as pd
 from pydantic import BaseModel
 
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
+from hisopt.hydraulics.layout import FIELD_LOWER, Layout, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
 
@@ -54,6 +55,8 @@ class DesignSpace(Protocol):
     def baseline(self) -> np.ndarray: ...
 
     def with_values(self, **values: Any) -> Any: ...
+
+    def parameter_rule(self, name: str) -> Rule: ...
 
 
 P = TypeVar("P", bound=DesignSpace)
@@ -126,6 +129,14 @@ class Rule:
             return f"{self.name}{hi}"
         return f"{self.name} finite"
 
+    def tightened(self, lower: float, closed: bool) -> Rule:
+        """This rule and ``value >= lower`` (``closed``) or ``value > lower``, together."""
+        if self.lower is None or lower > self.lower:
+            return replace(self, lower=lower, lower_closed=closed)
+        if lower == self.lower:
+            return replace(self, lower_closed=self.lower_closed and closed)
+        return self
+
 
 def plausible(values: Any, tiny: bool = True) -> np.ndarray:
     """[-] Finite values of a magnitude up to ``MAGNITUDE_RANGE[1]`` and, with ``tiny``, zero or
@@ -165,22 +176,30 @@ def implausible_number(data: Any, path: tuple[str, ...] = ()) -> tuple[str, str]
     return None
 
 
-def parameter_rule(name: str, model: type[BaseModel] = DESIGN_PARAMETER_MODEL) -> Rule:
-    """The rule of field ``name`` of ``model``, from its ``gt``/``ge``/``lt``/``le`` metadata.
+def parameter_rule(name: str, model: type[BaseModel] = DESIGN_PARAMETER_MODEL, layout: Layout | None = None) -> Rule:
+    """The rule of parameter ``name``: its field of ``model`` (``gt``/``ge``/``lt``/``le``
+    metadata) and, with a ``layout``, the rule of every element field that reads it
+    (:data:`hisopt.hydraulics.layout.FIELD_LOWER`: a valve resistance ``>= 0``, a gas volume
+    ``> 0``, ...), all together.
 
     Raises
     ------
     KeyError
-        ``model`` has no field ``name``.
+        ``model`` has no field ``name`` and no element of ``layout`` reads it.
     """
-    field = model.model_fields[name]
+    uses = parameter_uses(layout).get(name, []) if layout is not None else []
+    if name not in model.model_fields and not uses:
+        raise KeyError(name)
     rule: dict[str, Any] = {}
-    for item in field.metadata:
+    for item in model.model_fields[name].metadata if name in model.model_fields else ():
         for attr, end, closed in (("gt", "lower", False), ("ge", "lower", True), ("lt", "upper", False), ("le", "upper", True)):
             value = getattr(item, attr, None)
             if value is not None:
                 rule[end], rule[f"{end}_closed"] = float(value), closed
-    return Rule(name, **rule)
+    out = Rule(name, **rule)
+    for use in uses:
+        out = out.tightened(*FIELD_LOWER[use])
+    return out
 
 
 def design_parameters(model: type[BaseModel] = DESIGN_PARAMETER_MODEL) -> tuple[str, ...]:
@@ -198,9 +217,9 @@ def switched_off(name: str, his: BaseModel) -> str | None:
     return None
 
 
-def bounds_problem(name: str, lower: float, upper: float) -> str | None:
+def bounds_problem(name: str, lower: float, upper: float, layout: Layout | None = None) -> str | None:
     """Why the box ``[lower, upper]`` of design variable ``name`` breaks its rule (None: it does not)."""
-    rule = parameter_rule(name)
+    rule = parameter_rule(name, layout=layout)
     bad = [f"{which} bound {value:g}" for which, value in (("lower", lower), ("upper", upper)) if not rule.holds(value)]
     if bad:
         return f"expected bounds inside the parameter's range {rule.text}, got {' and '.join(bad)}"
@@ -387,7 +406,7 @@ def admissible(problem: DesignSpace, x: np.ndarray) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     ok = np.ones(x.shape[0], dtype=bool)
     for j, name in enumerate(problem.variable_names):
-        ok &= parameter_rule(name).holds(x[:, j])
+        ok &= problem.parameter_rule(name).holds(x[:, j])
     return ok
 
 
@@ -404,7 +423,7 @@ def check_designs(problem: DesignSpace, x: np.ndarray) -> DesignCheck:
     lower, upper = problem.lower, problem.upper
     for j, name in enumerate(problem.variable_names):
         col = x[:, j]
-        rule = parameter_rule(name)
+        rule = problem.parameter_rule(name)
         for i in map(int, np.flatnonzero(~rule.holds(col))):
             v, problem_text = col[i], magnitude_problem(col[i], tiny=False)
             invalid[i].append(f"{name} = {v:g}: {problem_text}" if problem_text else f"{name} = {v:g} breaks {rule.text}")

@@ -174,9 +174,10 @@ def test_set_help_names_every_key_set_accepts(problem):
     from hisopt.cli import SET_KEYS
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
-    def is_model(annotation) -> bool:
+    def is_model(annotation) -> bool:  # tables and lists ([his.parameters], [[his.circuits]]) are not scalars
         args = getattr(annotation, "__args__", ())
-        return any(isinstance(a, type) and issubclass(a, BaseModel) for a in (annotation, *args))
+        container = any(getattr(a, "__origin__", None) in (dict, list) for a in (annotation, *args))
+        return container or any(isinstance(a, type) and issubclass(a, BaseModel) for a in (annotation, *args))
 
     scalar = [n for n, f in RollPlaneHIS.model_fields.items() if not is_model(f.annotation)]
     assert list(SET_KEYS) == scalar

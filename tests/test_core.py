@@ -1,7 +1,7 @@
 """The physics core (docs/model.md §11): every engine, built from the one core, agrees.
 
 On a matrix of problems (no pipes, lumped pipes, distributed pipes, chamber compliance, band
-and filter comfort):
+and filter comfort, and every catalogue layout of docs/model.md §12.3, with and without pipes):
 
 - numpy evaluator against the CasADi model within 1e-9 on every objective (same nodes);
 - state space against the direct solve of the network within 1e-9;
@@ -41,7 +41,17 @@ VARIANTS = {
     "lumped_pipes": {"his": {"pipes": PIPES}},
     "distributed_pipes": {"his": {"pipes": PIPES, "pipe_model": "distributed"}},
     "chamber": {"his": {"chamber_volume": 2e-4}},
-}
+    # every catalogue layout (docs/model.md §12.3), with its extra parameters as design variables
+    "roll_plane_accumulator_valves": {"his": {"layout": "roll_plane_accumulator_valves"}, "variables": {"Rv_acc": {"lower": 1e6, "upper": 1e9}}},
+    "roll_plane_twin_accumulator": {"his": {"layout": "roll_plane_twin_accumulator"},
+                                    "variables": {"Rv_link": {"lower": 1e6, "upper": 5e9}, "V0_rear": {"lower": 2e-4, "upper": 1e-3}}},
+    "pitch_plane": {"his": {"layout": "pitch_plane"}},
+    "axle_roll": {"his": {"layout": "axle_roll"}},
+    "side_front_rear": {"his": {"layout": "side_front_rear"}, "variables": {"Rv_link": {"lower": 1e6, "upper": 5e9}}},
+    "pitch_plane_pipes_chamber": {"his": {"layout": "pitch_plane", "pipes": PIPES, "chamber_volume": 2e-4}},
+    "twin_distributed_pipes": {"his": {"layout": "roll_plane_twin_accumulator", "pipes": PIPES, "pipe_model": "distributed"}},
+}  # fmt: skip
+LAYOUT_VARIANTS = [n for n, v in VARIANTS.items() if "layout" in v.get("his", {}) and "pipe_model" not in v["his"]]
 ALL_QUANTITIES = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "rms_roll", "rms_stroke", "rms_tire_load", "roll_gradient"]
 
 
@@ -118,7 +128,7 @@ def test_numpy_and_casadi_engines_agree_within_1e9(problem_variant):
             assert q[i] == pytest.approx(evaluated[name][k], rel=rel), (name, q[i], evaluated[name][k])
 
 
-@pytest.mark.parametrize("name", [n for n in VARIANTS if n != "distributed_pipes"])
+@pytest.mark.parametrize("name", [n for n, v in VARIANTS.items() if v.get("his", {}).get("pipe_model") != "distributed"])
 def test_state_space_equals_direct_solve_within_1e9(name):
     problem = variant(name)
     x = designs(problem)
@@ -146,7 +156,7 @@ def steady_amplitude(t: np.ndarray, y: np.ndarray, w: float, poles: np.ndarray) 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["no_pipes", "lumped_pipes", "chamber"])
+@pytest.mark.parametrize("name", ["no_pipes", "lumped_pipes", "chamber", *LAYOUT_VARIANTS])
 def test_time_domain_sine_steady_state_equals_frf_within_1e6(name):
     problem = variant(name)
     model = problem.model()

@@ -202,7 +202,7 @@ def test_report_renders_in_headless_chromium(default_report, rendered_report):
 
 def test_report_layout_has_no_overlapping_text_and_units_on_every_axis(rendered_report):
     result = rendered_report[0]
-    assert_clean_layout(result, figures=4)
+    assert_clean_layout(result, figures=5)  # with the layout schematic
     assert result["cells"] > 60  # the three tables were measured too
     titles = set(result["axis_titles"])
     for title in ("frequency [Hz]", "PSD [(m/s^2)^2/Hz]", "generation [-]", "hypervolume [decades^4]", "sigma_aw [m/s^2]"):
@@ -210,7 +210,7 @@ def test_report_layout_has_no_overlapping_text_and_units_on_every_axis(rendered_
 
 
 def test_report_layout_holds_in_a_narrow_window(default_report, tmp_path):
-    assert_clean_layout(render(default_report, tmp_path, width=900)[0], figures=4)
+    assert_clean_layout(render(default_report, tmp_path, width=900)[0], figures=5)
 
 
 @pytest.fixture(scope="module")

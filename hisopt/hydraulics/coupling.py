@@ -96,6 +96,12 @@ class HydraulicSystem:
         """[N/m] ``K_his = lim_{s->0} D(s)`` (:func:`hisopt.hydraulics.network.static_stiffness`)."""
         return nw.static_stiffness(self.network, self.values, self.incidence)
 
+    def low_frequency_damping(self) -> Any:
+        """[N s/m] ``C_lf = lim_{s->0} (D(s) - K_his) / s`` of the lumped network, numpy
+        ``B + (4, 4)`` (:func:`hisopt.hydraulics.network.low_frequency_damping`)."""
+        lumped = self.lumped()
+        return nw.low_frequency_damping(lumped.network, lumped.values, lumped.incidence)
+
     def descriptor(self) -> tuple[Any, Any]:
         """``(e, A)`` of the lumped network ``diag(e) dh/dt = A h + P q_port``."""
         return nw.lumped_descriptor(self.network, self.values)

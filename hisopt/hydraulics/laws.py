@@ -119,6 +119,25 @@ def valve_tangent_resistance(q: Any, r: Any, kq: Any = 0.0) -> Any:
     return r + 2.0 * kq * bk.fabs(q)
 
 
+def orifice_equivalent_resistance(r: Any, kq: Any, q_rms: Any) -> Any:
+    """[Pa s m^-3] Equivalent linear resistance of the orifice law ``dp = R q + K_q q |q|`` for
+    a zero-mean Gaussian flow of RMS value ``q_rms`` (statistical linearisation):
+
+        R_eq = R + 2 sqrt(2 / pi) K_q q_rms
+
+    the slope ``c`` minimising ``E[(K_q q |q| - c q)^2]``, which equals the mean tangent
+    ``E[2 K_q |q|]`` (``E|q| = sqrt(2 / pi) q_rms``). At ``q_rms = 0`` it is the laminar part
+    ``R`` alone: a sharp-edged orifice has no small-signal resistance at zero flow.
+
+    Parameters
+    ----------
+    r : [Pa s m^-3] laminar (linear) coefficient
+    kq : [Pa s^2 m^-6] quadratic coefficient
+    q_rms : [m^3/s] RMS flow through the orifice at which to linearise
+    """
+    return r + 2.0 * math.sqrt(2.0 / math.pi) * kq * q_rms
+
+
 # --- pipes -------------------------------------------------------------------------------------
 def pipe_area(diameter: Any) -> Any:
     """[m^2] Bore area of a circular pipe of inner diameter [m]."""

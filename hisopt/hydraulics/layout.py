@@ -21,6 +21,15 @@ ParamRef = float | str
 """A parameter value [SI] or the name of a parameter resolved per design."""
 
 WHEEL_LABELS = ("1", "2", "3", "4")
+CHAMBER_LABELS = tuple(f"{w}{c}" for w in WHEEL_LABELS for c in "tb")
+"""``"1t", "1b", ..., "4b"``: wheel number (1 FL, 2 FR, 3 RL, 4 RR) and chamber (t top, b bottom)."""
+
+
+def chamber_of_label(label: str) -> tuple[int, Chamber]:
+    """``"2b"`` -> ``(1, "bottom")``: wheel index (0 FL ... 3 RR) and chamber of a label."""
+    if label not in CHAMBER_LABELS:
+        raise ValueError(f"unknown chamber {label!r}; expected one of {', '.join(CHAMBER_LABELS)}")
+    return WHEEL_LABELS.index(label[0]), "top" if label[1] == "t" else "bottom"
 
 
 @dataclass(frozen=True)
@@ -62,8 +71,23 @@ class Pipe:
     diameter: ParamRef
 
 
-Element = Accumulator | ChamberCompliance | Valve | Pipe
-SeriesElement = Valve | Pipe
+@dataclass(frozen=True)
+class Orifice(Valve):
+    """Orifice from node ``a`` to node ``b``: ``p_a - p_b = R q + K_q q |q|`` (docs/model.md §12.2).
+
+    A sharp-edged orifice has no small-signal resistance at zero flow, so the linear engines
+    (frequency domain, modes, linear time domain) use its equivalent linear resistance at the
+    RMS flow ``flow_rms`` (:func:`hisopt.hydraulics.laws.orifice_equivalent_resistance`); the
+    nonlinear time domain uses the law itself.
+    """
+
+    resistance: ParamRef = 0.0
+    kq: ParamRef = 0.0
+    flow_rms: ParamRef = 0.0
+
+
+Element = Accumulator | ChamberCompliance | Valve | Orifice | Pipe
+SeriesElement = Valve | Orifice | Pipe
 ShuntElement = Accumulator | ChamberCompliance
 
 
@@ -71,14 +95,66 @@ PARAMETER_FIELDS: dict[type, tuple[str, ...]] = {
     Accumulator: ("volume", "precharge", "gamma"),
     ChamberCompliance: ("volume",),
     Valve: ("resistance",),
+    Orifice: ("resistance", "kq", "flow_rms"),
     Pipe: ("length", "diameter"),
 }
 """The fields of each element type that hold a :data:`ParamRef`."""
 
+FIELD_UNITS: dict[tuple[type, str], str] = {
+    (Accumulator, "volume"): "m^3",
+    (Accumulator, "precharge"): "Pa",
+    (Accumulator, "gamma"): "-",
+    (ChamberCompliance, "volume"): "m^3",
+    (Valve, "resistance"): "Pa s m^-3",
+    (Orifice, "resistance"): "Pa s m^-3",
+    (Orifice, "kq"): "Pa s^2 m^-6",
+    (Orifice, "flow_rms"): "m^3/s",
+    (Pipe, "length"): "m",
+    (Pipe, "diameter"): "m",
+}
+"""[SI unit] of every element parameter field."""
+
+FIELD_LOWER: dict[tuple[type, str], tuple[float, bool]] = {
+    (Accumulator, "volume"): (0.0, False),
+    (Accumulator, "precharge"): (0.0, True),
+    (Accumulator, "gamma"): (1.0, True),
+    (ChamberCompliance, "volume"): (0.0, True),
+    (Valve, "resistance"): (0.0, True),
+    (Orifice, "resistance"): (0.0, True),
+    (Orifice, "kq"): (0.0, True),
+    (Orifice, "flow_rms"): (0.0, True),
+    (Pipe, "length"): (0.0, False),
+    (Pipe, "diameter"): (0.0, False),
+}
+"""Physical rule of every element parameter field: ``(lower end, closed)``, e.g. a gas volume
+``> 0`` is ``(0.0, False)`` and a precharge (gauge, as ``p0``) ``>= 0`` is ``(0.0, True)``.
+No field has an upper end."""
+
+ELEMENT_KINDS: dict[type, str] = {
+    Accumulator: "accumulator",
+    ChamberCompliance: "compliance",
+    Valve: "valve",
+    Orifice: "orifice",
+    Pipe: "pipe",
+}
+"""The ``type`` of each element in a layout file (docs/model.md §12.2)."""
+
+
+def parameter_uses(layout: Layout) -> dict[str, list[tuple[type, str]]]:
+    """Every parameter name a layout refers to, with the ``(element type, field)`` of each use."""
+    uses: dict[str, list[tuple[type, str]]] = {}
+    for c in layout.circuits:
+        for e in c.elements:
+            for f in PARAMETER_FIELDS[type(e)]:
+                value = getattr(e, f)
+                if isinstance(value, str):
+                    uses.setdefault(value, []).append((type(e), f))
+    return uses
+
 
 def element_nodes(element: Element) -> tuple[str, ...]:
     """The nodes an element touches (series: ``(a, b)``; shunt: ``(node,)``)."""
-    if isinstance(element, (Valve, Pipe)):
+    if isinstance(element, (Valve, Pipe)):  # an Orifice is a Valve
         return (element.a, element.b)
     return (element.node,)
 

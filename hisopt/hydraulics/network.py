@@ -37,6 +37,7 @@ from hisopt.hydraulics.layout import (
     Circuit,
     Element,
     Layout,
+    Orifice,
     ParamRef,
     Pipe,
     Port,
@@ -107,7 +108,8 @@ class Network:
         return [(k, e, self.element_rows[k][0]) for k, (_, e) in enumerate(self.elements) if isinstance(e, Accumulator)]
 
     def valves(self) -> list[tuple[int, Valve, tuple[int, ...]]]:
-        """``(element index, valve, (a, b, q) rows)`` of every valve, in element order."""
+        """``(element index, valve, (a, b, q) rows)`` of every valve (orifices included), in
+        element order."""
         return [(k, e, self.element_rows[k]) for k, (_, e) in enumerate(self.elements) if isinstance(e, Valve)]
 
 
@@ -206,7 +208,10 @@ class ElementValues:
     [Pa s m^-3], ``inertance`` [Pa s^2 m^-3] and ``compliance`` [m^3/Pa] of each valve or
     lumped pipe; ``line``: per-metre series impedance and shunt admittance coefficients
     ``(R', L', C', length)`` of each pipe; ``gas``: ``(V, p_abs, gamma)`` of each accumulator at
-    its operating point. Keys are element indices of :attr:`Network.elements`.
+    its operating point; ``orifice``: ``(R, K_q)`` of each orifice, its laminar resistance
+    [Pa s m^-3] and quadratic coefficient [Pa s^2 m^-6] for the nonlinear law (its
+    ``resistance`` entry is the equivalent linear resistance). Keys are element indices of
+    :attr:`Network.elements`.
     """
 
     shunt: dict[int, Any]
@@ -215,6 +220,7 @@ class ElementValues:
     compliance: dict[int, Any]
     line: dict[int, tuple[Any, Any, Any, Any]]
     gas: dict[int, tuple[Any, Any, Any]]
+    orifice: dict[int, tuple[Any, Any]] = field(default_factory=dict)
 
 
 def element_values(network: Network, params: Mapping[str, Any]) -> ElementValues:
@@ -225,7 +231,7 @@ def element_values(network: Network, params: Mapping[str, Any]) -> ElementValues
     linearised about its precharge: gas volume ``V0`` at absolute pressure ``p0 + p_atm``.
     """
     rho, mu, beta = (resolve(name, params) for name in FLUID_PARAMETERS)
-    out = ElementValues({}, {}, {}, {}, {}, {})
+    out = ElementValues({}, {}, {}, {}, {}, {}, {})
     for k, (c, e) in enumerate(network.elements):
         where = f" (circuit {network.layout.circuits[c].name!r})"
         if isinstance(e, Accumulator):
@@ -236,6 +242,10 @@ def element_values(network: Network, params: Mapping[str, Any]) -> ElementValues
             out.shunt[k] = laws.accumulator_compliance(v0, p_abs, gamma)
         elif isinstance(e, ChamberCompliance):
             out.shunt[k] = laws.oil_compliance(resolve(e.volume, params, where), beta)
+        elif isinstance(e, Orifice):
+            r, kq = resolve(e.resistance, params, where), resolve(e.kq, params, where)
+            out.orifice[k] = (r, kq)
+            out.resistance[k] = laws.orifice_equivalent_resistance(r, kq, resolve(e.flow_rms, params, where))
         elif isinstance(e, Valve):
             out.resistance[k] = resolve(e.resistance, params, where)
         else:
@@ -509,6 +519,62 @@ def _signature(element: Element) -> tuple[Any, ...]:
     from hisopt.hydraulics.layout import PARAMETER_FIELDS
 
     return (type(element).__name__, *(getattr(element, f) for f in PARAMETER_FIELDS[type(element)]))
+
+
+def low_frequency_damping(network: Network, values: ElementValues, n_ports: Any) -> Any:
+    """[N s/m] Low-frequency stroke damping ``C_lf = lim_{s->0} (D(s) - K_his) / s`` (4 x 4),
+    exact for the lumped network (docs/model.md §12.4).
+
+    Per circuit, the network's response to port flows ``b`` is ``h(s) = M(s)^-1 b`` with
+    ``M = K0 + s K1``. ``K0`` (resistances only) is singular: statically every node of a
+    circuit holds one pressure ``u`` (1 on the node rows, 0 on the flow rows), and the node
+    rows sum to zero (``v = u`` is its left null vector). Expanding
+    ``h = h_-1 / s + h_0 + O(s)`` gives ``h_-1 = (v.b / v.K1 u) u`` (the circuit's compliance
+    filled by the net flow: ``K_his``) and ``h_0`` from ``K0 h_0 = b - K1 h_-1`` with
+    ``v.K1 h_0 = 0``, solved as one bordered system. ``D(s) = s N^T P^T h(s) N`` then gives
+    ``C_lf = N^T P^T H_0 N``, where ``H_0`` holds ``h_0`` for each port's unit flow. It is
+    the damping the resistances add to slow stroke motion: ``delta'^T C_lf delta'`` is the
+    power they dissipate while the oil shares itself among the compliances at one pressure.
+
+    Parameters
+    ----------
+    n_ports : [m^2] incidence ``N`` from :func:`incidence`, numpy ``B + (n_ports, 4)``
+
+    Returns
+    -------
+    numpy.ndarray
+        ``B + (4, 4)``, symmetric positive semi-definite.
+    """
+    if network.fidelity != "lumped":
+        raise ModelError("the low-frequency damping is computed on lumped pipes (HydraulicSystem.lumped())")
+    k0_entries, k1_entries = stamps(network, values)
+    n = network.size
+    k0 = bk.assemble((n, n), k0_entries)
+    k1 = bk.assemble((n, n), k1_entries)
+    batch = np.broadcast_shapes(np.shape(k0)[:-2], np.shape(k1)[:-2], np.shape(n_ports)[:-2])
+    k0, k1 = np.broadcast_to(k0, batch + (n, n)), np.broadcast_to(k1, batch + (n, n))
+    h0 = np.zeros(batch + (n, len(network.ports)))
+    for c in range(network.n_circuits):
+        rows = network.circuit_rows(c)
+        ports = np.flatnonzero(network.port_circuit == c)
+        a0 = k0[..., rows[:, None], rows[None, :]]
+        a1 = k1[..., rows[:, None], rows[None, :]]
+        u = (~network.is_flow[rows]).astype(float)
+        b = network.injection[np.ix_(rows, ports)]  # unit flow at each port of the circuit
+        a1u = a1 @ u  # the compliance of each node (flow rows: 0)
+        alpha = (u @ b) / (a1u @ u)[..., None]  # h_-1 = alpha u per port flow
+        rhs = b - a1u[..., :, None] * alpha[..., None, :]
+        m = len(rows)
+        bordered = np.zeros(batch + (m + 1, m + 1))
+        bordered[..., :m, :m] = a0
+        bordered[..., :m, m] = u
+        bordered[..., m, :m] = u @ a1
+        full_rhs = np.concatenate([rhs, np.zeros(batch + (1, len(ports)))], axis=-2)
+        sol = np.linalg.solve(bordered, full_rhs)[..., :m, :]
+        h0[..., rows[:, None], ports[None, :]] = sol
+    z0 = network.injection.T @ h0  # ports x ports: the regular part of Z_port at s = 0
+    n_arr = np.asarray(n_ports)
+    return np.swapaxes(n_arr, -1, -2) @ z0 @ n_arr
 
 
 def singular_shorts(network: Network, shorted: frozenset[int]) -> frozenset[int]:

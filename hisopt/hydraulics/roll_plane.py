@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.fluid import Fluid
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
+from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
 
 CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = {
@@ -36,9 +37,12 @@ class PipeLayout(BaseModel):
 
 
 class RollPlaneHIS(BaseModel):
-    """Parameters of the roll-plane HIS; the four paper variables first (paper Table 2).
+    """The ``[his]`` table: parameters of the HIS; the four paper variables first (paper Table 2).
 
-    Rear-axle ``dA``, ``lam`` and ``Rv`` are tied to the front ones unless given.
+    Rear-axle ``dA``, ``lam`` and ``Rv`` are tied to the front ones unless given. ``layout``
+    names a catalogue layout (default the paper's roll-plane HIS) or ``"custom"``, whose
+    circuits ``[[his.circuits]]`` spells out; ``[his.parameters]`` gives values to the extra
+    parameters a layout's elements refer to (docs/model.md §12).
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
@@ -56,6 +60,11 @@ class RollPlaneHIS(BaseModel):
     fluid: Fluid = Field(default_factory=Fluid)
     pipes: PipeLayout | None = None
     pipe_model: PipeModel = "lumped"
+    layout: str = Field("roll_plane", min_length=1, description="[-] catalogue layout (hisopt layouts) or 'custom'")
+    parameters: dict[str, float] = Field(default_factory=dict, description="[SI] values of a layout's extra parameters")
+    circuits: list[CircuitSpec] | None = Field(
+        None, min_length=1, description="the circuits of a custom layout (checked together by hisopt.hydraulics.catalogue.layout_problem)"
+    )
 
     @model_validator(mode="after")
     def _distributed_needs_pipes(self) -> RollPlaneHIS:

@@ -164,10 +164,11 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     """
     import plotly.offline
 
+    from hisopt.hydraulics.catalogue import his_parameter_values
     from hisopt.io import atomic_write_text
     from hisopt.modal import modal_analysis
     from hisopt.optim.decision import asf_index, knee_index
-    from hisopt.report import figures
+    from hisopt.report import figures, schematic
     from hisopt.spectra import response_spectra
 
     run_dir = Path(run_dir)
@@ -208,6 +209,8 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         ("Pareto front", figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)),
         ("Designs and objectives", figures.parallel_coordinates(front, variables, objectives, color_by, units)),
         (f"Response spectra of the {chosen_label} design against the car without HIS", response_spectra(problem, x).plot()),
+        (f"HIS layout (values of the {chosen_label} design on hover)",
+         schematic.layout_schematic(problem.layout(), his_parameter_values(problem.spec.his, dict(zip(variables, map(float, x), strict=True))))),
         (f"Modes of the {chosen_label} design",
          html_table(modes, "Modes without and with HIS (paper Table 1): undamped natural frequency f, damping ratio zeta",
                     text_columns=("mode", "motion"))),

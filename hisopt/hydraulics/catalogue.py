@@ -1,0 +1,253 @@
+"""The layout catalogue and the layout of a problem's ``[his]`` table (docs/model.md §12).
+
+``[his] layout = "NAME"`` selects a catalogue entry (default ``"roll_plane"``, the paper's);
+``layout = "custom"`` takes the circuits written in ``[[his.circuits]]``. Each catalogue entry
+is a data file ``hisopt/data/layouts/NAME.toml`` in the same syntax as a custom layout
+(:mod:`hisopt.hydraulics.layout_file`), with a description, its source and the defaults of
+the extra parameters its elements read (``[parameters]``; a problem overrides them in
+``[his.parameters]``). ``roll_plane`` is built by :func:`~hisopt.hydraulics.roll_plane.roll_plane_layout`,
+whose layout without pipes its data file spells out, so that today's results stay bit for bit.
+
+``[his.pipes]`` and ``chamber_volume > 0`` apply to every layout: each chamber gets a pipe
+from its port to the node the layout connects it to (``pipe_length_front``/``_rear``,
+``pipe_diameter``) and the oil volume ``chamber_volume`` at its port
+(:func:`with_chamber_lines`); the roll-plane builder places its pipes after the valves, as
+the paper does.
+"""
+
+from __future__ import annotations
+
+import functools
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from importlib import resources
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from hisopt.errors import ModelError
+from hisopt.hydraulics.layout import (
+    ELEMENT_KINDS,
+    FIELD_LOWER,
+    ChamberCompliance,
+    Circuit,
+    Element,
+    Layout,
+    Pipe,
+    Port,
+    parameter_uses,
+)
+from hisopt.hydraulics.layout_file import CircuitSpec, build_layout, check_circuits, element_label, parameter_fields
+from hisopt.hydraulics.network import FLUID_PARAMETERS, compile_network, element_values, total_compliance
+from hisopt.hydraulics.roll_plane import RollPlaneHIS, parameter_values, roll_plane_layout
+
+CATALOGUE_NAMES = (
+    "roll_plane",
+    "roll_plane_accumulator_valves",
+    "roll_plane_twin_accumulator",
+    "pitch_plane",
+    "axle_roll",
+    "side_front_rear",
+)
+"""The catalogue, in the order ``hisopt layouts`` lists it (one data file each)."""
+
+CUSTOM = "custom"
+"""``[his] layout`` of a layout written in ``[[his.circuits]]``."""
+
+PIPE_PARAMETERS = ("pipe_diameter", "pipe_length_front", "pipe_length_rear")
+"""Parameters ``[his.pipes]`` defines (:func:`hisopt.hydraulics.roll_plane.parameter_values`)."""
+
+CYLINDER_PARAMETERS = ("dA", "lam", "dA_rear", "lam_rear")
+"""Parameters every layout reads through the cylinders (not through its elements)."""
+
+REAR_TIED = ("dA", "lam", "Rv")
+"""``[his]`` values whose rear counterpart (``Rv_rear``) follows them unless given
+(:func:`hisopt.hydraulics.roll_plane.parameter_values`)."""
+
+
+class LayoutFile(BaseModel):
+    """A catalogue data file (module docstring)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    name: str
+    summary: str
+    description: str
+    source: str
+    parameters: dict[str, float] = Field(default_factory=dict)
+    circuits: list[CircuitSpec] = Field(min_length=1)
+
+    @field_validator("circuits")
+    @classmethod
+    def _together(cls, v: list[CircuitSpec]) -> list[CircuitSpec]:
+        problem = check_circuits(v)
+        if problem:
+            raise ValueError(problem)
+        return v
+
+
+@dataclass(frozen=True)
+class CatalogueEntry:
+    """A catalogue layout: its data file's contents and how it is built.
+
+    Attributes
+    ----------
+    name, summary, description, source : [-] texts of the data file
+    parameters : [SI] defaults of the extra parameters the layout's elements read
+    base : the layout without pipes and chamber volumes
+    """
+
+    name: str
+    summary: str
+    description: str
+    source: str
+    parameters: Mapping[str, float]
+    base: Layout
+
+    def layout(self, pipes: bool = False, chamber: bool = False) -> Layout:
+        """The layout with a pipe per chamber (``pipes``) and chamber volumes (``chamber``)."""
+        if self.name == "roll_plane":
+            return roll_plane_layout(pipes=pipes, chamber=chamber)
+        return with_chamber_lines(self.base, pipes, chamber)
+
+
+def _read_entry(name: str) -> CatalogueEntry:
+    path = resources.files("hisopt") / "data" / "layouts" / f"{name}.toml"
+    try:
+        data = LayoutFile.model_validate(tomllib.loads(path.read_text(encoding="utf-8")), strict=True)
+    except (ValidationError, tomllib.TOMLDecodeError) as exc:  # a broken shipped file: an installation error
+        raise ModelError(f"hisopt/data/layouts/{name}.toml: {exc}") from None
+    if data.name != name:
+        raise ModelError(f"hisopt/data/layouts/{name}.toml: name {data.name!r}; expected {name!r}")
+    return CatalogueEntry(name, data.summary, " ".join(data.description.split()), data.source, dict(data.parameters),
+                          build_layout(data.circuits, name))
+
+
+@functools.cache
+def catalogue() -> dict[str, CatalogueEntry]:
+    """Every catalogue entry by name, in :data:`CATALOGUE_NAMES` order (read once)."""
+    return {name: _read_entry(name) for name in CATALOGUE_NAMES}
+
+
+def with_chamber_lines(layout: Layout, pipes: bool, chamber: bool) -> Layout:
+    """``layout`` with a pipe from every chamber's port to its node and/or the oil volume
+    ``chamber_volume`` at every port (module docstring)."""
+    if not (pipes or chamber):
+        return layout
+    circuits = []
+    for circuit in layout.circuits:
+        elements: list[Element] = list(circuit.elements)
+        ports: list[Port] = []
+        taken = set(circuit.nodes)
+        for port in circuit.ports:
+            node = port.node
+            if pipes:
+                node = f"{port.node}.{port.label}"
+                while node in taken:
+                    node += "'"
+                taken.add(node)
+                length = "pipe_length_front" if port.wheel < 2 else "pipe_length_rear"
+                elements.append(Pipe(node, port.node, length, "pipe_diameter"))
+            if chamber:
+                elements.append(ChamberCompliance(node))
+            ports.append(replace(port, node=node))
+        circuits.append(Circuit(circuit.name, tuple(elements), tuple(ports)))
+    return Layout(tuple(circuits), layout.name)
+
+
+# --- the layout of a problem's [his] table ---------------------------------------------------
+def his_fields() -> tuple[str, ...]:
+    """[-] The scalar numeric ``[his]`` values every layout may refer to by name."""
+    return tuple(k for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None))
+
+
+def layout_defaults(his: RollPlaneHIS) -> dict[str, float]:
+    """[SI] The layout's extra parameters: the catalogue defaults, then ``[his.parameters]``."""
+    entry = catalogue().get(his.layout)
+    return {**(dict(entry.parameters) if entry is not None else {}), **his.parameters}
+
+
+def his_layout(his: RollPlaneHIS) -> Layout:
+    """The layout a ``[his]`` table describes, with its pipes and chamber volumes.
+
+    Assumes a validated table (:func:`layout_problem` found nothing).
+    """
+    pipes, chamber = his.pipes is not None, his.chamber_volume > 0
+    if his.layout == CUSTOM:
+        return with_chamber_lines(build_layout(his.circuits or [], CUSTOM), pipes, chamber)
+    return catalogue()[his.layout].layout(pipes, chamber)
+
+
+def his_parameter_values(his: RollPlaneHIS, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Every parameter the layout and the cylinders read: ``[his]`` values, the layout's extra
+    parameters (:func:`layout_defaults`), then ``overrides`` (design variables)."""
+    return parameter_values(his, {**layout_defaults(his), **(overrides or {})})
+
+
+def known_parameters(his: RollPlaneHIS) -> tuple[str, ...]:
+    """[-] Every name an element may refer to: the ``[his]`` values, the layout's extra
+    parameters, the pipe set (with ``[his.pipes]``) and the fluid."""
+    pipes = PIPE_PARAMETERS if his.pipes is not None else ()
+    return tuple(dict.fromkeys((*his_fields(), *layout_defaults(his), *pipes, *FLUID_PARAMETERS)))
+
+
+def used_parameters(layout: Layout) -> set[str]:
+    """[-] The names a layout's elements and cylinders read; a rear value's name (``Rv_rear``)
+    counts its front one (``Rv``) too, which it follows unless given."""
+    used = set(parameter_uses(layout)) | set(CYLINDER_PARAMETERS)
+    return used | {n for n in REAR_TIED if f"{n}_rear" in used}
+
+
+def layout_problem(his: RollPlaneHIS) -> str | None:
+    """What is wrong with the layout of a ``[his]`` table (None: nothing), as one line
+    starting with the key: an unknown catalogue name, circuits without ``layout = "custom"``
+    (or the converse), circuits sharing a chamber or a name, a ``[his.parameters]`` entry that clashes with a ``[his]`` value, is not
+    read by the layout or breaks the rule of an element field that reads it, an element that
+    refers to an unknown parameter, a circuit whose compliance is zero at these values."""
+    if his.layout != CUSTOM and his.layout not in CATALOGUE_NAMES:
+        return f"his.layout: unknown layout {his.layout!r}; expected one of {', '.join(CATALOGUE_NAMES)} or \"custom\" (see hisopt layouts)"
+    if his.layout == CUSTOM and not his.circuits:
+        return 'his.layout: "custom" needs the circuits in [[his.circuits]] tables (docs/model.md §12.2)'
+    if his.layout != CUSTOM and his.circuits:
+        return f'his.circuits: circuits are given but layout = {his.layout!r}; expected layout = "custom" to use them'
+    across = check_circuits(his.circuits or [])
+    if across:
+        return f"his.circuits: {across}"
+    reserved = set(his_fields()) | set(PIPE_PARAMETERS) | set(FLUID_PARAMETERS) | set(CYLINDER_PARAMETERS)
+    for name in his.parameters:
+        if name in reserved:
+            return f"his.parameters.{name}: {name!r} is a [his] value; set it in [his] itself (expected a new name here)"
+    layout = his_layout(his)
+    uses = parameter_uses(layout)
+    for name in his.parameters:
+        if name not in uses:
+            read = ", ".join(n for n in uses if n not in reserved) or "none"
+            return f"his.parameters.{name}: not read by layout {his.layout!r}; expected one of the names its elements read ({read})"
+    known = set(known_parameters(his))
+    for c, circuit in enumerate(layout.circuits):
+        for element in circuit.elements:
+            for key, ref in parameter_fields(element).items():
+                if isinstance(ref, str) and ref not in known:
+                    extra = ", ".join(his.parameters) or "none yet"
+                    return (f"his.circuits: {element_label(layout, c, element)}: {key} refers to the unknown parameter {ref!r}; "
+                            f"expected a number, a [his] value ({', '.join(his_fields())}) or a name defined in [his.parameters] ({extra})")
+    values = his_parameter_values(his)
+    for name, value in his.parameters.items():
+        for cls, key in uses[name]:
+            lower, closed = FIELD_LOWER[(cls, key)]
+            if not (value >= lower if closed else value > lower):
+                rule = f"{name} {'>=' if closed else '>'} {lower:g}"
+                return f"his.parameters.{name}: expected {rule} (it is the {key} of a {ELEMENT_KINDS[cls]}), got {value:g}"
+    return _zero_compliance(layout, values)
+
+
+def _zero_compliance(layout: Layout, values: Mapping[str, Any]) -> str | None:
+    """A circuit whose every compliance is zero at ``values`` (None: none)."""
+    network = compile_network(layout, "lumped")
+    resolved = element_values(network, values)
+    for c, circuit in enumerate(layout.circuits):
+        if not float(total_compliance(network, resolved, c)) > 0.0:
+            return (f"his.circuits: circuit {circuit.name!r} has no compliance at these values (every oil volume is 0); "
+                    "expected an accumulator or a non-zero volume")
+    return None
