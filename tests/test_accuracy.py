@@ -88,15 +88,22 @@ def test_pipes_of_1e10_m_are_repaired_never_reported_wrong(problem, rng):
         assert np.all(~fast["valid"][~ok])  # anything not repaired is flagged, never valid
 
 
-@pytest.mark.parametrize("case", ["no_pipes", "pipes"])
+@pytest.mark.parametrize("case", ["no_pipes", "pipes", "twin_accumulator"])
 def test_symmetric_split_equals_full_path_within_1e10(problem, rng, case, monkeypatch):
-    p = variant(problem, 10.0, CASES[case])
+    if case == "twin_accumulator":  # hydraulic states in both halves
+        from tests.conftest import ROOT
+
+        p = hisopt.load_problem(ROOT / "problems" / "layout_roll_plane_twin_accumulator.toml")
+    else:
+        p = variant(problem, 10.0, CASES[case])
     x = random_designs(p, 20, rng)
     split = p.evaluator()(x)
     monkeypatch.setattr(evaluate, "split", lambda ss, mirror: None)
     full = evaluate.Evaluator(p)(x)
-    for name in METRICS:
-        np.testing.assert_allclose(split[name], full[name], rtol=1e-10, atol=0, err_msg=name)
+    # (with hydraulic states in the model the residues carry its conditioning: 2e-10 measured)
+    rtol = 1e-9 if case == "twin_accumulator" else 1e-10
+    for name in p.objective_names:
+        np.testing.assert_allclose(split[name], full[name], rtol=rtol, atol=0, err_msg=name)
 
 
 def test_symmetry_is_detected_from_the_data(problem, rng):
@@ -111,3 +118,36 @@ def test_symmetry_is_detected_from_the_data(problem, rng):
     broken = ss.a.copy()
     broken[:, 10, 3] *= 1 + 1e-6  # a FL wheel coefficient no longer equals its FR image
     assert split(dataclasses.replace(ss, a=broken), state_mirror(model, ss)) is None
+
+
+@pytest.fixture(scope="module")
+def asymmetric(tmp_path_factory) -> hisopt.Problem:
+    """The custom roll-plane layout with circuit B's accumulator half as large again as A's:
+    no left-right mirror image, so the whole model is evaluated in one form."""
+    from tests.conftest import ROOT
+
+    text = (ROOT / "problems" / "layout_custom_roll_plane.toml").read_text()
+    text = text.replace('{ type = "accumulator", node = "B", volume = "V0",', '{ type = "accumulator", node = "B", volume = "V0_B",')
+    text = text.replace("\n[variables]", "\n[his.parameters]\nV0_B = 1.5e-3\n\n[variables]", 1)
+    path = tmp_path_factory.mktemp("asymmetric") / "asymmetric.toml"
+    path.write_text(text)
+    return hisopt.load_problem(path)
+
+
+def test_an_asymmetric_layout_is_evaluated_whole_and_within_1e3(asymmetric, rng):
+    from hisopt.symmetry import split, state_mirror
+
+    x = random_designs(asymmetric, 3, rng, corners=False)
+    x = np.vstack([x, asymmetric.lower + (asymmetric.upper - asymmetric.lower) * np.array([[1, 1, 1, 0], [0, 1, 0, 1]])])
+    model = asymmetric.model(x).groups()[0][1]
+    ss = model.state_space()
+    assert split(ss, state_mirror(model, ss)) is None
+    fast = asymmetric.evaluator()(x)
+    data = asymmetric.spec.model_dump(by_alias=True)
+    data["objectives"] = list(METRICS)
+    every = problem_from_dict(data)
+    for name, err in relative_errors(every, x).items():
+        assert err.max() < 1e-3, (name, err.max())
+    # and the asymmetry matters: with equal accumulators the same designs give other values
+    symmetric = asymmetric.with_values(V0_B=1.0e-3)
+    assert not np.allclose(symmetric.evaluator()(x)["sigma_aw"], fast["sigma_aw"], rtol=1e-3)
