@@ -24,11 +24,11 @@ from hisopt.metrics import COMFORT_OUTPUTS, METRICS, Metric
 from hisopt.peaks import refine_maximum
 from hisopt.pole_residue import PoleResidue
 from hisopt.psd import channel_power, comfort_gain_squared, reduce_metrics
-from hisopt.quadrature import panel_nodes, panels, peak_samples, ripple_splits, singularities, split_nodes
+from hisopt.quadrature import MAX_PANELS, POLE_MARGIN, _legendre, design_rho, panel_nodes, panels, peak_samples, ripple_splits, singularities, split_nodes
 from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards import iso_2631_1_1997 as iso2631
-from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
+from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_power_law, temporal_psd
 from hisopt.symmetry import channel_inputs, split, state_mirror
 from hisopt.units import NO_UNIT, attach_units
 from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
@@ -63,6 +63,7 @@ class Evaluator:
         tolerance: float = 1e-4,
     ):
         spec = problem.spec
+        _prime_allocator()
         self.problem = problem
         self.chunk_size = chunk_size
         self.order = order
@@ -85,16 +86,20 @@ class Evaluator:
         self.gd_n0 = class_gd_n0(spec.road.road_class)
         self.speed = spec.road.speed
         self.tau = spec.vehicle.wheelbase / self.speed
+        self.road = temporal_power_law(self.gd_n0, self.speed)  # G(f) = G_1 f^-w
         self.tolerance = tolerance
-        self.forced_edges = np.empty(0)
+        self.forced_edges = np.empty(0)  # [Hz] breakpoints every design's panels keep
         if spec.comfort.method == "band":  # the band method's weighting steps at the band edges
             bands = iso2631.third_octave_bands(self.f_lo, self.f_hi)
             self.forced_edges = np.r_[bands.lower_hz, bands.upper_hz]
         weightings = sorted({wt for o in self.outputs.values() if (wt := o.weighting)})
         fixed = np.r_[0.0, *(iso2631.weighting_poles_hz(wt) for wt in weightings)]  # type: ignore[arg-type]
         self.fixed_singularities = np.unique(np.round(fixed.real, 12) + 1j * np.round(np.abs(fixed.imag), 12))
+        forced = np.unique(self.forced_edges)
+        self._forced = forced[(forced > self.f_lo) & (forced < self.f_hi)]
         self.integrals = _integral_keys(self.metrics, spec.comfort, self.outputs)
         self.weightings = sorted({wt for _, wt in self.integrals if wt})
+        self._gain_polynomials = _padded_polynomials(self.weightings if spec.comfort.method == "filter" else [])
         derived = [self.derived[output] for output, _ in self.integrals]
         self._sums = (  # the integrals for hisopt.kernels.weighted_sums
             np.array([self.base_index[b] for b, _, _ in derived], dtype=np.int64),
@@ -183,6 +188,19 @@ class Evaluator:
         order = np.argsort(f, axis=1, kind="stable")
         return np.take_along_axis(f, order, 1), np.take_along_axis(w, order, 1)
 
+    def _lay(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Panels ``(n, P + 1)``, their nodes and weights ``(n, F)`` and the peak samples: the
+        steps of :meth:`_panels`, :func:`~hisopt.quadrature.panel_nodes` and
+        :func:`~hisopt.quadrature.peak_samples`, compiled together."""
+        from hisopt.kernels import lay_nodes
+
+        rho = design_rho(self.order, self.tolerance / POLE_MARGIN)
+        x, w = _legendre(self.order)
+        return lay_nodes(
+            np.ascontiguousarray(lam, dtype=complex), self.fixed_singularities.astype(complex), self._forced, self.f_lo, self.f_hi,
+            0.5 * (rho + 1.0 / rho), x, w, MAX_PANELS,
+        )
+
     def _panels(self, lam: np.ndarray) -> np.ndarray:
         sing = singularities(lam, self.fixed_singularities)
         return panels(self.f_lo, self.f_hi, self.forced_edges, sing, self.order, self.tolerance)
@@ -191,10 +209,8 @@ class Evaluator:
         """The PSDs at the pole-aware panels' nodes, at the nodes of the panels split for the
         delay ripple (where its bound times the panel's share of an integral exceeds the
         tolerance) and at the peak samples."""
-        edges = self._panels(lam)
-        f, w = panel_nodes(edges, self.order)
+        edges, f, w, f_peak = self._lay(lam)
         n_panels = edges.shape[1] - 1
-        f_peak = peak_samples(lam, self.f_lo, self.f_hi)
         both = self.psd(np.concatenate([f, f_peak], axis=1), source)
         psd = both[:, :, : f.shape[1]]
         totals, panel_abs, panel_sum = self._sums_at(f, w, psd, n_panels)
@@ -221,11 +237,15 @@ class Evaluator:
 
         n, r = len(f), len(self.integrals)
         spec = self.problem.spec
-        gains = np.empty((max(len(self.weightings), 1),) + f.shape)
-        for k, wt in enumerate(self.weightings):
-            gains[k] = comfort_gain_squared(f, wt, spec.comfort, self.f_lo, self.f_hi)
+        num, den = self._gain_polynomials
+        if num.shape[0] or not self.weightings:
+            gains = np.empty((0, 0, 0))
+        else:  # the band method's steps: tabulated at the nodes
+            gains = np.stack([comfort_gain_squared(f, wt, spec.comfort, self.f_lo, self.f_hi) for wt in self.weightings])
         totals, panel_abs, panel_sum = np.empty((n, r)), np.empty((n, n_panels, r)), np.empty((n, n_panels, r))
-        weighted_sums(np.ascontiguousarray(f), np.ascontiguousarray(w), np.ascontiguousarray(psd), gains, *self._sums, self.order, totals, panel_abs, panel_sum)
+        weighted_sums(
+            np.ascontiguousarray(f), np.ascontiguousarray(w), np.ascontiguousarray(psd), gains, num, den, *self._sums, self.order, totals, panel_abs, panel_sum
+        )
         return totals, panel_abs, panel_sum
 
     def coherence(self, f_hz: np.ndarray) -> np.ndarray | None:
@@ -247,7 +267,7 @@ class Evaluator:
     def psd(self, f_hz: np.ndarray, source: Channels, output_of: np.ndarray | None = None) -> np.ndarray:
         """One-sided PSDs ``(n_out, n, F)`` of the outputs of ``source`` at ``f_hz`` (n, F)
         (``output_of``: per column, the one output needed there, or -1 for all)."""
-        return source.power(f_hz, self.tau, self.coherence(f_hz), output_of, temporal_psd(f_hz, self.gd_n0, self.speed))
+        return source.power(f_hz, self.tau, self.coherence(f_hz), output_of, self.road)
 
     def quantities(self, lam: np.ndarray, frf: Channels, model: CoupledModel) -> dict[str, np.ndarray]:
         """All requested metrics from poles (for the nodes) and the road channels' FRFs."""
@@ -344,11 +364,11 @@ class Channels(Protocol):
         ...
 
     def power(
-        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, road: tuple[float, float] | None = None
     ) -> np.ndarray:
-        """Output PSDs per unit road PSD at ``f_hz`` (n, F), ``(n_out, n, F)``, times ``scale``
-        (n, F) if given (``output_of``: per column, the one output needed there, or -1 for
-        all; the others may be left 0)."""
+        """Output PSDs per unit road PSD at ``f_hz`` (n, F), ``(n_out, n, F)``, times the road
+        PSD ``G_1 f^-w`` if ``road = (G_1, w)`` is given (``output_of``: per column, the one
+        output needed there, or -1 for all; the others may be left 0)."""
         ...
 
 
@@ -427,16 +447,15 @@ class ModalChannels:
         return (self.forms["sym"].kernel_terms([0, 1]), self.forms["anti"].kernel_terms([0, 1]))
 
     def power(
-        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, road: tuple[float, float] | None = None
     ) -> np.ndarray:
         from hisopt.kernels import channel_psd
 
         f_hz = np.ascontiguousarray(f_hz, dtype=float)
         out = np.empty((self.n_out,) + f_hz.shape)
-        g = np.zeros(f_hz.shape) if coherence is None else np.ascontiguousarray(coherence, dtype=float)
+        g = np.empty((0, 0)) if coherence is None else np.ascontiguousarray(coherence, dtype=float)
         which = np.full(f_hz.shape[1], -1, dtype=np.int64) if output_of is None else np.asarray(output_of, dtype=np.int64)
-        factor = np.ones_like(f_hz) if scale is None else np.ascontiguousarray(scale, dtype=float)
-        channel_psd(f_hz, float(tau), g, *self._arguments, which, factor, out)
+        channel_psd(f_hz, float(tau), g, *self._arguments, which, (1.0, 0.0) if road is None else road, out)
         return out
 
     def __call__(self, omega: np.ndarray) -> dict[str, Pair]:
@@ -468,10 +487,10 @@ class DirectOutputs:
         return {"sym": (sym.real, sym.imag), "anti": (anti.real, anti.imag)}
 
     def power(
-        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, road: tuple[float, float] | None = None
     ) -> np.ndarray:
         power = np.moveaxis(frf_power(self(2 * np.pi * f_hz), f_hz, tau, coherence), -1, 0)
-        return power if scale is None else scale * power
+        return power if road is None else road[0] * f_hz ** -road[1] * power
 
 
 class MixedChannels:
@@ -488,11 +507,11 @@ class MixedChannels:
         return out
 
     def power(
-        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, scale: np.ndarray | None = None
+        self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, road: tuple[float, float] | None = None
     ) -> np.ndarray:
-        out = self.fast.power(f_hz, tau, coherence, output_of, scale)
+        out = self.fast.power(f_hz, tau, coherence, output_of, road)
         g = None if coherence is None else coherence[self.use_slow]
-        out[:, self.use_slow] = self.slow.power(f_hz[self.use_slow], tau, g, None, None if scale is None else scale[self.use_slow])
+        out[:, self.use_slow] = self.slow.power(f_hz[self.use_slow], tau, g, None, road)
         return out
 
 
@@ -507,6 +526,35 @@ def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, O
 
     reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
     return list(dict.fromkeys(keys))
+
+
+def _padded_polynomials(weightings: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The weightings' ``|W|^2`` numerators and denominators in ``f^2``, zero-padded to common
+    lengths, ``(W, D)`` each (``(0, 1)`` for none)."""
+    pairs = [iso2631.weighting_gain_polynomials(wt) for wt in weightings]  # type: ignore[arg-type]
+    out = []
+    for part in (0, 1):
+        width = max([len(p[part]) for p in pairs], default=1)
+        out.append(np.array([np.pad(p[part], (0, width - len(p[part]))) for p in pairs]).reshape(len(pairs), width))
+    return out[0], out[1]
+
+
+_PRIMED: list[bool] = []
+
+
+def _prime_allocator(block_bytes: int = 16 << 20) -> None:
+    """Allocate and free one 16 MB block, once per process.
+
+    A chunk's numpy temporaries are up to a few MB each. glibc's malloc serves blocks that
+    large by mmap and returns them to the system when freed, until its adaptive threshold has
+    grown past them (it grows on freeing such a block), so every chunk would fault its
+    arrays' pages in afresh: about a fifth of the evaluator's time on the default problem.
+    Freeing one block larger than any of them raises the threshold at once (glibc's own rule;
+    elsewhere this is a harmless allocation).
+    """
+    if not _PRIMED:
+        np.ones(block_bytes // 8)
+        _PRIMED.append(True)
 
 
 def channel_feedthrough(outputs: list[Output]) -> dict[str, list[np.ndarray]]:

@@ -13,58 +13,81 @@ numbers are the same in any batch, on any number of threads.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
-from numba import njit
 
-from hisopt.psd import channel_power
+
+def _numba_without_cffi_or_blas() -> None:
+    """Import numba with its optional cffi and BLAS support off, unless those modules are loaded
+    already. On first use numba imports cffi and pycparser (0.1 s) only to type cffi functions,
+    and scipy.linalg (0.08 s) only so that np.dot works inside compiled code; hisopt's kernels
+    use neither, and the CLI's start-up is what pays. Both stay importable afterwards."""
+    blocked = [name for name in ("cffi", "scipy.linalg") if name not in sys.modules]
+    for name in blocked:
+        sys.modules[name] = None  # type: ignore[assignment]  # makes "import name" fail in numba
+    try:
+        import numba.core.typing.cffi_utils  # noqa: F401
+        import numba.np.arraymath  # noqa: F401  # decides once whether BLAS is available
+    finally:
+        for name in blocked:
+            del sys.modules[name]
+
+
+_numba_without_cffi_or_blas()
+
+from numba import njit  # noqa: E402
+
+from hisopt.psd import channel_power  # noqa: E402
 
 _channel_power = njit(cache=True, inline="always")(channel_power)
 
 
+@njit(cache=True)
+def _single_poles(w: float, lam_1: np.ndarray, r_re: np.ndarray, r_im: np.ndarray, h_re: np.ndarray, h_im: np.ndarray) -> None:
+    """Adds ``sum rho / (j w - lambda)`` over single poles to every column."""
+    for k in range(lam_1.shape[0]):
+        a = -lam_1[k].real
+        b = w - lam_1[k].imag
+        inv = 1.0 / (a * a + b * b)
+        c_re, c_im = a * inv, -b * inv
+        for j in range(r_re.shape[1]):
+            h_re[j] += c_re * r_re[k, j] - c_im * r_im[k, j]
+            h_im[j] += c_re * r_im[k, j] + c_im * r_re[k, j]
+
+
 @njit(cache=True, inline="always")
-def _channel_frfs(
-    w: float,
-    lam_p: np.ndarray,
-    alpha: np.ndarray,
-    beta: np.ndarray,
-    lam_1: np.ndarray,
-    r_re: np.ndarray,
-    r_im: np.ndarray,
-    poly: np.ndarray,
-    h_re: np.ndarray,
-    h_im: np.ndarray,
-) -> None:
+def _channel_frfs(w: float, lam_p: np.ndarray, alpha: np.ndarray, beta: np.ndarray, poly: np.ndarray, h_re: np.ndarray, h_im: np.ndarray) -> None:
     """``h_j`` of every column ``j`` (axle and output) of one channel at ``s = j w``:
-    ``sum (alpha + s beta) / (s^2 - 2 s Re(lambda) + |lambda|^2)`` over the conjugate pairs,
-    ``sum rho / (s - lambda)`` over the other poles, ``sum s^m poly_m``
-    (:func:`hisopt.pole_residue.conjugate_pairs`); the column loops are innermost."""
+    ``sum (alpha + s beta) / (s^2 - 2 s Re(lambda) + |lambda|^2)`` over the conjugate pairs
+    plus ``sum s^m poly_m`` (:func:`hisopt.pole_residue.conjugate_pairs`; the other poles:
+    :func:`_single_poles`); the column loops are innermost, so they vectorise."""
     n_col = alpha.shape[1]
-    h_re[:] = 0.0
-    h_im[:] = 0.0
+    if poly.shape[0] > 0:  # the constant term (road feedthrough) starts the sums
+        for j in range(n_col):
+            h_re[j] = poly[0, j]
+            h_im[j] = 0.0
+    else:
+        for j in range(n_col):
+            h_re[j] = 0.0
+            h_im[j] = 0.0
     for k in range(lam_p.shape[0]):
-        d_re = lam_p[k].real * lam_p[k].real + lam_p[k].imag * lam_p[k].imag - w * w
-        d_im = -2.0 * w * lam_p[k].real
+        lr, li = lam_p[k].real, lam_p[k].imag
+        d_re = lr * lr + li * li - w * w
+        d_im = -2.0 * w * lr
         inv = 1.0 / (d_re * d_re + d_im * d_im)
         c_re, c_im = d_re * inv, -d_im * inv  # 1 / D
         wc_re, wc_im = w * c_re, w * c_im
         for j in range(n_col):
             h_re[j] += alpha[k, j] * c_re - beta[k, j] * wc_im
             h_im[j] += alpha[k, j] * c_im + beta[k, j] * wc_re
-    for k in range(lam_1.shape[0]):
-        a = -lam_1[k].real
-        b = w - lam_1[k].imag
-        inv = 1.0 / (a * a + b * b)
-        c_re, c_im = a * inv, -b * inv
-        for j in range(n_col):
-            h_re[j] += c_re * r_re[k, j] - c_im * r_im[k, j]
-            h_im[j] += c_re * r_im[k, j] + c_im * r_re[k, j]
-    jw_re, jw_im = 1.0, 0.0
-    for m in range(poly.shape[0]):
-        for j in range(n_col):
-            h_re[j] += jw_re * poly[m, j]
-            h_im[j] += jw_im * poly[m, j]
-        jw_re, jw_im = -jw_im * w, jw_re * w
+    if poly.shape[0] > 1:  # derivative terms: (j w)^m
+        jw_re, jw_im = 0.0, w
+        for m in range(1, poly.shape[0]):
+            for j in range(n_col):
+                h_re[j] += jw_re * poly[m, j]
+                h_im[j] += jw_im * poly[m, j]
+            jw_re, jw_im = -jw_im * w, jw_re * w
 
 
 @njit(cache=True)
@@ -75,17 +98,17 @@ def channel_psd(
     sym: tuple[np.ndarray, ...],
     anti: tuple[np.ndarray, ...],
     output_of: np.ndarray,
-    scale: np.ndarray,
+    road: tuple[float, float],
     out: np.ndarray,
 ) -> None:
-    """``out[o, i, q]``: output ``o``'s PSD at ``f_hz[i, q]`` [Hz], ``scale[i, q]`` (the road
-    PSD there) times its PSD per unit road PSD.
+    """``out[o, i, q]``: output ``o``'s PSD at ``f_hz[i, q]`` [Hz]: the road PSD there,
+    ``G_1 f^-w`` with ``road = (G_1, w)``, times its PSD per unit road PSD.
 
     Parameters
     ----------
     f_hz : ``(n, F)`` frequencies per design (a node equal to the one before it is copied)
     tau : [s] rear-wheel delay
-    coherence : ``(n, F)`` left-right coherence (0: independent tracks)
+    coherence : ``(n, F)`` left-right coherence, or ``(0, 0)`` for independent tracks
     sym, anti : each road channel's ``(lam_pair, alpha, beta, lam_single, rho_single.real,
         rho_single.imag, poly, column)``: :func:`hisopt.pole_residue.conjugate_pairs` of its
         ``C`` columns that are not zero by structure, polynomial terms ``(n, P, C)`` and
@@ -93,11 +116,13 @@ def channel_psd(
         none (a zero column)
     output_of : ``(F,)`` the one output wanted at each column (``-1``: all; the others are
         left as zeros)
-    scale : ``(n, F)`` factor of every output's PSD
+    road : the road PSD's power law (:func:`hisopt.standards.iso_8608_2016.temporal_power_law`)
     out : ``(O, n, F)`` result, written in place
     """
     n, nf = f_hz.shape
     n_out = out.shape[0]
+    g1, exponent = road
+    coherent = coherence.shape[0] > 0
     lp_s, al_s, be_s, l1_s, rr_s, ri_s, po_s, col_s = sym
     lp_a, al_a, be_a, l1_a, rr_a, ri_a, po_a, col_a = anti
     # One more column than the channel has, always 0: where a structural zero's -1 points.
@@ -107,24 +132,35 @@ def channel_psd(
     ha_im = np.zeros(al_a.shape[2] + 1)
     out[:] = 0.0
     for i in range(n):
+        # this design's terms, taken once (not per frequency)
+        lps, als, bes, l1s, rrs, ris, pos = lp_s[i], al_s[i], be_s[i], l1_s[i], rr_s[i], ri_s[i], po_s[i]
+        lpa, ala, bea, l1a, rra, ria, poa = lp_a[i], al_a[i], be_a[i], l1_a[i], rr_a[i], ri_a[i], po_a[i]
         for q in range(nf):
             if q > 0 and f_hz[i, q] == f_hz[i, q - 1] and output_of[q] == output_of[q - 1]:
                 for o in range(n_out):
                     out[o, i, q] = out[o, i, q - 1]
                 continue
             w = 2.0 * math.pi * f_hz[i, q]
-            _channel_frfs(w, lp_s[i], al_s[i], be_s[i], l1_s[i], rr_s[i], ri_s[i], po_s[i], hs_re, hs_im)
-            _channel_frfs(w, lp_a[i], al_a[i], be_a[i], l1_a[i], rr_a[i], ri_a[i], po_a[i], ha_re, ha_im)
+            _channel_frfs(w, lps, als, bes, pos, hs_re, hs_im)
+            _channel_frfs(w, lpa, ala, bea, poa, ha_re, ha_im)
+            # real (or unpaired) poles, rare: apart, so the pairs' loops stay vectorised
+            if l1s.shape[0] > 0:
+                _single_poles(w, l1s, rrs, ris, hs_re, hs_im)
+            if l1a.shape[0] > 0:
+                _single_poles(w, l1a, rra, ria, ha_re, ha_im)
             cos_t, sin_t = math.cos(w * tau), math.sin(w * tau)
+            g = coherence[i, q] if coherent else 0.0
+            f = f_hz[i, q]
+            road_psd = g1 / (f * f) if exponent == 2.0 else g1 * f**-exponent  # w = 2: ISO 8608's classes
             first, last = (0, n_out) if output_of[q] < 0 else (output_of[q], output_of[q] + 1)
             for o in range(first, last):
                 sf, sr, af, ar = col_s[0, o], col_s[1, o], col_a[0, o], col_a[1, o]
-                out[o, i, q] = scale[i, q] * _channel_power(
+                out[o, i, q] = road_psd * _channel_power(
                     ((hs_re[sf], hs_im[sf]), (hs_re[sr], hs_im[sr])),
                     ((ha_re[af], ha_im[af]), (ha_re[ar], ha_im[ar])),
                     cos_t,
                     sin_t,
-                    coherence[i, q],
+                    g,
                 )
 
 
@@ -211,6 +247,8 @@ def weighted_sums(
     w_hz: np.ndarray,
     psd: np.ndarray,
     gains: np.ndarray,
+    gain_num: np.ndarray,
+    gain_den: np.ndarray,
     base: np.ndarray,
     power: np.ndarray,
     scale2: np.ndarray,
@@ -223,14 +261,16 @@ def weighted_sums(
     """The quadrature sums of every integral ``r`` over one batch's nodes, in node order.
 
     The integrand of ``r`` at a node is ``|W|^2 scale2 omega^(2 power) S_base`` (the
-    weighting ``gains[gain_of[r]]``, none for -1; a derived output's PSD from its base's,
-    as :meth:`hisopt.evaluate.Evaluator._derive`).
+    weighting ``gain_of[r]``, none for -1; a derived output's PSD from its base's, as
+    :meth:`hisopt.evaluate.Evaluator._derive`).
 
     Parameters
     ----------
     f_hz, w_hz : ``(n, F)`` nodes and weights
     psd : ``(O, n, F)`` the base outputs' PSDs
-    gains : ``(W, n, F)`` squared weightings at the nodes
+    gains : ``(W, n, F)`` squared weightings at the nodes, used when ``gain_num`` has no rows
+    gain_num, gain_den : ``(W, D)`` else the weightings as rational functions of ``f^2``
+        (ascending coefficients, zero-padded: :func:`hisopt.standards.iso_2631_1_1997.weighting_gain_squared`)
     base, power, scale2, gain_of : ``(R,)`` each integral's base output, power of
         ``omega^2``, squared scale and weighting
     panel_size : nodes per panel of the first ``panel_sum.shape[1] * panel_size`` nodes
@@ -240,6 +280,9 @@ def weighted_sums(
     n, nf = f_hz.shape
     n_int = base.shape[0]
     n_panel_nodes = panel_sum.shape[1] * panel_size
+    rational = gain_num.shape[0] > 0
+    n_gain = gain_num.shape[0] if rational else gains.shape[0]
+    gain = np.empty(max(n_gain, 1))
     totals[:] = 0.0
     panel_abs[:] = 0.0
     panel_sum[:] = 0.0
@@ -249,14 +292,26 @@ def weighted_sums(
             wq = w_hz[i, q]
             if wq == 0.0:
                 continue
-            omega2 = (two_pi * f_hz[i, q]) ** 2
+            f = f_hz[i, q]
+            omega2 = (two_pi * f) ** 2
+            for k in range(n_gain):
+                if rational:
+                    x = f * f
+                    num, den = gain_num[k, -1], gain_den[k, -1]
+                    for c in range(gain_num.shape[1] - 2, -1, -1):
+                        num = num * x + gain_num[k, c]
+                    for c in range(gain_den.shape[1] - 2, -1, -1):
+                        den = den * x + gain_den[k, c]
+                    gain[k] = num / den
+                else:
+                    gain[k] = gains[k, i, q]
             p = q // panel_size
             for r in range(n_int):
                 g = wq * scale2[r] * psd[base[r], i, q]
                 for _ in range(power[r]):
                     g *= omega2
                 if gain_of[r] >= 0:
-                    g *= gains[gain_of[r], i, q]
+                    g *= gain[gain_of[r]]
                 totals[i, r] += g
                 if q < n_panel_nodes:
                     panel_abs[i, p, r] += abs(g)
@@ -396,3 +451,72 @@ def mirror_deviation(a: np.ndarray, image: np.ndarray, sign: np.ndarray, parity:
                 ic, sc = (image[c], sign[c]) if square else (c, 1.0)
                 worst = max(worst, abs(parity * sign[r] * sc * a[i, image[r], ic] - a[i, r, c]) / scale)
     return worst
+
+
+@njit(cache=True)
+def lay_nodes(
+    poles: np.ndarray,
+    fixed: np.ndarray,
+    forced: np.ndarray,
+    f_lo: float,
+    f_hi: float,
+    kappa: float,
+    gl_x: np.ndarray,
+    gl_w: np.ndarray,
+    max_panels: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every design's panels, their Gauss-Legendre nodes and the peak samples, in one pass
+    (the steps of :mod:`hisopt.quadrature`, compiled together).
+
+    Parameters
+    ----------
+    poles : ``(n, k)`` [rad/s] the designs' poles (singularities at ``(Im - j Re) / 2 pi``,
+        undamped ones moved off the axis by ``1e-9 |f|``; non-finite ones ignored)
+    fixed : ``(S,)`` [Hz] singularities of every design (upper half plane)
+    forced, f_lo, f_hi, kappa : as :func:`panel_edges`
+    gl_x, gl_w : Gauss-Legendre nodes and weights on [-1, 1]
+    max_panels : panels per design at most
+
+    Returns
+    -------
+    edges ``(n, P + 1)`` (NaN after each row's last), nodes and weights ``(n, P order)``
+    (unused panels: nodes at ``f_hi``, weight 0), peak samples ``(n, k + 2)`` (the band
+    limits and every in-band damped frequency, ``f_hi`` for the others; sorted).
+    """
+    n, k = poles.shape
+    sing = np.empty((n, k + fixed.shape[0]), dtype=np.complex128)
+    peaks = np.empty((n, k + 2))
+    for i in range(n):
+        for j in range(k):
+            lam = poles[i, j]
+            fr, fi = lam.imag / (2 * math.pi), lam.real / (2 * math.pi)
+            height = max(abs(fi), 1e-9 * math.sqrt(fr * fr + fi * fi))
+            sing[i, j] = complex(fr, height)
+            peaks[i, j + 2] = fr if f_lo < fr < f_hi else f_hi
+        for j in range(fixed.shape[0]):
+            sing[i, k + j] = fixed[j]
+        peaks[i, 0], peaks[i, 1] = f_lo, f_hi
+        peaks[i] = np.sort(peaks[i])
+    edges = np.empty((n, max_panels + 1))
+    used = panel_edges(f_lo, f_hi, forced, sing, kappa, edges)
+    edges = edges[:, :used]
+    order = gl_x.shape[0]
+    n_panels = used - 1
+    f = np.empty((n, n_panels * order))
+    w = np.empty((n, n_panels * order))
+    for i in range(n):
+        top = f_lo
+        for p in range(used):
+            if edges[i, p] == edges[i, p]:
+                top = edges[i, p]
+        for p in range(n_panels):
+            lo, hi = edges[i, p], edges[i, p + 1]
+            if not hi == hi:  # padding: zero-width panels at the last breakpoint
+                lo = hi = top
+            elif not lo == lo:
+                lo = top
+            half, mid = 0.5 * (hi - lo), 0.5 * (hi + lo)
+            for q in range(order):
+                f[i, p * order + q] = mid + half * gl_x[q]
+                w[i, p * order + q] = half * gl_w[q]
+    return edges, f, w, peaks

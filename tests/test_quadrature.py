@@ -97,21 +97,32 @@ def test_compiled_kernel_equals_numpy_channel_power(problem, rng, coherence):
     assert not np.any(np.delete(only, 3, axis=0))
 
 
-def test_weighted_sums_equal_numpy_sums(rng):
+@pytest.mark.parametrize("rational", [False, True])
+def test_weighted_sums_equal_numpy_sums(rng, rational):
+    from hisopt.standards.iso_2631_1_1997 import weighting_gain_polynomials, weighting_gain_squared
+
     n, nf, order = 5, 12, 4
     f = np.sort(rng.uniform(0.5, 80, (n, nf)), axis=1)
     w = rng.uniform(0, 1, (n, nf))
     psd = rng.uniform(0, 1, (3, n, nf))
-    gains = rng.uniform(0, 1, (2, n, nf))
+    if rational:  # the ISO weightings' own polynomials, evaluated in the loop
+        (nk, dk), (nd, dd) = weighting_gain_polynomials("Wk"), weighting_gain_polynomials("Wd")
+        width_n, width_d = max(len(nk), len(nd)), max(len(dk), len(dd))
+        num = np.array([np.pad(nk, (0, width_n - len(nk))), np.pad(nd, (0, width_n - len(nd)))])
+        den = np.array([np.pad(dk, (0, width_d - len(dk))), np.pad(dd, (0, width_d - len(dd)))])
+        gains, table = np.empty((0, 0, 0)), np.stack([weighting_gain_squared(f, "Wk"), weighting_gain_squared(f, "Wd")])
+    else:
+        num = den = np.empty((0, 1))
+        gains = table = rng.uniform(0, 1, (2, n, nf))
     base, power, scale2, gain_of = np.array([0, 2, 1]), np.array([0, 2, 1]), np.array([1.0, 4.0, 0.5]), np.array([-1, 0, 1])
     totals, panel_abs, panel_sum = np.empty((n, 3)), np.empty((n, nf // order, 3)), np.empty((n, nf // order, 3))
-    kernels.weighted_sums(f, w, psd, gains, base, power, scale2, gain_of, order, totals, panel_abs, panel_sum)
+    kernels.weighted_sums(f, w, psd, gains, num, den, base, power, scale2, gain_of, order, totals, panel_abs, panel_sum)
     omega2 = (2 * np.pi * f) ** 2
     for r in range(3):
-        g = w * scale2[r] * omega2 ** power[r] * psd[base[r]] * (gains[gain_of[r]] if gain_of[r] >= 0 else 1.0)
-        np.testing.assert_allclose(totals[:, r], g.sum(axis=1), rtol=1e-13)
-        np.testing.assert_allclose(panel_sum[:, :, r], g.reshape(n, -1, order).sum(axis=2), rtol=1e-13)
-        np.testing.assert_allclose(panel_abs[:, :, r], np.abs(g).reshape(n, -1, order).sum(axis=2), rtol=1e-13)
+        g = w * scale2[r] * omega2 ** power[r] * psd[base[r]] * (table[gain_of[r]] if gain_of[r] >= 0 else 1.0)
+        np.testing.assert_allclose(totals[:, r], g.sum(axis=1), rtol=1e-12)
+        np.testing.assert_allclose(panel_sum[:, :, r], g.reshape(n, -1, order).sum(axis=2), rtol=1e-12)
+        np.testing.assert_allclose(panel_abs[:, :, r], np.abs(g).reshape(n, -1, order).sum(axis=2), rtol=1e-12)
 
 
 def test_balancing_evens_rows_and_columns():

@@ -175,6 +175,13 @@ _GAIN2_POLYNOMIALS = {name: _gain2_polynomials(p) for name, p in WEIGHTINGS.item
 """Precomputed ``(num, den)`` of ``|W|^2`` in ``x = f^2`` for :func:`weighting_gain_squared`."""
 
 
+def weighting_gain_polynomials(name: WeightingName) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(num, den)``: ``|W|^2 = num(f^2) / den(f^2)``, ascending coefficients (what
+    :func:`weighting_gain_squared` evaluates, for loops that evaluate it themselves)."""
+    _params(name)
+    return _GAIN2_POLYNOMIALS[name]
+
+
 def weighting_gain_squared(f_hz: ArrayLike, name: WeightingName) -> NDArray[np.float64]:
     """Squared weighting factor ``|W(f)|^2``, real arithmetic only (fast path for hot loops).
 

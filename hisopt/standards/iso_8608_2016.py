@@ -144,6 +144,13 @@ def temporal_psd(
     return spatial_psd(np.asarray(f_hz, dtype=float) / v, gd_n0, waviness) / v
 
 
+def temporal_power_law(gd_n0: float, speed_mps: float, waviness: float = WAVINESS) -> tuple[float, float]:
+    """``(G_1, w)`` with :func:`temporal_psd` ``G(f) = G_1 f^-w`` [m^2/Hz, f in Hz]:
+    ``G_1 = G_d(n0) (n0 v)^w / v`` (the form a compiled loop evaluates per frequency)."""
+    _check_positive(speed_mps=speed_mps)
+    return float(gd_n0 * (N0_CYCLES_PER_M * speed_mps) ** waviness / speed_mps), float(waviness)
+
+
 def temporal_variance(
     f1_hz: ArrayLike,
     f2_hz: ArrayLike,
