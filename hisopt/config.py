@@ -19,6 +19,7 @@ from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_problem, used_parameters
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
+from hisopt.payload import Payload
 from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
@@ -80,10 +81,14 @@ class Comfort(_Strict):
 
 
 class Constraint(_Strict):
-    """``value <= limit``, normalised for optimisers as ``value / limit - 1 <= 0``."""
+    """``value <= limit``, normalised for optimisers as ``value / limit - 1 <= 0``.
+
+    In a scenario problem the limit holds in every scenario, or in those ``scenarios`` names.
+    """
 
     name: str
     limit: float = Field(gt=0)
+    scenarios: list[str] | None = Field(None, min_length=1)
 
     @field_validator("name")
     @classmethod
@@ -91,6 +96,33 @@ class Constraint(_Strict):
         if v not in OBJECTIVE_NAMES:
             raise ValueError(f"unknown constraint {v!r}; expected one of {', '.join(OBJECTIVE_NAMES)}")
         return v
+
+
+class Scenario(_Strict):
+    """A load case: a road at a speed, an optional payload, and its weight (docs/model.md §13).
+
+    ``road`` defaults to the problem's ``[road]``; the weight is relative (normalised over the
+    problem's scenarios) and enters ``expected`` and ``cvar`` aggregation.
+    """
+
+    name: str = Field(min_length=1, max_length=40)
+    road: Road | None = None
+    payload: Payload | None = None
+    weight: float = Field(1.0, gt=0)
+
+    @field_validator("name")
+    @classmethod
+    def _plain(cls, v: str) -> str:
+        if not all(ch.isalnum() or ch in "_-" for ch in v):
+            raise ValueError(f"expected letters, digits, '_' or '-' (the name becomes part of column names like sigma_aw@{v!s}), got {v!r}")
+        return v
+
+
+class Robust(_Strict):
+    """How a scenario problem's objectives combine its scenarios (docs/model.md §13.3)."""
+
+    aggregate: Literal["worst", "expected", "cvar", "per_scenario"] = "worst"
+    alpha: float = Field(0.8, ge=0, lt=1, description="[-] CVaR level: the mean of the worst 1 - alpha of the weight")
 
 
 class Optimizer(_Strict):
@@ -118,6 +150,9 @@ class ProblemSpec(_Strict):
     )
     constraints: list[Constraint] = Field(default_factory=list)
     optimizer: Optimizer = Field(default_factory=Optimizer)
+    payload: Payload | None = None
+    scenarios: list[Scenario] = Field(default_factory=list)
+    robust: Robust = Field(default_factory=Robust)
 
     @field_validator("objectives")
     @classmethod
@@ -140,6 +175,30 @@ class ProblemSpec(_Strict):
         if twice:
             raise ValueError(f"{twice[0]!r} is constrained twice; expected one [[constraints]] table per quantity")
         return v
+
+    @model_validator(mode="after")
+    def _scenarios_consistent(self) -> ProblemSpec:
+        names = [sc.name for sc in self.scenarios]
+        twice = [n for i, n in enumerate(names) if n in names[:i]]
+        if twice:
+            raise ValueError(f"scenarios: {twice[0]!r} is named twice; expected each scenario name once")
+        if self.scenarios and self.payload is not None:
+            raise ValueError("payload: a problem with [[scenarios]] gives each scenario its payload; expected no top-level [payload]")
+        for c in self.constraints:
+            unknown = [n for n in c.scenarios or [] if n not in names]
+            if unknown:
+                known = ", ".join(names) or "none: the problem has no [[scenarios]]"
+                raise ValueError(f"constraints: {c.name} names scenario {unknown[0]!r}; expected one of {known}")
+        for c in self.constraints if self.scenarios else []:
+            worst_everywhere = self.robust.aggregate in ("worst", "per_scenario") and c.scenarios is None
+            if c.name in self.objectives and not worst_everywhere:
+                raise ValueError(
+                    f"constraints: {c.name} is also an objective; in a scenario problem its column is then the objective's "
+                    f"aggregate, so expected [robust] aggregate = \"worst\" and the limit in every scenario, or one role only"
+                )
+        if self.robust != Robust() and not self.scenarios:
+            raise ValueError("robust: aggregation needs [[scenarios]]; expected at least one [[scenarios]] table")
+        return self
 
     @model_validator(mode="after")
     def _variables_are_his_fields(self) -> ProblemSpec:

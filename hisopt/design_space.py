@@ -21,6 +21,7 @@ from hisopt.hydraulics.catalogue import his_layout, his_parameter_values, layout
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import compile_network
 from hisopt.model import CoupledModel
+from hisopt.robust import scenario_column
 from hisopt.validation import Rule, design_matrix, parameter_rule, require_admissible
 
 if TYPE_CHECKING:
@@ -67,7 +68,50 @@ class DesignSpace:
 
     @property
     def objective_names(self) -> tuple[str, ...]:
+        """What the optimiser minimises: the ``objectives`` (aggregated over the scenarios), or
+        with ``[robust] aggregate = "per_scenario"`` every ``"<objective>@<scenario>"`` pair."""
+        if self.spec.scenarios and self.spec.robust.aggregate == "per_scenario":
+            return tuple(scenario_column(q, s) for q in self.spec.objectives for s in self.scenario_names)
         return tuple(self.spec.objectives)
+
+    @property
+    def result_columns(self) -> tuple[str, ...]:
+        """The quantity columns of :meth:`hisopt.problem.Problem.evaluate`: each objective and
+        constrained quantity once (aggregated in a scenario problem), then the scenario columns."""
+        plain = tuple(self.spec.objectives) if self.spec.scenarios else self.objective_names
+        return tuple(dict.fromkeys(plain + self.constraint_names + self.scenario_columns))
+
+    # --- scenarios (docs/model.md §13) ---------------------------------------------------
+    @property
+    def scenario_names(self) -> tuple[str, ...]:
+        """The ``[[scenarios]]`` names, in file order (empty for a single-case problem)."""
+        return tuple(sc.name for sc in self.spec.scenarios)
+
+    def constraint_scenarios(self, name: str) -> tuple[str, ...]:
+        """The scenarios in which the constraint on ``name`` holds (all unless it names some)."""
+        c = next(c for c in self.spec.constraints if c.name == name)
+        return tuple(c.scenarios) if c.scenarios else self.scenario_names
+
+    @property
+    def scenario_columns(self) -> tuple[str, ...]:
+        """Every ``"<quantity>@<scenario>"`` column a scenario problem reports: each objective in
+        every scenario, each constraint in the scenarios where it holds."""
+        cols = [scenario_column(q, s) for q in self.spec.objectives for s in self.scenario_names]
+        cols += [scenario_column(c.name, s) for c in self.spec.constraints for s in self.constraint_scenarios(c.name)]
+        return tuple(dict.fromkeys(cols))
+
+    def scenario_space(self, name: str) -> DesignSpace:
+        """Scenario ``name`` as a single-case problem: its road and payload, every objective and
+        constrained quantity as an objective, no constraints (cached)."""
+        key = f"scenario:{name}"
+        if key not in self._cache:
+            sc = next(s for s in self.spec.scenarios if s.name == name)
+            quantities = list(dict.fromkeys(self.spec.objectives + [c.name for c in self.spec.constraints]))
+            spec = self.spec.model_copy(
+                update={"road": sc.road or self.spec.road, "payload": sc.payload, "scenarios": [], "objectives": quantities, "constraints": []}
+            )
+            self._cache[key] = type(self)(spec, self.path)
+        return self._cache[key]
 
     @property
     def constraint_names(self) -> tuple[str, ...]:

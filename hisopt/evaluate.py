@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from hisopt.config import Comfort
     from hisopt.design_space import DesignSpace
     from hisopt.model import CoupledModel, StateSpace
+    from hisopt.scenario_evaluator import ScenarioEvaluator
 
 class Evaluator:
     """Objective/constraint evaluator of one problem, reusable across many calls.
@@ -111,45 +112,66 @@ class Evaluator:
     # --- public ------------------------------------------------------------------------
     def __call__(self, designs: Any) -> dict[str, np.ndarray]:
         """Quantities by name, each shape ``(n,)``, plus ``"valid"`` (finite, stable model)."""
+        return self.shared(designs, [self])[0]
+
+    def shared(self, designs: Any, evaluators: list[Evaluator]) -> list[dict[str, np.ndarray]]:
+        """``[ev(designs) for ev in evaluators]`` with this evaluator's models, poles and
+        residues computed once for all of them: ``evaluators`` are of problems that differ
+        from this one only in the road (class, speed, coherence), load cases sharing a model
+        (docs/model.md §13.4)."""
         x = self.problem.design_matrix(designs)
         with one_blas_thread():
-            results = [self._chunk(x[i : i + self.chunk_size]) for i in range(0, max(len(x), 1), self.chunk_size)]
-        return {k: np.concatenate([r[k] for r in results]) for k in results[0]}
+            results = [self._chunk(x[i : i + self.chunk_size], evaluators) for i in range(0, max(len(x), 1), self.chunk_size)]
+        return [{k: np.concatenate([r[j][k] for r in results]) for k in results[0][j]} for j in range(len(evaluators))]
 
     # --- internals -----------------------------------------------------------------------
-    def _chunk(self, x: np.ndarray) -> dict[str, np.ndarray]:
+    def _chunk(self, x: np.ndarray, evaluators: list[Evaluator]) -> list[dict[str, np.ndarray]]:
         n = len(x)
-        out = {name: np.full(n, np.nan) for name in self.names}
+        outs = [{name: np.full(n, np.nan) for name in ev.names} for ev in evaluators]
         valid = admissible(self.problem, x)  # finite and within every parameter's rule
         if not valid.any():
-            return out | {"valid": valid}
+            return [out | {"valid": valid} for out in outs]
         idx = np.flatnonzero(valid)
+        oks = [valid.copy() for _ in evaluators]
         with np.errstate(all="ignore"):
             for rows, model in self.problem.model(x[valid]).groups():
                 try:
-                    values, ok = self._solve(model)
+                    solved = self._solve(model, evaluators)
                 except (np.linalg.LinAlgError, ModelError):
-                    values, ok = self._one_by_one(x[valid][rows])
-                for name in self.names:
-                    out[name][idx[rows]] = np.where(ok, values[name], np.nan)
-                valid[idx[rows]] = ok
-        return out | {"valid": valid}
+                    solved = self._one_by_one(x[valid][rows], evaluators)
+                for out, ok_all, ev, (values, ok) in zip(outs, oks, evaluators, solved, strict=True):
+                    for name in ev.names:
+                        out[name][idx[rows]] = np.where(ok, values[name], np.nan)
+                    ok_all[idx[rows]] = ok
+        return [out | {"valid": ok} for out, ok in zip(outs, oks, strict=True)]
 
-    def _one_by_one(self, x: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
-        values = {name: np.full(len(x), np.nan) for name in self.names}
-        ok = np.zeros(len(x), dtype=bool)
+    def _one_by_one(self, x: np.ndarray, evaluators: list[Evaluator]) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
+        out = [({name: np.full(len(x), np.nan) for name in ev.names}, np.zeros(len(x), dtype=bool)) for ev in evaluators]
         for i, row in enumerate(x):
             try:
                 ((_, model),) = self.problem.model(row[None, :]).groups()
-                v, good = self._solve(model)
+                solved = self._solve(model, evaluators)
             except (np.linalg.LinAlgError, ValueError):
                 continue
-            for name in self.names:
-                values[name][i] = v[name][0]
-            ok[i] = good[0]
-        return values, ok
+            for (values, ok), (v, good), ev in zip(out, solved, evaluators, strict=True):
+                for name in ev.names:
+                    values[name][i] = v[name][0]
+                ok[i] = good[0]
+        return out
 
-    def _solve(self, model: CoupledModel) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    def _solve(self, model: CoupledModel, evaluators: list[Evaluator]) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
+        lam, channels, repaired = self._channels(model)
+        scale = np.abs(lam).max(axis=1)
+        stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
+        out = []
+        for ev in evaluators:
+            values = ev.quantities(lam, channels, model)
+            out.append((values, stable & np.all([np.isfinite(v) for v in values.values()], axis=0)))
+        return out
+
+    def _channels(self, model: CoupledModel) -> tuple[np.ndarray, Channels, np.ndarray]:
+        """Poles ``(n, k)`` [rad/s], the road channels' responses, and whether each design's
+        poles are trusted (after :func:`repair_poles` where the eigenvectors are ill-conditioned)."""
         ss = model.state_space()
         channels: Channels
         repaired = np.ones(len(ss.a), dtype=bool)
@@ -166,11 +188,7 @@ class Evaluator:
                 lam = lam.copy()
                 lam[flagged], repaired[flagged] = repair_poles(sub, lam[flagged], self.f_hi)
                 channels = MixedChannels(modal, DirectOutputs(sub, self.bases), flagged)
-        scale = np.abs(lam).max(axis=1)
-        stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
-        values = self.quantities(lam, channels, model)
-        ok = stable & np.all([np.isfinite(v) for v in values.values()], axis=0)
-        return values, ok
+        return lam, channels, repaired
 
     def nodes(self, lam: np.ndarray, model: CoupledModel | None = None) -> tuple[np.ndarray, np.ndarray]:
         """[Hz] Quadrature nodes and weights per design, sorted (docs/model.md §10.3): the
@@ -594,11 +612,14 @@ def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[
     return bases, derived
 
 
-def evaluator_for(space: DesignSpace) -> Evaluator:
-    """The evaluator of ``space``, built once and kept with it (its cache survives as long as
+def evaluator_for(space: DesignSpace) -> Evaluator | ScenarioEvaluator:
+    """The evaluator of ``space`` (a :class:`~hisopt.scenario_evaluator.ScenarioEvaluator` for a
+    problem with ``[[scenarios]]``), built once and kept with it (its cache survives as long as
     the problem object; a pickled problem builds its own)."""
     if "evaluator" not in space._cache:
-        space._cache["evaluator"] = Evaluator(space)
+        from hisopt.scenario_evaluator import ScenarioEvaluator
+
+        space._cache["evaluator"] = ScenarioEvaluator(space) if space.spec.scenarios else Evaluator(space)
     return space._cache["evaluator"]
 
 
@@ -618,7 +639,7 @@ def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.n
     """Designs and their quantities as a DataFrame.
 
     Columns: the variable names, the objective names, the constraint names (physical units,
-    each quantity once), ``feasible`` (all constraints met, the model valid and the row
+    each quantity once; in a scenario problem also every ``"<quantity>@<scenario>"``), ``feasible`` (all constraints met, the model valid and the row
     ``ok``), ``status`` (``ok``, ``out_of_bounds``, ``invalid``, or ``failed`` for a model
     that is unstable or singular there) and ``reason`` (empty when ``ok``); their units in
     ``attrs["units"]``.
@@ -626,7 +647,7 @@ def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.n
     x = problem.design_matrix(designs)
     check: DesignCheck = check_designs(problem, x)
     df = pd.DataFrame(x, columns=list(problem.variable_names))
-    for name in dict.fromkeys(problem.objective_names + problem.constraint_names):
+    for name in problem.result_columns:
         df[name] = quantities[name]
     valid = np.asarray(quantities["valid"], dtype=bool)
     feasible = valid & check.ok

@@ -20,13 +20,15 @@ from hisopt.validation import design_matrix, flag_summary
 
 if TYPE_CHECKING:
     from hisopt.parallel import Backend
+    from hisopt.scenario_evaluator import ScenarioEvaluator
 
 
 class Problem(DesignSpace):
     """A design problem with its (cached) evaluator: vehicle, HIS, variables, road, objectives."""
 
-    def evaluator(self) -> Evaluator:
-        """The (cached) batched evaluator of this problem's objectives and constraints."""
+    def evaluator(self) -> Evaluator | ScenarioEvaluator:
+        """The (cached) batched evaluator of this problem's objectives and constraints (a
+        :class:`~hisopt.scenario_evaluator.ScenarioEvaluator` for a problem with scenarios)."""
         return evaluator_for(self)
 
     def results_frame(self, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:

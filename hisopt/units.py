@@ -122,14 +122,16 @@ def variable_units(problem: DesignSpace) -> dict[str, str]:
 def column_unit(name: str) -> str:
     """Unit of a column hisopt writes, from its name alone ('' when unknown).
 
-    Objective and constraint quantities (:data:`hisopt.metrics.METRICS`), fixed names
+    Objective and constraint quantities (:data:`hisopt.metrics.METRICS`, also as a scenario's
+    ``"<quantity>@<scenario>"``), fixed names
     (``feasible``, ``generation``, ...) and suffixes (``_hz``, ``_s``, ``_pct``, ``_ratio``).
     Design variables need the problem: :func:`column_units`.
     """
     from hisopt.metrics import METRICS
+    from hisopt.robust import quantity_of
 
-    if name in METRICS:
-        return METRICS[name].unit
+    if quantity_of(name) in METRICS:  # "sigma_aw" or a scenario's "sigma_aw@city"
+        return METRICS[quantity_of(name)].unit
     if name in _FIXED:
         return _FIXED[name]
     for prefix, unit in _PREFIXES:

@@ -478,13 +478,13 @@ def test_refinement_improves_a_design_of_another_layout_with_its_extra_variable(
     """CasADi refinement on the accumulator-valve layout, Rv_acc a design variable: the
     refined design dominates its start, checked by the numpy evaluator."""
     from hisopt.optim.casadi_model import CasadiModel
-    from hisopt.optim.refine import RefineSettings, refine_point
+    from hisopt.optim.refine import Part, RefineSettings, refine_point
 
     p = hisopt.load_problem(ROOT / "problems" / "layout_roll_plane_accumulator_valves.toml")
     x0 = p.baseline
     q0 = p.evaluator()(x0[None])
     f0 = np.array([q0[n][0] for n in p.objective_names])
-    result = refine_point(p, CasadiModel(p, compile=False), 0, x0, f0, np.ones(4) * 3.0, RefineSettings())
+    result = refine_point(p, [Part(None, p, CasadiModel(p, compile=False))], 0, x0, f0, np.ones(4) * 3.0, RefineSettings())
     q = p.evaluator()(result.x[None])
     f = np.array([q[n][0] for n in p.objective_names])
     assert result.accepted and np.all(f <= f0) and np.any(f < f0)

@@ -26,6 +26,7 @@ from hisopt.optim.casadi_model import CasadiModel
 from hisopt.optim.refine import (
     FRONT_REFINED_CSV,
     REFINE_JSON,
+    Part,
     RefineSettings,
     asf_weights,
     refine_front,
@@ -107,7 +108,7 @@ def test_refine_point_improves_an_interior_design(problem):
     x0 = problem.baseline
     q0 = problem.evaluator()(x0[None])
     f0 = np.array([q0[n][0] for n in problem.objective_names])
-    result = refine_point(problem, model, 0, x0, f0, np.ones(4) * 3.0, RefineSettings())
+    result = refine_point(problem, [Part(None, problem, model)], 0, x0, f0, np.ones(4) * 3.0, RefineSettings())
     assert result.accepted and result.merit < -1e-3
     q = problem.evaluator()(result.x[None])
     f = np.array([q[n][0] for n in problem.objective_names])

@@ -256,9 +256,10 @@ def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, st
 
 def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: RefineSettings) -> NodePlan:
     """Nodes of the NLP at design ``x`` [variable units], ``(n_var,)`` (module docstring)."""
-    from hisopt.evaluate import DirectOutputs, poles
+    from hisopt.evaluate import DirectOutputs, Evaluator, poles
 
     ev = problem.evaluator()
+    assert isinstance(ev, Evaluator), "a node plan is of a single-case problem (a scenario's)"
     coupled = problem.model(np.asarray(x, dtype=float)[None, :])
     lam = poles(coupled)
     frf = DirectOutputs(coupled, ev.outputs)
@@ -314,10 +315,20 @@ class SolveOutcome:
     gap: np.ndarray
 
 
+@dataclass(frozen=True)
+class Part:
+    """One load case of the NLP: its single-case problem, CasADi model and nodes (the problem
+    itself, scenario ``None``, for a problem without ``[[scenarios]]``)."""
+
+    scenario: str | None
+    problem: Problem
+    model: CasadiModel
+    plan: NodePlan | None = None
+
+
 def solve_asf(
     problem: Problem,
-    model: CasadiModel,
-    plan: NodePlan,
+    parts: list[Part],
     u_c: np.ndarray,
     ref_log: np.ndarray,
     weights: np.ndarray,
@@ -329,6 +340,7 @@ def solve_asf(
 
     Parameters
     ----------
+    parts : the load cases with their nodes at ``u_c`` (one for a single-case problem)
     u_c : [-] current design scaled to [0, 1] over the bounds, ``(n_var,)``
     ref_log : [decades] reference point, ``log10`` of the start's objectives, ``(n_obj,)``
     weights : [1/decade] ASF weights, ``(n_obj,)``
@@ -342,7 +354,6 @@ def solve_asf(
     lower, upper = problem.lower, problem.upper
     n_var = lower.size
     objectives = problem.objective_names
-    max_names = list(plan.max_nodes)
 
     def log10(e: Any) -> Any:
         return ca.log(e) / np.log(10.0)
@@ -350,35 +361,48 @@ def solve_asf(
     # ---- decision variables -------------------------------------------------------------------
     u = ca.MX.sym("u", n_var)  # design scaled to [0, 1] over its bounds
     s = ca.MX.sym("s")  # ASF level
-    t = ca.MX.sym("t", len(max_names))  # log10 epigraph level of each band maximum
     x = ca.DM(lower) + ca.DM(upper - lower) * u
+    levels: list[Any] = []  # log10 epigraph level of each band maximum in each part
+    g: list[Any] = []
 
-    # ---- model on the fixed nodes ---------------------------------------------------------------
-    spectra = SpectraCallback(model, plan.fs, lower, upper - lower)
-    psd = spectra(u)
-    z = {name: log10(value) for name, value in model.integrals(x, plan.fs, psd).items()}
-    peaks = {}
-    for j, name in enumerate(max_names):
-        row = model.output_index[METRICS[name].signal]
-        peaks[name] = log10(psd[row, [int(k) for k in plan.max_nodes[name]]].T)
-        z[name] = t[j]
-    gap = ca.vertcat(*[weights[i] * (z[name] - ref_log[i]) for i, name in enumerate(objectives)])
+    # ---- each load case's model on its fixed nodes ----------------------------------------------
+    z_of: list[dict[str, Any]] = []
+    callbacks = []  # CasADi keeps no reference to a Python callback: these must outlive the solve
+    for part in parts:
+        assert part.plan is not None
+        callbacks.append(SpectraCallback(part.model, part.plan.fs, lower, upper - lower))
+        psd = callbacks[-1](u)
+        z = {name: log10(value) for name, value in part.model.integrals(x, part.plan.fs, psd).items()}
+        for name, nodes in part.plan.max_nodes.items():
+            t = ca.MX.sym(f"t_{name}_{len(levels)}")
+            levels.append(t)
+            row = part.model.output_index[METRICS[name].signal]
+            g.append(log10(psd[row, [int(k) for k in nodes]].T) - t)  # epigraph of the maximum
+            z[name] = t
+        z_of.append(z)
+    z_obj, extra, g_agg = _aggregated(problem, parts, z_of, ref_log)
+    floor = np.r_[np.full(len(levels), -np.inf), [b for _, b in extra]]
+    levels += [v for v, _ in extra]
+    g += g_agg
+    lv = ca.vertcat(*levels) if levels else ca.MX(0, 1)
+    start = np.maximum(_start_levels(u, lv, g, u_c), floor)  # before any constraint involving s
+    gap = ca.vertcat(*[weights[i] * (z_obj[name] - ref_log[i]) for i, name in enumerate(objectives)])
 
     # ---- constraints ----------------------------------------------------------------------------
-    g = [peaks[name] - t[j] for j, name in enumerate(max_names)]  # epigraphs of the maxima
     g.append(gap - s)  # ASF epigraph
     g.append(gap + ca.DM(margin))  # no objective worse than the start
-    g += [z[c.name] - np.log10(c.limit) for c in problem.spec.constraints]
+    for c in problem.spec.constraints:
+        where = problem.constraint_scenarios(c.name) if problem.spec.scenarios else (None,)
+        g += [z[c.name] - np.log10(c.limit) for part, z in zip(parts, z_of, strict=True) if part.scenario in where]
 
     # ---- objective ------------------------------------------------------------------------------
     objective = s + settings.rho * ca.sum1(gap)
 
     # ---- initial values and bounds --------------------------------------------------------------
-    t0 = np.array(ca.Function("t0", [u], [ca.vertcat(*[ca.mmax(peaks[n]) for n in max_names])])(u_c)).ravel()
-    gap_fn = ca.Function("gap", [u, t], [gap])
-    s0 = float(np.max(np.array(gap_fn(u_c, t0))))
-    n_free = 1 + len(max_names)
-    lbx = np.r_[np.maximum(0.0, u_c - radius), np.full(n_free, -np.inf)]
+    gap_fn = ca.Function("gap", [u, lv], [gap])
+    s0 = float(np.max(np.array(gap_fn(u_c, start))))
+    n_free = 1 + len(levels)
+    lbx = np.r_[np.maximum(0.0, u_c - radius), -np.inf, floor]
     ubx = np.r_[np.minimum(1.0, u_c + radius), np.full(n_free, np.inf)]
 
     # ---- solve NLP ------------------------------------------------------------------------------
@@ -395,14 +419,91 @@ def solve_asf(
         "ipopt.limited_memory_initialization": "constant",
         "ipopt.limited_memory_init_val": 1e-3,
     }
-    nlp: dict[str, Any] = {"x": ca.vertcat(u, s, t), "f": objective, "g": ca.vertcat(*g)}
+    nlp: dict[str, Any] = {"x": ca.vertcat(u, s, lv), "f": objective, "g": ca.vertcat(*g)}
     solver = ca.nlpsol("asf", "ipopt", nlp, options)
-    sol = solver(x0=np.r_[u_c, s0, t0], lbx=lbx, ubx=ubx, lbg=-np.inf, ubg=0.0)
+    sol = solver(x0=np.r_[u_c, s0, start], lbx=lbx, ubx=ubx, lbg=-np.inf, ubg=0.0)
     stats = solver.stats()
     opt = np.array(sol["x"]).ravel()
     u_opt = np.clip(opt[:n_var], 0.0, 1.0)
     gap_opt = np.array(gap_fn(u_opt, opt[n_var + 1 :])).ravel()
+    del callbacks
     return SolveOutcome(u_opt, str(stats["return_status"]), int(stats["iter_count"]), gap_opt)
+
+
+def _aggregated(
+    problem: Problem, parts: list[Part], z_of: list[dict[str, Any]], ref_log: np.ndarray
+) -> tuple[dict[str, Any], list[tuple[Any, float]], list[Any]]:
+    """The objectives' log10 expressions over the load cases (docs/model.md §13.5), with any
+    new epigraph variables (and their lower bounds) and their constraints ``<= 0``.
+
+    ``worst``: a level ``tau_q`` above every scenario's ``z_q,s``. ``expected``: ``log10`` of
+    the weighted sum of the values. ``cvar``: Rockafellar and Uryasev's epigraph
+    ``eta + sum_s w_s u_s / (1 - alpha)``, ``u_s >= v_s - eta``, ``u_s >= 0``, in values scaled
+    by the start's (so IPOPT sees numbers near 1). ``per_scenario``: each pair as it is.
+    """
+    import casadi as ca
+
+    from hisopt.robust import normalised, scenario_column
+
+    spec = problem.spec
+    if not spec.scenarios:
+        return z_of[0], [], []
+    how = spec.robust.aggregate
+    if how == "per_scenario":
+        return {scenario_column(q, p.scenario or ""): z[q] for q in spec.objectives for p, z in zip(parts, z_of, strict=True)}, [], []
+    w = normalised([sc.weight for sc in spec.scenarios])
+    names = problem.objective_names
+    out: dict[str, Any] = {}
+    extra: list[Any] = []
+    bounds: list[float] = []
+    g: list[Any] = []
+    for i, q in enumerate(names):
+        zs = [z[q] for z in z_of]
+        if len(zs) == 1:
+            out[q] = zs[0]
+        elif how == "worst":
+            tau = ca.MX.sym(f"tau_{q}")
+            extra.append(tau)
+            bounds.append(-np.inf)
+            g += [zq - tau for zq in zs]
+            out[q] = tau
+        elif how == "expected":
+            out[q] = ref_log[i] + ca.log(sum(float(wk) * 10 ** (zq - ref_log[i]) for wk, zq in zip(w, zs, strict=True))) / np.log(10.0)
+        else:
+            eta, slack = ca.MX.sym(f"eta_{q}"), [ca.MX.sym(f"u_{q}_{k}") for k in range(len(zs))]
+            extra += [eta, *slack]  # bounded below as variables: the values are positive, so is the
+            # optimal eta, and the bound keeps log10 defined where IPOPT's iterates break constraints
+            bounds += [CVAR_FLOOR] + [0.0] * len(slack)
+            g += [10 ** (zq - ref_log[i]) - eta - uk for zq, uk in zip(zs, slack, strict=True)]
+            value = eta + sum(float(wk) * uk for wk, uk in zip(w, slack, strict=True)) / (1.0 - spec.robust.alpha)
+            out[q] = ref_log[i] + ca.log(value) / np.log(10.0)
+    return out, list(zip(extra, bounds, strict=True)), g
+
+
+CVAR_FLOOR = 1e-6
+"""[-] Least threshold ``eta`` of the CVaR epigraph, in units of the start design's values."""
+
+
+def _start_levels(u: Any, levels: Any, g: list[Any], u_c: np.ndarray) -> np.ndarray:
+    """Starting values of the epigraph variables at ``u_c``: each the least value every
+    constraint bounding it from below allows (tight epigraphs; a few passes, as levels feed
+    later ones)."""
+    import casadi as ca
+
+    n = levels.shape[0]
+    if n == 0:
+        return np.zeros(0)
+    start = np.zeros(n)
+    gs = ca.vertcat(*g)
+    g_fn = ca.Function("g", [u, levels], [gs, ca.jacobian(gs, levels)])
+    for _ in range(4):  # epigraph chains are at most three deep (maximum, aggregate, slack)
+        value, jac = (np.array(a) for a in g_fn(u_c, start))
+        value = value.ravel()
+        for k in range(n):  # a constraint g = ... - level_k (Jacobian -1) bounds level_k below
+            rows = np.flatnonzero((jac[:, k] < 0) & np.isfinite(value))
+            if rows.size:
+                start[k] += float(np.max(value[rows] / -jac[rows, k]))
+    return start
 
 
 # --- one start design: trust-region rounds -----------------------------------------------------
@@ -422,7 +523,7 @@ def _feasible(problem: Problem, q: dict[str, float]) -> bool:
 
 def refine_point(
     problem: Problem,
-    model: CasadiModel,
+    parts: list[Part],
     source_index: int,
     x0: np.ndarray,
     f0: np.ndarray,
@@ -449,8 +550,8 @@ def refine_point(
     margin = np.full(len(names), settings.margin)
     radius, rounds, iterations, status = settings.trust_radius, 0, 0, "not_started"
     while rounds < settings.rounds and radius >= settings.min_radius:
-        plan = node_plan(problem, model, lower + span * u_c, settings)
-        outcome = solve_asf(problem, model, plan, u_c, ref, weights, radius, settings, margin)
+        planned = [Part(p.scenario, p.problem, p.model, node_plan(p.problem, p.model, lower + span * u_c, settings)) for p in parts]
+        outcome = solve_asf(problem, planned, u_c, ref, weights, radius, settings, margin)
         rounds, iterations, status = rounds + 1, iterations + outcome.iterations, outcome.status
         x_new = lower + span * outcome.u
         q = _evaluate(problem, x_new)
@@ -488,19 +589,27 @@ _WORKER: dict[str, Any] = {}
 """Per-process cache: the problem and its CasADi model (built once per worker)."""
 
 
-def _worker_model(problem: Problem) -> CasadiModel:
+def model_parts(problem: Problem) -> list[Part]:
+    """The load cases of ``problem`` with their CasADi models (one part without scenarios)."""
     from hisopt.optim.casadi_model import CasadiModel
 
+    if not problem.spec.scenarios:
+        return [Part(None, problem, CasadiModel(problem))]
+    spaces = [(name, problem.scenario_space(name)) for name in problem.scenario_names]
+    return [Part(name, space, CasadiModel(space)) for name, space in spaces]  # type: ignore[arg-type]
+
+
+def _worker_parts(problem: Problem) -> list[Part]:
     key = problem.spec.model_dump_json()
     if _WORKER.get("key") != key:
-        _WORKER.update(key=key, problem=problem, model=CasadiModel(problem))
-    return _WORKER["model"]
+        _WORKER.update(key=key, problem=problem, parts=model_parts(problem))
+    return _WORKER["parts"]
 
 
 def _refine_task(task: tuple[int, np.ndarray, np.ndarray], problem: Problem, weights: np.ndarray, settings: RefineSettings) -> PointResult:
     """Refine one ``(source_index, x0, f0)`` in whichever process runs it."""
-    model = _worker_model(problem)
-    return refine_point(_WORKER["problem"], model, task[0], task[1], task[2], weights, settings)
+    parts = _worker_parts(problem)
+    return refine_point(_WORKER["problem"], parts, task[0], task[1], task[2], weights, settings)
 
 
 def refine_front(
