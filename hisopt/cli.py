@@ -48,6 +48,11 @@ SetOpt = Annotated[
     ),
 ]
 
+ScenarioOpt = Annotated[
+    str | None,
+    typer.Option("--scenario", metavar="NAME", help="a [[scenarios]] load case (its road and payload); default the problem's [road], no payload"),
+]
+
 _DEBUG = {"on": False}
 PROBLEM_TEMPLATE = "roll_plane_his.toml"  # in hisopt/data/; the same file as problems/roll_plane_his.toml
 
@@ -70,53 +75,33 @@ def _main(
     _DEBUG["on"] = debug
 
 
-def load(problem: Path, sets: list[str] | None):
-    """Load a problem file and apply ``--set`` overrides (:func:`hisopt.validation.apply_assignments`)."""
+def load(problem: Path, sets: list[str] | None, scenario: str | None = None):
+    """Load a problem file, apply ``--set`` overrides (:func:`hisopt.validation.apply_assignments`)
+    and, with ``--scenario``, take that load case as a single-case problem."""
+    from hisopt.errors import ConfigError
     from hisopt.problem import load_problem
     from hisopt.validation import apply_assignments
 
-    return apply_assignments(load_problem(problem), sets)
+    p = apply_assignments(load_problem(problem), sets)
+    if scenario is None:
+        return p
+    if scenario not in p.scenario_names:
+        known = ", ".join(p.scenario_names) or "none: the problem has no [[scenarios]]"
+        raise ConfigError(f"unknown scenario {scenario!r}; expected one of {known}", key="--scenario")
+    return p.scenario_space(scenario)
 
 
 @app.command()
-def modes(problem: ProblemArg, set_: SetOpt = None) -> None:
+def modes(problem: ProblemArg, set_: SetOpt = None, scenario: ScenarioOpt = None) -> None:
     """Modes without and with HIS (paper Table 1).
 
     Natural frequency, damping ratio and motion of each mode of the baseline design, and how
     the HIS shifts each frequency. Modes are named by their shape (the same mode has the same
     name without and with HIS); the older wheel-mode names are listed below the table.
     """
-    from rich.console import Console
-    from rich.table import Table
-    from rich.text import Text
+    from hisopt.console import print_modes
 
-    from hisopt.modal import MODE_ALIASES, modal_analysis
-    from hisopt.units import format_design, format_number, variable_units
-
-    p = load(problem, set_)
-    ref = modal_analysis(p, his=False)
-    his = modal_analysis(p)
-    design = format_design(dict(zip(p.variable_names, p.baseline, strict=True)), variable_units(p))
-    table = Table(title=f"Modes of {p.name} without and with HIS ({design})")
-    for col in ("mode", "motion", "f ref [Hz]", "zeta ref [-]", "f HIS [Hz]", "zeta HIS [-]", "change [%]"):
-        table.add_column(Text(col), justify="left" if col in ("mode", "motion") else "right")
-    merged = his.merge(ref, on="mode", how="left", suffixes=("", "_ref"))
-    for row in merged.itertuples():
-        rise = round(100 * (row.frequency_hz / row.frequency_hz_ref - 1), 1) + 0.0  # + 0.0: no "-0.0"
-        change = f"{rise:+.1f}" if row.frequency_hz_ref == row.frequency_hz_ref else ""
-        table.add_row(
-            row.mode,
-            row.motion,
-            format_number(row.frequency_hz_ref, trim=False),
-            format_number(row.damping_ratio_ref, trim=False),
-            format_number(row.frequency_hz, trim=False),
-            format_number(row.damping_ratio, trim=False),
-            change,
-        )
-    console = Console(width=132)
-    console.print(table)
-    old = "wheel_hop_" + "/".join(k.removeprefix("wheel_hop_") for k in MODE_ALIASES)
-    console.print(f"older names: {old} = {', '.join(MODE_ALIASES.values())}")
+    print_modes(load(problem, set_, scenario))
 
 
 @app.command()
@@ -608,6 +593,7 @@ def sweep_cmd(
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
+    scenario: ScenarioOpt = None,
 ) -> None:
     """Sweep one design variable across its bounds (paper Figures 5-8).
 
@@ -619,7 +605,7 @@ def sweep_cmd(
     from hisopt.report.theme import write_html
     from hisopt.sweeps import sweep
 
-    p = load(problem, set_)
+    p = load(problem, set_, scenario)
     with open_backend(workers, scheduler) as backend:
         result = sweep(p, vary, points, backend=backend)  # validates --vary and --points first
     ensure_writable_dir(out)

@@ -129,3 +129,37 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
             picks.add_row(Text(shown.label(name)), shown.number(knee[name]), shown.number(asf[name]))
         tables.append(picks)
     return tables
+
+
+def print_modes(p: Any) -> None:
+    """The ``hisopt modes`` table of problem ``p``'s baseline design, without and with HIS."""
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    from hisopt.modal import MODE_ALIASES, modal_analysis
+    from hisopt.units import format_design, format_number, variable_units
+
+    ref = modal_analysis(p, his=False)
+    his = modal_analysis(p)
+    design = format_design(dict(zip(p.variable_names, p.baseline, strict=True)), variable_units(p))
+    table = Table(title=f"Modes of {p.name} without and with HIS ({design})")
+    for col in ("mode", "motion", "f ref [Hz]", "zeta ref [-]", "f HIS [Hz]", "zeta HIS [-]", "change [%]"):
+        table.add_column(Text(col), justify="left" if col in ("mode", "motion") else "right")
+    merged = his.merge(ref, on="mode", how="left", suffixes=("", "_ref"))
+    for row in merged.itertuples():
+        rise = round(100 * (row.frequency_hz / row.frequency_hz_ref - 1), 1) + 0.0  # + 0.0: no "-0.0"
+        change = f"{rise:+.1f}" if row.frequency_hz_ref == row.frequency_hz_ref else ""
+        table.add_row(
+            row.mode,
+            row.motion,
+            format_number(row.frequency_hz_ref, trim=False),
+            format_number(row.damping_ratio_ref, trim=False),
+            format_number(row.frequency_hz, trim=False),
+            format_number(row.damping_ratio, trim=False),
+            change,
+        )
+    console = Console(width=132)
+    console.print(table)
+    old = "wheel_hop_" + "/".join(k.removeprefix("wheel_hop_") for k in MODE_ALIASES)
+    console.print(f"older names: {old} = {', '.join(MODE_ALIASES.values())}")

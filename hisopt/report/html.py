@@ -11,11 +11,15 @@ import html
 import json
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import pandas as pd
 
 from hisopt.errors import RunError
+
+if TYPE_CHECKING:
+    from hisopt.problem import Problem
 from hisopt.io import read_csv
 from hisopt.units import (
     column_units,
@@ -123,6 +127,16 @@ def designs_table(designs: Mapping[str, pd.Series], units: Mapping[str, str]) ->
     return pd.DataFrame(rows, columns=["quantity [unit]", *designs])
 
 
+def scenario_table(problem: Problem, designs: Mapping[str, pd.Series], variables: list[str]) -> pd.DataFrame:
+    """The scenario columns (``"sigma_aw@city"``, ...) of each design, re-evaluated, as
+    :func:`designs_table` shows them."""
+    x = np.array([[float(d[v]) for v in variables] for d in designs.values()])
+    df = problem.evaluate(x, log=False)
+    columns = list(problem.scenario_columns)
+    rows = {label: df.loc[i, columns] for i, label in enumerate(designs)}
+    return designs_table(rows, df.attrs["units"])
+
+
 def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
     """Settings, timings, result and versions of a run, each value with its unit."""
     from hisopt.metrics import METRICS
@@ -217,6 +231,11 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         ("Highlighted designs",
          html_table(designs_table(highlighted, units), designs_caption, text_columns=("quantity [unit]",))),
     ]
+    if problem.spec.scenarios:
+        sections.append(("Load cases", html_table(scenario_table(problem, highlighted, variables),
+                                                  "Each quantity in each scenario (\"quantity@scenario\") for the highlighted designs; "
+                                                  f"objectives aggregated as {problem.spec.robust.aggregate}",
+                                                  text_columns=("quantity [unit]",))))
     if run["generations"] is not None:
         sections.insert(2, ("Convergence", figures.convergence(run["generations"], len(objectives))))
     sections.append(("Run settings and timings",
