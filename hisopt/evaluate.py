@@ -163,11 +163,21 @@ class Evaluator:
         lam, channels, repaired = self._channels(model)
         scale = np.abs(lam).max(axis=1)
         stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
+        shared = self._shared_samples(lam, channels, evaluators) if len(evaluators) > 1 else [None]
         out = []
-        for ev in evaluators:
-            values = ev.quantities(lam, channels, model)
+        for ev, prior in zip(evaluators, shared, strict=True):
+            values = ev.quantities(lam, channels, model, prior)
             out.append((values, stable & np.all([np.isfinite(v) for v in values.values()], axis=0)))
         return out
+
+    def _shared_samples(self, lam: np.ndarray, channels: Channels, evaluators: list[Evaluator]) -> list[Prior]:
+        """The pole-aware nodes, laid once, and every evaluator's road PSDs there from one pass
+        over the FRFs (the nodes depend on the poles and the band, not on the road)."""
+        edges, f, w, f_peak = self._lay(lam)
+        f_all = np.concatenate([f, f_peak], axis=1)
+        roads = [RoadCase(ev.tau, ev.coherence(f_all), ev.road) for ev in evaluators]
+        both = channels.powers(f_all, roads)
+        return [(edges, f, w, f_peak, both[r]) for r in range(len(evaluators))]
 
     def _channels(self, model: CoupledModel) -> tuple[np.ndarray, Channels, np.ndarray]:
         """Poles ``(n, k)`` [rad/s], the road channels' responses, and whether each design's
@@ -223,13 +233,17 @@ class Evaluator:
         sing = singularities(lam, self.fixed_singularities)
         return panels(self.f_lo, self.f_hi, self.forced_edges, sing, self.order, self.tolerance)
 
-    def _sample(self, lam: np.ndarray, source: Channels) -> Samples:
+    def _sample(self, lam: np.ndarray, source: Channels, prior: Prior | None = None) -> Samples:
         """The PSDs at the pole-aware panels' nodes, at the nodes of the panels split for the
         delay ripple (where its bound times the panel's share of an integral exceeds the
-        tolerance) and at the peak samples."""
-        edges, f, w, f_peak = self._lay(lam)
+        tolerance) and at the peak samples (``prior``: the first and last already known,
+        :meth:`_shared_samples`)."""
+        if prior is None:
+            edges, f, w, f_peak = self._lay(lam)
+            both = self.psd(np.concatenate([f, f_peak], axis=1), source)
+        else:
+            edges, f, w, f_peak, both = prior
         n_panels = edges.shape[1] - 1
-        both = self.psd(np.concatenate([f, f_peak], axis=1), source)
         psd = both[:, :, : f.shape[1]]
         totals, panel_abs, panel_sum = self._sums_at(f, w, psd, n_panels)
         share = np.max(panel_abs / np.where(totals != 0, np.abs(totals), np.inf)[:, None, :], axis=2, initial=0.0)
@@ -287,9 +301,9 @@ class Evaluator:
         (``output_of``: per column, the one output needed there, or -1 for all)."""
         return source.power(f_hz, self.tau, self.coherence(f_hz), output_of, self.road)
 
-    def quantities(self, lam: np.ndarray, frf: Channels, model: CoupledModel) -> dict[str, np.ndarray]:
+    def quantities(self, lam: np.ndarray, frf: Channels, model: CoupledModel, prior: Prior | None = None) -> dict[str, np.ndarray]:
         """All requested metrics from poles (for the nodes) and the road channels' FRFs."""
-        s = self._sample(lam, frf)
+        s = self._sample(lam, frf, prior)
         column = {key: r for r, key in enumerate(self.integrals)}
 
         def integral(output: str, weighting: str | None) -> np.ndarray:
@@ -345,6 +359,8 @@ class Evaluator:
 
 
 Pair = tuple[np.ndarray, np.ndarray]
+Prior = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""Panels, nodes, weights, peak samples and the PSDs at the nodes then the peak samples."""
 
 
 @dataclass(frozen=True)
@@ -373,6 +389,16 @@ class Samples:
     psd_all: np.ndarray
 
 
+@dataclass(frozen=True)
+class RoadCase:
+    """One road as the channels' PSDs need it: the rear-wheel delay ``tau`` [s], the tracks'
+    coherence at the frequencies (None: independent) and the PSD's power law ``(G_1, w)``."""
+
+    tau: float
+    coherence: np.ndarray | None
+    road: tuple[float, float]
+
+
 class Channels(Protocol):
     """A batch of models' road channels (:mod:`hisopt.symmetry`), as FRFs or as PSDs."""
 
@@ -387,6 +413,10 @@ class Channels(Protocol):
         """Output PSDs per unit road PSD at ``f_hz`` (n, F), ``(n_out, n, F)``, times the road
         PSD ``G_1 f^-w`` if ``road = (G_1, w)`` is given (``output_of``: per column, the one
         output needed there, or -1 for all; the others may be left 0)."""
+        ...
+
+    def powers(self, f_hz: np.ndarray, roads: list[RoadCase], output_of: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`power` on several roads at once, ``(R, n_out, n, F)``, the FRFs computed once."""
         ...
 
 
@@ -467,13 +497,21 @@ class ModalChannels:
     def power(
         self, f_hz: np.ndarray, tau: float, coherence: np.ndarray | None, output_of: np.ndarray | None = None, road: tuple[float, float] | None = None
     ) -> np.ndarray:
+        return self.powers(f_hz, [RoadCase(tau, coherence, road or (1.0, 0.0))], output_of)[0]
+
+    def powers(self, f_hz: np.ndarray, roads: list[RoadCase], output_of: np.ndarray | None = None) -> np.ndarray:
         from hisopt.kernels import channel_psd
 
         f_hz = np.ascontiguousarray(f_hz, dtype=float)
-        out = np.empty((self.n_out,) + f_hz.shape)
-        g = np.empty((0, 0)) if coherence is None else np.ascontiguousarray(coherence, dtype=float)
+        out = np.empty((len(roads), self.n_out) + f_hz.shape)
+        coherent = [r.coherence for r in roads if r.coherence is not None]
+        if coherent and len(coherent) < len(roads):  # some roads' tracks are independent: coherence 0
+            coherent = [np.zeros(f_hz.shape) if r.coherence is None else r.coherence for r in roads]
+        g = np.ascontiguousarray(coherent, dtype=float) if coherent else np.empty((0, 0, 0))
         which = np.full(f_hz.shape[1], -1, dtype=np.int64) if output_of is None else np.asarray(output_of, dtype=np.int64)
-        channel_psd(f_hz, float(tau), g, *self._arguments, which, (1.0, 0.0) if road is None else road, out)
+        tau = np.array([r.tau for r in roads], dtype=float)
+        law = np.array([r.road for r in roads], dtype=float).reshape(len(roads), 2)
+        channel_psd(f_hz, tau, g, *self._arguments, which, law, out)
         return out
 
     def __call__(self, omega: np.ndarray) -> dict[str, Pair]:
@@ -510,6 +548,10 @@ class DirectOutputs:
         power = np.moveaxis(frf_power(self(2 * np.pi * f_hz), f_hz, tau, coherence), -1, 0)
         return power if road is None else road[0] * f_hz ** -road[1] * power
 
+    def powers(self, f_hz: np.ndarray, roads: list[RoadCase], output_of: np.ndarray | None = None) -> np.ndarray:
+        frf = self(2 * np.pi * f_hz)  # once for all the roads
+        return np.stack([r.road[0] * f_hz ** -r.road[1] * np.moveaxis(frf_power(frf, f_hz, r.tau, r.coherence), -1, 0) for r in roads])
+
 
 class MixedChannels:
     """Channels from ``fast`` except for the designs flagged in ``use_slow``, from ``slow``."""
@@ -530,6 +572,12 @@ class MixedChannels:
         out = self.fast.power(f_hz, tau, coherence, output_of, road)
         g = None if coherence is None else coherence[self.use_slow]
         out[:, self.use_slow] = self.slow.power(f_hz[self.use_slow], tau, g, None, road)
+        return out
+
+    def powers(self, f_hz: np.ndarray, roads: list[RoadCase], output_of: np.ndarray | None = None) -> np.ndarray:
+        out = self.fast.powers(f_hz, roads, output_of)
+        slow = [RoadCase(r.tau, None if r.coherence is None else r.coherence[self.use_slow], r.road) for r in roads]
+        out[:, :, self.use_slow] = self.slow.powers(f_hz[self.use_slow], slow)
         return out
 
 

@@ -93,22 +93,23 @@ def _channel_frfs(w: float, lam_p: np.ndarray, alpha: np.ndarray, beta: np.ndarr
 @njit(cache=True)
 def channel_psd(
     f_hz: np.ndarray,
-    tau: float,
+    tau: np.ndarray,
     coherence: np.ndarray,
     sym: tuple[np.ndarray, ...],
     anti: tuple[np.ndarray, ...],
     output_of: np.ndarray,
-    road: tuple[float, float],
+    road: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """``out[o, i, q]``: output ``o``'s PSD at ``f_hz[i, q]`` [Hz]: the road PSD there,
-    ``G_1 f^-w`` with ``road = (G_1, w)``, times its PSD per unit road PSD.
+    """``out[r, o, i, q]``: output ``o``'s PSD at ``f_hz[i, q]`` [Hz] on road ``r``: the road
+    PSD there, ``G_1 f^-w`` with ``road[r] = (G_1, w)``, times its PSD per unit road PSD. The
+    FRFs are computed once per frequency for all the roads (load cases sharing a model).
 
     Parameters
     ----------
     f_hz : ``(n, F)`` frequencies per design (a node equal to the one before it is copied)
-    tau : [s] rear-wheel delay
-    coherence : ``(n, F)`` left-right coherence, or ``(0, 0)`` for independent tracks
+    tau : ``(R,)`` [s] rear-wheel delay on each road
+    coherence : ``(R, n, F)`` left-right coherence, or ``(0, 0, 0)`` for independent tracks
     sym, anti : each road channel's ``(lam_pair, alpha, beta, lam_single, rho_single.real,
         rho_single.imag, poly, column)``: :func:`hisopt.pole_residue.conjugate_pairs` of its
         ``C`` columns that are not zero by structure, polynomial terms ``(n, P, C)`` and
@@ -116,12 +117,11 @@ def channel_psd(
         none (a zero column)
     output_of : ``(F,)`` the one output wanted at each column (``-1``: all; the others are
         left as zeros)
-    road : the road PSD's power law (:func:`hisopt.standards.iso_8608_2016.temporal_power_law`)
-    out : ``(O, n, F)`` result, written in place
+    road : ``(R, 2)`` each road PSD's power law (:func:`hisopt.standards.iso_8608_2016.temporal_power_law`)
+    out : ``(R, O, n, F)`` result, written in place
     """
     n, nf = f_hz.shape
-    n_out = out.shape[0]
-    g1, exponent = road
+    n_road, n_out = out.shape[0], out.shape[1]
     coherent = coherence.shape[0] > 0
     lp_s, al_s, be_s, l1_s, rr_s, ri_s, po_s, col_s = sym
     lp_a, al_a, be_a, l1_a, rr_a, ri_a, po_a, col_a = anti
@@ -137,8 +137,9 @@ def channel_psd(
         lpa, ala, bea, l1a, rra, ria, poa = lp_a[i], al_a[i], be_a[i], l1_a[i], rr_a[i], ri_a[i], po_a[i]
         for q in range(nf):
             if q > 0 and f_hz[i, q] == f_hz[i, q - 1] and output_of[q] == output_of[q - 1]:
-                for o in range(n_out):
-                    out[o, i, q] = out[o, i, q - 1]
+                for r in range(n_road):
+                    for o in range(n_out):
+                        out[r, o, i, q] = out[r, o, i, q - 1]
                 continue
             w = 2.0 * math.pi * f_hz[i, q]
             _channel_frfs(w, lps, als, bes, pos, hs_re, hs_im)
@@ -148,20 +149,22 @@ def channel_psd(
                 _single_poles(w, l1s, rrs, ris, hs_re, hs_im)
             if l1a.shape[0] > 0:
                 _single_poles(w, l1a, rra, ria, ha_re, ha_im)
-            cos_t, sin_t = math.cos(w * tau), math.sin(w * tau)
-            g = coherence[i, q] if coherent else 0.0
             f = f_hz[i, q]
-            road_psd = g1 / (f * f) if exponent == 2.0 else g1 * f**-exponent  # w = 2: ISO 8608's classes
             first, last = (0, n_out) if output_of[q] < 0 else (output_of[q], output_of[q] + 1)
-            for o in range(first, last):
-                sf, sr, af, ar = col_s[0, o], col_s[1, o], col_a[0, o], col_a[1, o]
-                out[o, i, q] = road_psd * _channel_power(
-                    ((hs_re[sf], hs_im[sf]), (hs_re[sr], hs_im[sr])),
-                    ((ha_re[af], ha_im[af]), (ha_re[ar], ha_im[ar])),
-                    cos_t,
-                    sin_t,
-                    g,
-                )
+            for r in range(n_road):
+                cos_t, sin_t = math.cos(w * tau[r]), math.sin(w * tau[r])
+                g = coherence[r, i, q] if coherent else 0.0
+                g1, exponent = road[r, 0], road[r, 1]
+                road_psd = g1 / (f * f) if exponent == 2.0 else g1 * f**-exponent  # w = 2: ISO 8608's classes
+                for o in range(first, last):
+                    sf, sr, af, ar = col_s[0, o], col_s[1, o], col_a[0, o], col_a[1, o]
+                    out[r, o, i, q] = road_psd * _channel_power(
+                        ((hs_re[sf], hs_im[sf]), (hs_re[sr], hs_im[sr])),
+                        ((ha_re[af], ha_im[af]), (ha_re[ar], ha_im[ar])),
+                        cos_t,
+                        sin_t,
+                        g,
+                    )
 
 
 @njit(cache=True)

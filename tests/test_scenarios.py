@@ -1,0 +1,142 @@
+"""Load cases: scenario columns, aggregation, per-scenario constraints (docs/model.md §13)."""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+
+import numpy as np
+import pytest
+
+import hisopt
+from hisopt.errors import ConfigError
+from hisopt.problem import problem_from_dict
+from hisopt.robust import aggregate, cvar, expected, scenario_column, worst
+from tests.conftest import ROOT
+
+BASE = tomllib.loads((ROOT / "problems" / "roll_plane_his.toml").read_text())
+ROADS = {
+    "city": {"class": "C", "speed": 10.0},
+    "rural": {"class": "B", "speed": 20.0},
+    "motorway": {"class": "A", "speed": 33.0, "coherence": "isotropic"},
+}
+
+
+def scenario_problem(roads: dict[str, dict], **extra) -> hisopt.Problem:
+    data = copy.deepcopy(BASE)
+    data["scenarios"] = [{"name": name, "road": road} for name, road in roads.items()]
+    data.update(extra)
+    return problem_from_dict(data)
+
+
+def single_problem(road: dict) -> hisopt.Problem:
+    data = copy.deepcopy(BASE)
+    data["road"] = road
+    return problem_from_dict(data)
+
+
+@pytest.fixture(scope="module")
+def designs():
+    p = hisopt.load_problem(ROOT / "problems" / "roll_plane_his.toml")
+    rng = np.random.default_rng(7)
+    return p.lower + rng.random((12, len(p.lower))) * (p.upper - p.lower)
+
+
+def test_one_scenario_equals_the_plain_problem_exactly(designs):
+    plain = hisopt.load_problem(ROOT / "problems" / "roll_plane_his.toml")
+    one = scenario_problem({"only": dict(BASE["road"])})
+    a, b = plain.evaluate(designs), one.evaluate(designs)
+    for name in plain.objective_names:
+        np.testing.assert_array_equal(a[name].to_numpy(), b[name].to_numpy())
+        np.testing.assert_array_equal(a[name].to_numpy(), b[f"{name}@only"].to_numpy())
+    assert list(b.columns[: len(a.columns) - 3]) == list(a.columns[:-3])  # plain columns first, same order
+
+
+def test_each_scenario_equals_its_single_case_problem(designs):
+    p = scenario_problem(ROADS)
+    df = p.evaluate(designs)
+    for name, road in ROADS.items():
+        single = single_problem(road).evaluate(designs)
+        for q in p.spec.objectives:
+            np.testing.assert_allclose(df[scenario_column(q, name)], single[q], rtol=1e-9, atol=0)
+
+
+@pytest.mark.parametrize("how", ["worst", "expected", "cvar"])
+def test_aggregate_columns_follow_their_definition(designs, how):
+    weights = {"city": 1.0, "rural": 2.0, "motorway": 1.0}
+    p = scenario_problem(ROADS, robust={"aggregate": how, "alpha": 0.6})
+    data = copy.deepcopy(p.spec.model_dump(by_alias=True))
+    for sc in data["scenarios"]:
+        sc["weight"] = weights[sc["name"]]
+    p = problem_from_dict(data)
+    df = p.evaluate(designs)
+    w = np.array([weights[s] for s in p.scenario_names]) / 4.0
+    for q in p.spec.objectives:
+        v = df[[scenario_column(q, s) for s in p.scenario_names]].to_numpy()
+        if how == "worst":
+            want = v.max(axis=1)
+        elif how == "expected":
+            want = v @ w
+        else:  # Rockafellar-Uryasev: min over t of t + E[(v - t)+] / (1 - alpha); a scenario's value attains it
+            want = np.min([v[:, [k]] + ((v - v[:, [k]]).clip(0) @ w)[:, None] / 0.4 for k in range(3)], axis=0)[:, 0]
+        np.testing.assert_allclose(df[q], want, rtol=1e-12)
+
+
+def test_cvar_by_hand():
+    # losses 1, 2, 4 with probabilities 0.5, 0.25, 0.25; the worst 40 % is all of 4 (0.25)
+    # and 0.15 of 2: (0.25 * 4 + 0.15 * 2) / 0.4 = 3.25
+    v = np.array([[1.0, 2.0, 4.0], [4.0, 1.0, 2.0]])
+    w = [0.5, 0.25, 0.25]
+    np.testing.assert_allclose(cvar(v, w, 0.6), [3.25, 4.0])  # row 2: the worst scenario holds 0.5 > 0.4
+    np.testing.assert_allclose(cvar(v, w, 0.0), expected(v, w))  # alpha = 0: the expected value
+    np.testing.assert_allclose(cvar(v, w, 0.99), worst(v))  # the tail lies in the worst scenario
+    assert np.isnan(aggregate(np.array([[1.0, np.nan]]), "cvar", [1, 1], 0.5))[0]
+
+
+def test_constraints_hold_in_their_scenarios_only(designs):
+    base = scenario_problem(ROADS)
+    df = base.evaluate(designs)
+    limit = float(np.median(df["max_roll_psd@city"]))
+    only_motorway = scenario_problem(ROADS, constraints=[{"name": "rms_roll", "limit": 1.0}, {"name": "max_roll_psd", "limit": limit, "scenarios": ["motorway"]}], objectives=["sigma_aw", "max_stroke_psd"])
+    out = only_motorway.evaluate(designs)
+    assert "max_roll_psd@city" not in out and "max_roll_psd@motorway" in out
+    np.testing.assert_array_equal(out["max_roll_psd"], out["max_roll_psd@motorway"])
+    assert np.array_equal(out["feasible"], (out["max_roll_psd@motorway"] <= limit) & (out["rms_roll"] <= 1.0))
+    everywhere = scenario_problem(ROADS, constraints=[{"name": "max_roll_psd", "limit": limit}], objectives=["sigma_aw"])
+    out = everywhere.evaluate(designs)
+    cols = [f"max_roll_psd@{s}" for s in ROADS]
+    np.testing.assert_array_equal(out["max_roll_psd"], out[cols].max(axis=1))
+    assert 0 < out["feasible"].sum() < len(designs)
+
+
+def test_per_scenario_objectives_are_pairs(designs):
+    p = scenario_problem({k: ROADS[k] for k in ("city", "motorway")}, robust={"aggregate": "per_scenario"}, objectives=["sigma_aw", "max_roll_psd"])
+    assert p.objective_names == ("sigma_aw@city", "sigma_aw@motorway", "max_roll_psd@city", "max_roll_psd@motorway")
+    df = p.evaluate(designs)
+    np.testing.assert_array_equal(df["sigma_aw"], df[["sigma_aw@city", "sigma_aw@motorway"]].max(axis=1))
+    assert df.attrs["units"]["sigma_aw@city"] == "m/s^2"
+
+
+def test_scenarios_share_a_model_when_only_the_road_differs():
+    p = scenario_problem(ROADS)
+    ev = p.evaluator()
+    assert ev.groups == [[0, 1, 2]]
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"scenarios": [{"name": "a"}, {"name": "a"}]}, "'a' is named twice"),
+        ({"scenarios": [{"name": "a@b"}]}, "expected letters, digits"),
+        ({"robust": {"aggregate": "cvar"}}, "aggregation needs [[scenarios]]"),
+        ({"scenarios": [{"name": "a"}], "constraints": [{"name": "rms_roll", "limit": 1.0, "scenarios": ["b"]}]}, "names scenario 'b'"),
+        ({"scenarios": [{"name": "a", "weight": 0}]}, "greater than 0"),
+        ({"scenarios": [{"name": "a"}], "robust": {"aggregate": "expected"}, "constraints": [{"name": "sigma_aw", "limit": 1.0}]}, "also an objective"),
+    ],
+)
+def test_bad_scenario_tables_get_one_clear_line(change, words):
+    data = copy.deepcopy(BASE)
+    data.update(change)
+    with pytest.raises(ConfigError) as err:
+        problem_from_dict(data, "p.toml")
+    assert words in str(err.value) and "\n" not in str(err.value)
