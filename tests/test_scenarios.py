@@ -97,7 +97,8 @@ def test_constraints_hold_in_their_scenarios_only(designs):
     base = scenario_problem(ROADS)
     df = base.evaluate(designs)
     limit = float(np.median(df["max_roll_psd@city"]))
-    only_motorway = scenario_problem(ROADS, constraints=[{"name": "rms_roll", "limit": 1.0}, {"name": "max_roll_psd", "limit": limit, "scenarios": ["motorway"]}], objectives=["sigma_aw", "max_stroke_psd"])
+    constraints = [{"name": "rms_roll", "limit": 1.0}, {"name": "max_roll_psd", "limit": limit, "scenarios": ["motorway"]}]
+    only_motorway = scenario_problem(ROADS, constraints=constraints, objectives=["sigma_aw", "max_stroke_psd"])
     out = only_motorway.evaluate(designs)
     assert "max_roll_psd@city" not in out and "max_roll_psd@motorway" in out
     np.testing.assert_array_equal(out["max_roll_psd"], out["max_roll_psd@motorway"])
