@@ -19,6 +19,7 @@ from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_problem, used_parameters
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
+from hisopt.payload import Payload, laden_problem
 from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
@@ -118,6 +119,7 @@ class ProblemSpec(_Strict):
     )
     constraints: list[Constraint] = Field(default_factory=list)
     optimizer: Optimizer = Field(default_factory=Optimizer)
+    payload: Payload | None = None
 
     @field_validator("objectives")
     @classmethod
@@ -166,6 +168,13 @@ class ProblemSpec(_Strict):
                 problem = f"not read by layout {self.his.layout!r}, so it would do nothing; expected one of {read}"
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
+        return self
+
+    @model_validator(mode="after")
+    def _payload_fits(self) -> ProblemSpec:
+        problem = None if self.payload is None else laden_problem(self.vehicle, self.payload)
+        if problem:
+            raise ValueError(problem)
         return self
 
 
