@@ -1,7 +1,7 @@
 """Cost of load cases: six road/speed scenarios against one, shared model against separate ones.
 
 Scenarios that differ only in the road and the speed share the model, its poles and its
-residues (docs/model.md §13.4); only the road's PSD, the wheelbase delay and the quadrature
+residues (docs/model.md §14.4); only the road's PSD, the wheelbase delay and the quadrature
 nodes differ. This benchmark times, in one process with one BLAS thread (best of
 ``--repeats``), on the same random designs of the default problem:
 

@@ -19,7 +19,7 @@ from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_problem, used_parameters
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
-from hisopt.payload import Payload
+from hisopt.payload import Payload, laden_problem
 from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
@@ -99,7 +99,7 @@ class Constraint(_Strict):
 
 
 class Scenario(_Strict):
-    """A load case: a road at a speed, an optional payload, and its weight (docs/model.md §13).
+    """A load case: a road at a speed, an optional payload, and its weight (docs/model.md §14).
 
     ``road`` defaults to the problem's ``[road]``; the weight is relative (normalised over the
     problem's scenarios) and enters ``expected`` and ``cvar`` aggregation.
@@ -119,7 +119,7 @@ class Scenario(_Strict):
 
 
 class Robust(_Strict):
-    """How a scenario problem's objectives combine its scenarios (docs/model.md §13.3)."""
+    """How a scenario problem's objectives combine its scenarios (docs/model.md §14.3)."""
 
     aggregate: Literal["worst", "expected", "cvar", "per_scenario"] = "worst"
     alpha: float = Field(0.8, ge=0, lt=1, description="[-] CVaR level: the mean of the worst 1 - alpha of the weight")
@@ -184,6 +184,10 @@ class ProblemSpec(_Strict):
             raise ValueError(f"scenarios: {twice[0]!r} is named twice; expected each scenario name once")
         if self.scenarios and self.payload is not None:
             raise ValueError("payload: a problem with [[scenarios]] gives each scenario its payload; expected no top-level [payload]")
+        for sc in self.scenarios:
+            problem = None if sc.payload is None else laden_problem(self.vehicle, sc.payload)
+            if problem:
+                raise ValueError(f"scenario {sc.name!r}: {problem}")
         for c in self.constraints:
             unknown = [n for n in c.scenarios or [] if n not in names]
             if unknown:
@@ -225,6 +229,13 @@ class ProblemSpec(_Strict):
                 problem = f"not read by layout {self.his.layout!r}, so it would do nothing; expected one of {read}"
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
+        return self
+
+    @model_validator(mode="after")
+    def _payload_fits(self) -> ProblemSpec:
+        problem = None if self.payload is None else laden_problem(self.vehicle, self.payload)
+        if problem:
+            raise ValueError(problem)
         return self
 
 

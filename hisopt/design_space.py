@@ -21,12 +21,14 @@ from hisopt.hydraulics.catalogue import his_layout, his_parameter_values, layout
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import compile_network
 from hisopt.model import CoupledModel
+from hisopt.payload import laden_vehicle, static_pressure_rise
 from hisopt.robust import scenario_column
 from hisopt.validation import Rule, design_matrix, parameter_rule, require_admissible
 
 if TYPE_CHECKING:
     from hisopt.hydraulics.layout import Layout
     from hisopt.hydraulics.network import Network
+    from hisopt.vehicle import VehicleParams
 
 
 @dataclass(frozen=True)
@@ -81,7 +83,7 @@ class DesignSpace:
         plain = tuple(self.spec.objectives) if self.spec.scenarios else self.objective_names
         return tuple(dict.fromkeys(plain + self.constraint_names + self.scenario_columns))
 
-    # --- scenarios (docs/model.md §13) ---------------------------------------------------
+    # --- scenarios (docs/model.md §14) ---------------------------------------------------
     @property
     def scenario_names(self) -> tuple[str, ...]:
         """The ``[[scenarios]]`` names, in file order (empty for a single-case problem)."""
@@ -159,16 +161,33 @@ class DesignSpace:
         the row and the rule.
         """
         if not his:
-            return CoupledModel(self.spec.vehicle, None)
+            return CoupledModel(self.vehicle, None)
         x = self.design_matrix(self.baseline if designs is None else designs)
         require_admissible(self, x)  # never build a model from a rule-breaking design
         params = {n: x[:, i] for i, n in enumerate(self.variable_names)}
-        return CoupledModel(self.spec.vehicle, self.hydraulic_system(params))
+        return CoupledModel(self.vehicle, self.hydraulic_system(params))
 
     def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
         """The HIS with design variables set from ``overrides`` (numpy arrays of one batch
-        shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values."""
-        return HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides))
+        shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values.
+        With a ``[payload]`` the accumulators are linearised at the laden static pressures
+        (:func:`hisopt.payload.static_pressure_rise`)."""
+        his = HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides))
+        payload = self.spec.payload
+        if payload is None or not payload.active:
+            return his
+        return HydraulicSystem(his.network, his.params, static_pressure_rise(self.spec.vehicle, payload, his))
+
+    @property
+    def vehicle(self) -> VehicleParams:
+        """The car the models use: laden with ``[payload]`` (:func:`hisopt.payload.laden_vehicle`),
+        else ``[vehicle]``."""
+        payload = self.spec.payload
+        if payload is None or not payload.active:
+            return self.spec.vehicle
+        if "vehicle" not in self._cache:
+            self._cache["vehicle"] = laden_vehicle(self.spec.vehicle, payload)
+        return self._cache["vehicle"]
 
     def layout(self) -> Layout:
         """The HIS layout (``[his] layout`` or ``[[his.circuits]]``, with pipes and chamber

@@ -325,7 +325,7 @@ def process_record(
     filtered = lowpass(raw, fs)
     signals = pd.DataFrame(filtered, columns=sensors)
     signals.insert(0, "time", t)
-    vehicle = problem.spec.vehicle
+    vehicle = problem.vehicle
     body = body_motion(signals[list(BODY_SENSORS)].to_numpy(), vehicle)
     identified = identify_mode(t, body, vehicle, spec.mode, window_s)
     f_model = model_frequency(problem, case, p0_pa)

@@ -71,7 +71,7 @@ class Evaluator:
         self.peak_steps = peak_steps
         self.names = tuple(dict.fromkeys(problem.objective_names + problem.constraint_names))
         self.metrics = [METRICS[n] for n in self.names]
-        self.all_outputs = standard_outputs(spec.vehicle)
+        self.all_outputs = standard_outputs(problem.vehicle)
         wanted: list[str] = []
         for m in self.metrics:
             if m.kind == "comfort":
@@ -86,7 +86,7 @@ class Evaluator:
         self.f_lo, self.f_hi = spec.band.f_min_hz, spec.band.f_max_hz
         self.gd_n0 = class_gd_n0(spec.road.road_class)
         self.speed = spec.road.speed
-        self.tau = spec.vehicle.wheelbase / self.speed
+        self.tau = problem.vehicle.wheelbase / self.speed
         self.road = temporal_power_law(self.gd_n0, self.speed)  # G(f) = G_1 f^-w
         self.tolerance = tolerance
         self.forced_edges = np.empty(0)  # [Hz] breakpoints every design's panels keep
@@ -118,7 +118,7 @@ class Evaluator:
         """``[ev(designs) for ev in evaluators]`` with this evaluator's models, poles and
         residues computed once for all of them: ``evaluators`` are of problems that differ
         from this one only in the road (class, speed, coherence), load cases sharing a model
-        (docs/model.md §13.4)."""
+        (docs/model.md §14.4)."""
         x = self.problem.design_matrix(designs)
         with one_blas_thread():
             results = [self._chunk(x[i : i + self.chunk_size], evaluators) for i in range(0, max(len(x), 1), self.chunk_size)]
@@ -284,7 +284,7 @@ class Evaluator:
         """[-] Left-right coherence of the road's tracks at ``f_hz`` (None: independent)."""
         if self.problem.spec.road.coherence != "isotropic":
             return None
-        v = self.problem.spec.vehicle
+        v = self.problem.vehicle
         return isotropic_coherence(f_hz / self.speed, v.t_f + v.t_r)
 
     def spectra(self, f_hz: np.ndarray, channels: dict[str, Pair]) -> np.ndarray:

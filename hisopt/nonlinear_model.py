@@ -109,8 +109,7 @@ class NonlinearModel:
         self.k_susp[3:, 3:] -= np.diag(self.kt)
         self.c_susp = damping_matrix(v)
         self.c_susp[3:, 3:] -= np.diag(self.ct)
-        front, rear = v.static_wheel_loads(G_MPS2)
-        self.f_static = np.array([front, front, rear, rear])
+        self.f_static = v.static_corner_loads(G_MPS2)
         self.tyre_liftoff = tyre_liftoff
 
         self.valve_kq = valve_kq

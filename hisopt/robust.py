@@ -1,4 +1,4 @@
-"""Combining a quantity over load cases: worst case, expected value, CVaR (docs/model.md §13.3).
+"""Combining a quantity over load cases: worst case, expected value, CVaR (docs/model.md §14.3).
 
 Pure functions on ``(n designs, S scenarios)`` arrays and the naming of the per-scenario
 columns, ``"<quantity>@<scenario>"``. A NaN in any scenario makes the aggregate NaN: a design

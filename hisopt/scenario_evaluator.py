@@ -1,4 +1,4 @@
-"""Evaluation of a scenario problem: every load case, then the aggregates (docs/model.md §13).
+"""Evaluation of a scenario problem: every load case, then the aggregates (docs/model.md §14).
 
 Each scenario is evaluated as its single-case problem
 (:meth:`hisopt.design_space.DesignSpace.scenario_space`). Scenarios with the same payload

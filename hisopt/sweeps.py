@@ -303,7 +303,7 @@ def sweep(
     from hisopt.response import standard_outputs
     from hisopt.units import psd_unit, variable_units
 
-    all_outputs = standard_outputs(problem.spec.vehicle)
+    all_outputs = standard_outputs(problem.vehicle)
     units = {key: psd_unit(all_outputs[name].unit) for key, name in chosen.items()}
     baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline, strict=True) if n != vary}
     var_units = variable_units(problem)

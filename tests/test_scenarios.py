@@ -1,4 +1,4 @@
-"""Load cases: scenario columns, aggregation, per-scenario constraints (docs/model.md §13)."""
+"""Load cases: scenario columns, aggregation, per-scenario constraints (docs/model.md §14)."""
 
 from __future__ import annotations
 

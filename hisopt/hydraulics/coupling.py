@@ -56,11 +56,15 @@ class HydraulicSystem:
 
     network: Network
     params: Mapping[str, Any]
+    static_rise: Any = None
+    """[Pa] Static pressure rise of each circuit above its precharge under a payload (numpy
+    ``B + (n_circuits,)`` or a CasADi column; :func:`hisopt.payload.static_pressure_rise`):
+    the accumulators are linearised there. ``None``: at the precharge."""
 
     @cached_property
     def values(self) -> ElementValues:
         """The constitutive laws applied to every element."""
-        return nw.element_values(self.network, self.params)
+        return nw.element_values(self.network, self.params, self.static_rise)
 
     @cached_property
     def areas(self) -> tuple[Any, Any]:
@@ -117,16 +121,19 @@ class HydraulicSystem:
     def subset(self, rows: np.ndarray) -> HydraulicSystem:
         """The designs ``rows`` of a batch of shape ``(n,)``."""
         params = {k: (np.asarray(v)[rows] if np.ndim(v) else v) for k, v in self.params.items()}
-        return HydraulicSystem(self.network, params)
+        rise = self.static_rise
+        if rise is not None and np.ndim(rise) > 1:
+            rise = np.asarray(rise)[rows]
+        return HydraulicSystem(self.network, params, rise)
 
     def contracted(self, shorted: frozenset[int]) -> HydraulicSystem:
         """The same designs with the valves ``shorted`` (element indices) merged away."""
         layout = nw.contract_shorts(self.network.layout, shorted)
-        return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params)
+        return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params, self.static_rise)
 
     def lumped(self) -> HydraulicSystem:
         """The same designs with lumped (pi-section) pipes: the rational model whose state
         space places the frequency nodes of a distributed-pipe problem."""
         if self.network.fidelity == "lumped":
             return self
-        return HydraulicSystem(nw.compile_network(self.network.layout, "lumped"), self.params)
+        return HydraulicSystem(nw.compile_network(self.network.layout, "lumped"), self.params, self.static_rise)

@@ -223,12 +223,17 @@ class ElementValues:
     orifice: dict[int, tuple[Any, Any]] = field(default_factory=dict)
 
 
-def element_values(network: Network, params: Mapping[str, Any]) -> ElementValues:
+def element_values(network: Network, params: Mapping[str, Any], static_rise: Any = None) -> ElementValues:
     """Apply the constitutive laws to every element (see :class:`ElementValues`).
 
     ``params`` maps every name the layout refers to, and ``rho``, ``mu``, ``beta``, to a value
     (float, numpy array of batch shape ``B`` or CasADi expression). An accumulator is
     linearised about its precharge: gas volume ``V0`` at absolute pressure ``p0 + p_atm``.
+
+    ``static_rise`` [Pa]: the static pressure rise of each circuit above its precharge (a
+    payload's, :func:`hisopt.payload.static_pressure_rise`), numpy ``B + (n_circuits,)`` or a
+    CasADi column; each accumulator is then linearised at its laden point, gas volume
+    ``V0 - dV(dp)`` at ``p_abs0 + dp`` (docs/model.md §13). ``None``: the precharge itself.
     """
     rho, mu, beta = (resolve(name, params) for name in FLUID_PARAMETERS)
     out = ElementValues({}, {}, {}, {}, {}, {}, {})
@@ -238,6 +243,9 @@ def element_values(network: Network, params: Mapping[str, Any]) -> ElementValues
             v0 = resolve(e.volume, params, where)
             p_abs = laws.absolute_pressure(resolve(e.precharge, params, where))
             gamma = resolve(e.gamma, params, where)
+            if static_rise is not None:
+                dp = circuit_entry(static_rise, c)
+                v0, p_abs = v0 - laws.gas_volume(dp, v0, p_abs, gamma), p_abs + dp
             out.gas[k] = (v0, p_abs, gamma)
             out.shunt[k] = laws.accumulator_compliance(v0, p_abs, gamma)
         elif isinstance(e, ChamberCompliance):
@@ -256,6 +264,12 @@ def element_values(network: Network, params: Mapping[str, Any]) -> ElementValues
             out.line[k] = (r_m, l_m, c_m, length)
             out.resistance[k], out.inertance[k], out.compliance[k] = r_m * length, l_m * length, c_m * length
     return out
+
+
+def circuit_entry(per_circuit: Any, c: int) -> Any:
+    """Circuit ``c``'s value of a per-circuit quantity: numpy ``B + (n_circuits,)`` gives
+    ``B``; a CasADi column its ``c``-th entry."""
+    return per_circuit[c] if bk.is_casadi(per_circuit) else np.asarray(per_circuit)[..., c]
 
 
 # --- stamps and assembly -----------------------------------------------------------------------

@@ -166,7 +166,7 @@ class CasadiModel:
         self.metrics = [METRICS[n] for n in self.names]
         self.n_var = len(problem.variable_names)
         spec = problem.spec
-        v = spec.vehicle
+        v = problem.vehicle
         self.tau = v.wheelbase / spec.road.speed
         self.gd_n0 = class_gd_n0(spec.road.road_class)
         self.n_par = _HEADER + 64 + 16 * len(self.outputs)
@@ -183,7 +183,7 @@ class CasadiModel:
         f = np.asarray(f_hz, dtype=float).ravel()
         w = np.zeros_like(f) if weight_hz is None else np.asarray(weight_hz, dtype=float).ravel()
         spec = self.problem.spec
-        veh = spec.vehicle
+        veh = self.problem.vehicle
         omega = 2 * np.pi * f
         s = 1j * omega
         d0 = (s**2)[:, None, None] * mass_matrix(veh) + s[:, None, None] * damping_matrix(veh) + stiffness_matrix(veh)
@@ -319,7 +319,7 @@ class CasadiModel:
     # -- quantities -----------------------------------------------------------------------------
     def roll_gradient(self, x: ca.MX) -> ca.MX:
         """[rad/g] Static roll angle under the moment ``m_s g h_0s`` (``K + G^T K_his G``)."""
-        veh = self.problem.spec.vehicle
+        veh = self.problem.vehicle
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
         k_his = self.problem.hydraulic_system(params).static_stiffness()
         g = stroke_matrix(veh)

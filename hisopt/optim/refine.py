@@ -433,7 +433,7 @@ def solve_asf(
 def _aggregated(
     problem: Problem, parts: list[Part], z_of: list[dict[str, Any]], ref_log: np.ndarray
 ) -> tuple[dict[str, Any], list[tuple[Any, float]], list[Any]]:
-    """The objectives' log10 expressions over the load cases (docs/model.md §13.5), with any
+    """The objectives' log10 expressions over the load cases (docs/model.md §14.5), with any
     new epigraph variables (and their lower bounds) and their constraints ``<= 0``.
 
     ``worst``: a level ``tau_q`` above every scenario's ``z_q,s``. ``expected``: ``log10`` of

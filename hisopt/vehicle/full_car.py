@@ -14,6 +14,9 @@ from hisopt.vehicle.parameters import VehicleParams
 def body_to_corners(vehicle: VehicleParams) -> np.ndarray:
     """Map body motion ``[z_s, phi, theta]`` to the four corner displacements (paper Eq. 6).
 
+    The corners sit at lateral positions ``t - y_cg`` (left) and ``-t - y_cg`` (right) from
+    the CG; ``y_cg = 0`` (the unladen, symmetric car) is the paper's matrix.
+
     Returns
     -------
     ndarray, shape (4, 3)
@@ -21,10 +24,10 @@ def body_to_corners(vehicle: VehicleParams) -> np.ndarray:
     v = vehicle
     return np.array(
         [
-            [1.0, v.t_f, -v.l_f],
-            [1.0, -v.t_f, -v.l_f],
-            [1.0, v.t_r, v.l_r],
-            [1.0, -v.t_r, v.l_r],
+            [1.0, v.t_f - v.y_cg, -v.l_f],
+            [1.0, -v.t_f - v.y_cg, -v.l_f],
+            [1.0, v.t_r - v.y_cg, v.l_r],
+            [1.0, -v.t_r - v.y_cg, v.l_r],
         ]
     )
 

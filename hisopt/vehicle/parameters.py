@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
 class VehicleParams(BaseModel):
@@ -32,6 +33,16 @@ class VehicleParams(BaseModel):
     l_f: float = Field(1.13, gt=0, description="[m] CG to front axle")
     l_r: float = Field(1.47, gt=0, description="[m] CG to rear axle")
     h_0s: float = Field(0.30, ge=0, description="[m] CG height above the roll axis")
+    y_cg: float = Field(
+        0.0, description="[m] lateral offset of the CG to the left of the track centre line (a laden car, hisopt.payload)"
+    )
+
+    @model_validator(mode="after")
+    def _cg_inside_track(self) -> VehicleParams:
+        half = min(self.t_f, self.t_r)
+        if not abs(self.y_cg) < half:
+            raise ValueError(f"y_cg: expected the CG inside the track, |y_cg| < {half:g} m (the smaller half track), got {self.y_cg:g} m")
+        return self
 
     @property
     def wheelbase(self) -> float:
@@ -48,3 +59,23 @@ class VehicleParams(BaseModel):
         front = 0.5 * self.m_s * g * self.l_r / self.wheelbase + self.m_uf * g
         rear = 0.5 * self.m_s * g * self.l_f / self.wheelbase + self.m_ur * g
         return front, rear
+
+    def static_corner_loads(self, g: float = 9.81) -> np.ndarray:
+        """[N] static vertical load of each wheel FL, FR, RL, RR, shape (4,).
+
+        The sprung weight splits between the axles by the lever rule (exact: the car is
+        statically determinate in pitch) and, on each axle, between its wheels by the lateral
+        lever rule about the CG offset ``y_cg`` (exact for ``y_cg = 0``; with an offset it
+        assumes each axle's share of the roll stiffness equals its share of the load).
+        """
+        front, rear = self.static_wheel_loads(g)
+        sprung_f, sprung_r = front - self.m_uf * g, rear - self.m_ur * g
+        left_f, left_r = 0.5 + 0.5 * self.y_cg / self.t_f, 0.5 + 0.5 * self.y_cg / self.t_r
+        return np.array(
+            [
+                2.0 * sprung_f * left_f + self.m_uf * g,
+                2.0 * sprung_f * (1.0 - left_f) + self.m_uf * g,
+                2.0 * sprung_r * left_r + self.m_ur * g,
+                2.0 * sprung_r * (1.0 - left_r) + self.m_ur * g,
+            ]
+        )
