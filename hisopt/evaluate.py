@@ -177,7 +177,14 @@ class Evaluator:
         f_all = np.concatenate([f, f_peak], axis=1)
         roads = [RoadCase(ev.tau, ev.coherence(f_all), ev.road) for ev in evaluators]
         both = channels.powers(f_all, roads)
-        return [(edges, f, w, f_peak, both[r]) for r in range(len(evaluators))]
+        order = np.argsort(f_all, axis=1, kind="stable")  # the peak search's sorted samples, for all roads
+        bases = self._peak_bases()
+        peaks = (np.take_along_axis(f_all, order, 1), np.take_along_axis(both[:, bases], order[None, None], 3))
+        return [Prior(edges, f, w, f_peak, both[r], (peaks[0], peaks[1][r])) for r in range(len(evaluators))]
+
+    def _peak_bases(self) -> list[int]:
+        """The base output of each PSD maximum, in metric order."""
+        return [self.base_index[self.derived[m.signal][0]] for m in self.metrics if m.kind == "max"]
 
     def _channels(self, model: CoupledModel) -> tuple[np.ndarray, Channels, np.ndarray]:
         """Poles ``(n, k)`` [rad/s], the road channels' responses, and whether each design's
@@ -242,7 +249,7 @@ class Evaluator:
             edges, f, w, f_peak = self._lay(lam)
             both = self.psd(np.concatenate([f, f_peak], axis=1), source)
         else:
-            edges, f, w, f_peak, both = prior
+            edges, f, w, f_peak, both = prior.edges, prior.f, prior.w, prior.f_peak, prior.psd_all
         n_panels = edges.shape[1] - 1
         psd = both[:, :, : f.shape[1]]
         totals, panel_abs, panel_sum = self._sums_at(f, w, psd, n_panels)
@@ -311,12 +318,14 @@ class Evaluator:
 
         peaks = [m.signal for m in self.metrics if m.kind == "max"]
         maxima: dict[str, np.ndarray] = {}
-        if peaks:  # searched on the panels' nodes and the peak samples, sorted
+        if peaks and prior is not None:  # searched on the panels' nodes and the peak samples, sorted
+            f, values = prior.sorted_peaks
+        elif peaks:
             f = np.concatenate([s.f, s.f_peak], axis=1)
             order = np.argsort(f, axis=1, kind="stable")
             f = np.take_along_axis(f, order, 1)
-            bases = [self.base_index[self.derived[name][0]] for name in peaks]
-            values = np.take_along_axis(s.psd_all[bases], order[None], 2)
+            values = np.take_along_axis(s.psd_all[self._peak_bases()], order[None], 2)
+        if peaks:
             spectra = np.stack([self._derive(name, f, values[j]) for j, name in enumerate(peaks)])
             maxima = self._refined_maxima(peaks, f, spectra, frf)
         return reduce_metrics(
@@ -359,8 +368,18 @@ class Evaluator:
 
 
 Pair = tuple[np.ndarray, np.ndarray]
-Prior = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""Panels, nodes, weights, peak samples and the PSDs at the nodes then the peak samples."""
+@dataclass(frozen=True)
+class Prior:
+    """What load cases sharing a model share (:meth:`Evaluator._shared_samples`): the panels,
+    nodes, weights and peak samples, one road's PSDs at the nodes then the peak samples, and
+    the peak search's sorted samples with the PSDs of the maxima's base outputs there."""
+
+    edges: np.ndarray
+    f: np.ndarray
+    w: np.ndarray
+    f_peak: np.ndarray
+    psd_all: np.ndarray
+    sorted_peaks: tuple[np.ndarray, np.ndarray]
 
 
 @dataclass(frozen=True)
