@@ -35,7 +35,8 @@ class ScenarioEvaluator:
         self.evaluators = [Evaluator(problem.scenario_space(name)) for name in self.scenarios]
         groups: dict[Any, list[int]] = {}
         for i, sc in enumerate(spec.scenarios):
-            groups.setdefault(sc.payload, []).append(i)
+            empty = sc.payload is None or sc.payload.mass == 0.0  # a 0 kg payload is no payload (§13)
+            groups.setdefault(None if empty else sc.payload, []).append(i)
         self.groups = list(groups.values())
         """Scenarios sharing a model (the same payload), by index, in file order."""
         plain = list(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
