@@ -30,6 +30,7 @@ from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_power_law, temporal_psd
 from hisopt.symmetry import channel_inputs, split, state_mirror
+from hisopt.transient import transient_quantities
 from hisopt.units import NO_UNIT, attach_units
 from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
 
@@ -77,6 +78,7 @@ class Evaluator:
                 wanted += list(COMFORT_OUTPUTS.values())
             elif m.output is not None:
                 wanted.append(m.output)
+        wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
         self.outputs: dict[str, Output] = {n: self.all_outputs[n] for n in dict.fromkeys(wanted)}
         self.output_index = {name: i for i, name in enumerate(self.outputs)}
         self.bases, self.derived = _share_outputs(self.outputs)
@@ -287,6 +289,8 @@ class Evaluator:
             values = np.take_along_axis(s.psd_all[bases], order[None], 2)
             spectra = np.stack([self._derive(name, f, values[j]) for j, name in enumerate(peaks)])
             maxima = self._refined_maxima(peaks, f, spectra, frf)
+        transient = [m.name for m in self.metrics if m.kind == "transient"]
+        steps = transient_quantities(model, model.vehicle, transient, self.problem.spec.handling.step_g) if transient else {}
         return reduce_metrics(
             self.metrics,
             self.problem.spec.comfort,
@@ -294,6 +298,7 @@ class Evaluator:
             integral,
             lambda output: maxima[output],
             lambda name: roll_gradient(model),
+            steps.__getitem__,
         )
 
     def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
@@ -524,7 +529,7 @@ def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, O
         keys.append((output, weighting))
         return 0.0
 
-    reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
+    reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
     return list(dict.fromkeys(keys))
 
 

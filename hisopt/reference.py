@@ -17,6 +17,7 @@ import numpy as np
 
 from hisopt.evaluate import DirectOutputs, Evaluator, roll_gradient
 from hisopt.psd import comfort_gain_squared, reduce_metrics
+from hisopt.transient import transient_quantities
 
 if TYPE_CHECKING:
     from hisopt.design_space import DesignSpace
@@ -40,6 +41,7 @@ def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, 
         integral,
         lambda output: spectra[output].max(axis=1),
         lambda name: roll_gradient(model),
+        lambda name: transient_quantities(model, model.vehicle, [name], spec.handling.step_g)[name],
     )
 
 

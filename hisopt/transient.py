@@ -370,6 +370,17 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
     if unknown:
         raise ValueError(f"unknown transient quantity {unknown[0]!r}; expected one of {', '.join(NAMES)}")
     coupled = model if isinstance(model, CoupledModel) else None
+    if coupled is not None and coupled.pipe_model == "lumped" and coupled.his is not None:
+        groups = coupled.groups()  # one state space per pattern of shorted valves
+        if len(groups) > 1:
+            parts = [(rows, transient_quantities(sub, vehicle, names, step_g)) for rows, sub in groups]
+            total = sum(len(rows) for rows, _ in parts)
+            merged = {name: np.full(total, np.nan) for name in names}
+            for rows, part in parts:
+                for name in names:
+                    merged[name][rows] = part[name]
+            return merged
+        coupled = groups[0][1]
     ss = coupled.state_space() if coupled is not None else model
     a = np.asarray(ss.a, dtype=float)  # type: ignore[union-attr]
     a = a.reshape((-1,) + a.shape[-2:])

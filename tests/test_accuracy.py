@@ -18,7 +18,7 @@ import hisopt.evaluate as evaluate
 from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
 from hisopt.reference import converged_grid, grid_quantities
-from tests.conftest import random_designs
+from tests.conftest import every_quantity, random_designs
 
 PIPES = {"diameter": 0.01, "length_front": 1.0, "length_rear": 2.5}
 CASES = {
@@ -30,7 +30,7 @@ CASES = {
 
 def variant(problem: hisopt.Problem, speed: float, his: dict, coherence: str = "independent") -> hisopt.Problem:
     data = problem.spec.model_dump(by_alias=True)
-    data["objectives"] = list(METRICS)
+    data["objectives"], data["constraints"] = every_quantity()
     data["road"]["speed"] = speed
     data["road"]["coherence"] = coherence
     data["his"].update(his)
@@ -144,7 +144,7 @@ def test_an_asymmetric_layout_is_evaluated_whole_and_within_1e3(asymmetric, rng)
     assert split(ss, state_mirror(model, ss)) is None
     fast = asymmetric.evaluator()(x)
     data = asymmetric.spec.model_dump(by_alias=True)
-    data["objectives"] = list(METRICS)
+    data["objectives"], data["constraints"] = every_quantity()
     every = problem_from_dict(data)
     for name, err in relative_errors(every, x).items():
         assert err.max() < 1e-3, (name, err.max())
