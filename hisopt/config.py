@@ -94,7 +94,7 @@ class Constraint(_Strict):
 
 
 class Handling(_Strict):
-    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.3)."""
+    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6)."""
 
     step_g: float = Field(0.4, gt=0, description="[g] lateral-acceleration step of roll_step_peak and roll_rate_peak")
 

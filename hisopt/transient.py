@@ -1,5 +1,5 @@
 """Transient roll under a lateral-acceleration step, and the roll frequency response
-(docs/model.md §6.3).
+(docs/model.md §6.6).
 
 A lateral acceleration ``a_y`` acts on the sprung mass as the roll moment ``m_s a_y h_0s``
 on the roll DOF (the moment the static ``roll_gradient`` uses). With the exact lumped state
@@ -96,8 +96,15 @@ def moment_per_acceleration(vehicle: VehicleParams) -> float:
 class TimeForm(Protocol):
     """The roll response per unit ``a_y`` of a batch of designs, as functions of time."""
 
-    lam: np.ndarray
-    static: np.ndarray
+    @property
+    def lam(self) -> np.ndarray:
+        """[rad/s] Poles ``(n, K)``."""
+        ...
+
+    @property
+    def static(self) -> np.ndarray:
+        """[rad per m/s^2] ``H(0)`` ``(n,)``."""
+        ...
 
     def __call__(self, t: np.ndarray, order: int) -> np.ndarray:
         """``d^order/dt^order`` of the unit step response at times ``t`` [s] ``(n, P)``."""

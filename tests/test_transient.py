@@ -1,4 +1,4 @@
-"""Transient roll quantities (hisopt/transient.py, docs/model.md §6.3) against independent
+"""Transient roll quantities (hisopt/transient.py, docs/model.md §6.6) against independent
 methods: the static roll gradient, the time-domain simulator (scipy's integrator on the same
 state space, with the roll moment as an external body force), a direct solve of the dynamic
 stiffness on a very fine grid, and the CLI."""

@@ -142,7 +142,7 @@ def _ldlt_solve(a_re: Any, a_im: Any, b_re: Any, b_im: Any) -> tuple[Any, Any]:
 # --- the model -----------------------------------------------------------------------------
 def check_refinable(problem: Problem) -> None:
     """Raise :class:`~hisopt.errors.ConfigError` if an objective or constraint of ``problem``
-    has no CasADi expression: the transient roll quantities (docs/model.md §6.3)."""
+    has no CasADi expression: the transient roll quantities (docs/model.md §6.6)."""
     from hisopt.errors import ConfigError
 
     names = list(problem.objective_names) + list(problem.constraint_names)
