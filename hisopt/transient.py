@@ -17,8 +17,8 @@ by safeguarded Newton steps. ``roll_gain_peak`` is the largest ``|H(j 2 pi f)|``
 :data:`GAIN_BAND_HZ`, refined off the grid by :func:`hisopt.peaks.refine_maximum`.
 
 Designs whose eigenvectors are too ill-conditioned for the residues (checked by the
-identities ``phi(0) = 0`` and ``dphi/dt(0) = 0``) use the matrix exponential instead; an
-unstable design gives NaN. Distributed pipes: the step quantities come from the lumped
+identities ``phi(0) = 0`` and ``dphi/dt(0) = 0``; e.g. pipes of micrometres) get NaN step
+quantities (their gain comes from a direct solve); an unstable design gives NaN. Distributed pipes: the step quantities come from the lumped
 state space (pipes as pi-sections), the frequency response from a direct solve of the
 distributed model's dynamic stiffness.
 """
@@ -156,37 +156,6 @@ class ModalForm:
         return np.sum(self.res[:, None, :] / (s[..., None] - self.lam[:, None, :]), axis=-1)
 
 
-@dataclass(frozen=True)
-class ExponentialForm:
-    """The same response by the matrix exponential (designs whose residues are not trusted):
-    ``phi^(m)(t) = c e^(A t) A^(m-1) b``, ``phi(t) = H(0) + c e^(A t) A^-1 b``."""
-
-    a: np.ndarray
-    b: np.ndarray
-    lam: np.ndarray
-    static: np.ndarray
-
-    def __call__(self, t: np.ndarray, order: int) -> np.ndarray:
-        return self.values(t, (order,))[0]
-
-    def values(self, t: np.ndarray, orders: Sequence[int]) -> list[np.ndarray]:
-        """``phi^(m)(t)`` for each ``m`` of ``orders`` at times ``t`` [s] ``(n, P)``."""
-        from scipy.linalg import expm
-
-        e = expm(self.a[:, None] * t[..., None, None])[:, :, ROLL, :]  # (n, P, size): the roll row
-        out = []
-        for order in orders:
-            if order == 0:
-                v = np.linalg.solve(self.a, self.b[..., None])[..., 0]
-            else:
-                v = self.b
-                for _ in range(order - 1):
-                    v = (self.a @ v[..., None])[..., 0]
-            y = (e @ v[:, :, None])[..., 0]
-            out.append(y + self.static[:, None] if order == 0 else y)
-        return out
-
-
 def modal_form(a: np.ndarray, b: np.ndarray, static: np.ndarray) -> tuple[ModalForm, np.ndarray]:
     """The pole-residue form of ``phi`` per unit ``a_y`` and whether each design's is trusted.
 
@@ -313,7 +282,7 @@ def step_response_peaks(form: TimeForm, step_g: float, t: np.ndarray | None = No
 
     Parameters
     ----------
-    form : the response per unit ``a_y`` (:class:`ModalForm` or :class:`ExponentialForm`)
+    form : the response per unit ``a_y`` (:class:`ModalForm`)
     step_g : [g] size of the step
     t : [s] the search grid ``(n, P)`` (default :func:`time_grid` of a modal form)
     """
@@ -395,24 +364,20 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
     b = np.broadcast_to(roll_moment_input(vehicle, size), (n, size))
     out = {name: np.full(n, np.nan) for name in names}
     with np.errstate(all="ignore"):
-        try:
-            static = -np.linalg.solve(a, b[..., None])[:, ROLL, 0]  # H(0) = -c A^-1 b
-        except np.linalg.LinAlgError:
-            return out
+        static = _static_gain(a, b)
         form, trusted = modal_form(a, b, static)
         ok = stable(form.lam) & np.isfinite(static) & (static != 0)
+        static = np.where(ok, static, 1.0)  # placeholders: those rows stay NaN
     if not ok.any():
         return out
-    fast, slow = ok & trusted, ok & ~trusted
-    if any(name in STEP_NAMES for name in names):
-        grid = time_grid(form.lam, form.res)
-        for rows, response in ((fast, _rows(form, fast)), (slow, ExponentialForm(a[slow], b[slow], form.lam[slow], static[slow]))):
-            if rows.any():
-                with np.errstate(all="ignore"):
-                    peaks = step_response_peaks(response, step_g, grid[rows])
-                for name in STEP_NAMES:
-                    if name in out:
-                        out[name][rows] = peaks[name]
+    fast = ok & trusted  # untrusted residues: NaN steps (a matrix-exponential fallback was too slow and fragile there)
+    if any(name in STEP_NAMES for name in names) and fast.any():
+        grid = time_grid(form.lam[fast], form.res[fast])
+        with np.errstate(all="ignore"):
+            peaks = step_response_peaks(_rows(form, fast), step_g, grid)
+        for name in STEP_NAMES:
+            if name in out:
+                out[name][fast] = peaks[name]
     if any(name in GAIN_NAMES for name in names):
         direct = ~trusted | (coupled is not None and coupled.pipe_model == "distributed")
         rows = ok
@@ -424,6 +389,20 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
         if "roll_gain_peak_hz" in out:
             out["roll_gain_peak_hz"][rows] = f_peak
     return out
+
+
+def _static_gain(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """[rad per m/s^2] ``H(0) = -c A^-1 b`` per design (NaN where ``A`` is singular)."""
+    try:
+        return -np.linalg.solve(a, b[..., None])[:, ROLL, 0]
+    except np.linalg.LinAlgError:  # rare: find the singular designs one by one
+        out = np.full(len(a), np.nan)
+        for i in range(len(a)):
+            try:
+                out[i] = -np.linalg.solve(a[i], b[i])[ROLL]
+            except np.linalg.LinAlgError:
+                continue
+        return out
 
 
 def _rows(form: ModalForm, rows: np.ndarray) -> ModalForm:
