@@ -125,6 +125,12 @@ class Robust(_Strict):
     alpha: float = Field(0.8, ge=0, lt=1, description="[-] CVaR level: the mean of the worst 1 - alpha of the weight")
 
 
+class Handling(_Strict):
+    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6)."""
+
+    step_g: float = Field(0.4, gt=0, description="[g] lateral-acceleration step of roll_step_peak and roll_rate_peak")
+
+
 class Optimizer(_Strict):
     """Evolutionary search settings (overridable on the command line)."""
 
@@ -145,6 +151,7 @@ class ProblemSpec(_Strict):
     road: Road = Field(default_factory=Road)
     band: Band = Field(default_factory=Band)
     comfort: Comfort = Field(default_factory=Comfort)
+    handling: Handling = Field(default_factory=Handling)
     objectives: list[str] = Field(
         default_factory=lambda: ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]
     )
@@ -162,6 +169,9 @@ class ProblemSpec(_Strict):
             raise ValueError(f"unknown objective {unknown[0]!r}; expected names from {', '.join(OBJECTIVE_NAMES)}")
         if not v:
             raise ValueError("expected at least one objective")
+        ranked = [o for o in v if not METRICS[o].objective]
+        if ranked:
+            raise ValueError(f"{ranked[0]!r} cannot be minimised (lower is not better); constrain it in [[constraints]] instead")
         twice = [o for i, o in enumerate(v) if o in v[:i]]
         if twice:
             raise ValueError(f"{twice[0]!r} is listed twice; expected each objective once")

@@ -30,6 +30,7 @@ from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_power_law, temporal_psd
 from hisopt.symmetry import channel_inputs, split, state_mirror
+from hisopt.transient import transient_quantities
 from hisopt.units import NO_UNIT, attach_units
 from hisopt.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
 
@@ -78,6 +79,7 @@ class Evaluator:
                 wanted += list(COMFORT_OUTPUTS.values())
             elif m.output is not None:
                 wanted.append(m.output)
+        wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
         self.outputs: dict[str, Output] = {n: self.all_outputs[n] for n in dict.fromkeys(wanted)}
         self.output_index = {name: i for i, name in enumerate(self.outputs)}
         self.bases, self.derived = _share_outputs(self.outputs)
@@ -164,11 +166,18 @@ class Evaluator:
         scale = np.abs(lam).max(axis=1)
         stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
         shared = self._shared_samples(lam, channels, evaluators) if len(evaluators) > 1 else [None]
+        steps = self._transient(model)  # of the model alone: once for all the roads
         out = []
         for ev, prior in zip(evaluators, shared, strict=True):
-            values = ev.quantities(lam, channels, model, prior)
+            values = ev.quantities(lam, channels, model, prior, steps)
             out.append((values, stable & np.all([np.isfinite(v) for v in values.values()], axis=0)))
         return out
+
+    def _transient(self, model: CoupledModel) -> dict[str, np.ndarray]:
+        """The transient roll quantities asked for (docs/model.md §6.6), which depend on the
+        model and ``[handling]``, not on the road."""
+        names = [m.name for m in self.metrics if m.kind == "transient"]
+        return transient_quantities(model, model.vehicle, names, self.problem.spec.handling.step_g) if names else {}
 
     def _shared_samples(self, lam: np.ndarray, channels: Channels, evaluators: list[Evaluator]) -> list[Prior]:
         """The pole-aware nodes, laid once, and every evaluator's road PSDs there from one pass
@@ -308,8 +317,12 @@ class Evaluator:
         (``output_of``: per column, the one output needed there, or -1 for all)."""
         return source.power(f_hz, self.tau, self.coherence(f_hz), output_of, self.road)
 
-    def quantities(self, lam: np.ndarray, frf: Channels, model: CoupledModel, prior: Prior | None = None) -> dict[str, np.ndarray]:
-        """All requested metrics from poles (for the nodes) and the road channels' FRFs."""
+    def quantities(
+        self, lam: np.ndarray, frf: Channels, model: CoupledModel, prior: Prior | None = None, steps: dict[str, np.ndarray] | None = None
+    ) -> dict[str, np.ndarray]:
+        """All requested metrics from poles (for the nodes) and the road channels' FRFs
+        (``prior``: what load cases sharing the model share; ``steps``: the transient
+        quantities, computed here if not given)."""
         s = self._sample(lam, frf, prior)
         column = {key: r for r, key in enumerate(self.integrals)}
 
@@ -328,6 +341,7 @@ class Evaluator:
         if peaks:
             spectra = np.stack([self._derive(name, f, values[j]) for j, name in enumerate(peaks)])
             maxima = self._refined_maxima(peaks, f, spectra, frf)
+        steps = self._transient(model) if steps is None else steps
         return reduce_metrics(
             self.metrics,
             self.problem.spec.comfort,
@@ -335,6 +349,7 @@ class Evaluator:
             integral,
             lambda output: maxima[output],
             lambda name: roll_gradient(model),
+            steps.__getitem__,
         )
 
     def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
@@ -609,7 +624,7 @@ def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, O
         keys.append((output, weighting))
         return 0.0
 
-    reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
+    reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
     return list(dict.fromkeys(keys))
 
 

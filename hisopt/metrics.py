@@ -5,18 +5,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-Kind = Literal["comfort", "max", "rms", "static"]
+Kind = Literal["comfort", "max", "rms", "static", "transient"]
 
 
 @dataclass(frozen=True)
 class Metric:
-    """A scalar performance quantity of a design, in physical units (smaller is better)."""
+    """A scalar performance quantity of a design, in physical units (smaller is better, except
+    where ``objective`` is False: such a quantity may only be constrained, ``value <= limit``)."""
 
     name: str
     kind: Kind
     output: str | None
     unit: str
     description: str
+    objective: bool = True
 
     @property
     def signal(self) -> str:
@@ -37,6 +39,13 @@ METRICS: dict[str, Metric] = {
         Metric("rms_stroke", "rms", "stroke_fl", "m", "RMS FL suspension stroke over the band"),
         Metric("rms_tire_load", "rms", "tire_load_fl", "N", "RMS FL dynamic tyre load over the band"),
         Metric("roll_gradient", "static", None, "rad/g", "static roll angle per 1 g lateral acceleration"),
+        Metric("roll_step_peak", "transient", None, "rad", "largest roll angle after a lateral-acceleration step of [handling] step_g"),
+        Metric("roll_step_overshoot", "transient", None, "-", "roll step peak over its steady state, minus 1"),
+        Metric("roll_rate_peak", "transient", None, "rad/s", "largest roll rate after a lateral-acceleration step of [handling] step_g"),
+        Metric("roll_gain_peak", "transient", None, "rad/(m/s^2)", "largest roll angle per lateral acceleration over 0.1-4 Hz"),
+        Metric(
+            "roll_gain_peak_hz", "transient", None, "Hz", "frequency of roll_gain_peak (a constraint only: lower is not better)", objective=False
+        ),
     )
 }
 

@@ -88,18 +88,21 @@ def reduce_metrics(
     integral: Integral,
     maximum: Callable[[str], Any],
     static: Callable[[str], Any],
+    transient: Callable[[str], Any] | None = None,
 ) -> dict[str, Any]:
     """Every metric from its spectra: the one dispatch of docs/model.md §6.
 
     - ``comfort`` (``sigma_aw``): ``sqrt(sum_axis k_axis^2 integral(|W_axis|^2 S_axis))``;
     - ``rms``: ``sqrt(integral(S))``;
     - ``max``: ``maximum(output)`` (continuous, or over nodes, as the engine provides);
-    - ``static``: ``static(name)`` (``roll_gradient``).
+    - ``static``: ``static(name)`` (``roll_gradient``);
+    - ``transient``: ``transient(name)`` (:mod:`hisopt.transient`; an engine without it
+      raises ``ValueError`` naming the quantity).
 
     Parameters
     ----------
     weighting_of : the ISO 2631-1 weighting of a comfort output (``"Wk"``, ``"Wd"``)
-    integral, maximum, static : the engine's reductions (see :data:`Integral`)
+    integral, maximum, static, transient : the engine's reductions (see :data:`Integral`)
     """
     out: dict[str, Any] = {}
     for m in metrics:
@@ -112,6 +115,10 @@ def reduce_metrics(
             out[m.name] = bk.sqrt(integral(m.output, None))  # type: ignore[arg-type]
         elif m.kind == "max":
             out[m.name] = maximum(m.output)  # type: ignore[arg-type]
+        elif m.kind == "transient":
+            if transient is None:
+                raise ValueError(f"{m.name}: this engine has no transient roll quantities")
+            out[m.name] = transient(m.name)
         else:
             out[m.name] = static(m.name)
     return out

@@ -17,6 +17,7 @@ import numpy as np
 
 from hisopt.evaluate import DirectOutputs, Evaluator, roll_gradient
 from hisopt.psd import comfort_gain_squared, reduce_metrics
+from hisopt.transient import transient_quantities
 
 if TYPE_CHECKING:
     from hisopt.design_space import DesignSpace
@@ -29,6 +30,9 @@ def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, 
     psd = ev.spectra(f, DirectOutputs(model, ev.outputs)(2 * np.pi * f))
     spectra = {name: psd[..., j] for name, j in ev.output_index.items()}
 
+    wanted = [m.name for m in ev.metrics if m.kind == "transient"]
+    transient = transient_quantities(model, model.vehicle, wanted, spec.handling.step_g) if wanted else {}
+
     def integral(output: str, weighting: str | None) -> np.ndarray:
         gain = 1.0 if weighting is None else comfort_gain_squared(f, weighting, spec.comfort, ev.f_lo, ev.f_hi)
         return np.trapezoid(gain * spectra[output], f, axis=1)
@@ -40,6 +44,7 @@ def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, 
         integral,
         lambda output: spectra[output].max(axis=1),
         lambda name: roll_gradient(model),
+        transient.__getitem__,
     )
 
 

@@ -251,6 +251,7 @@ def simulate(
     interpolation: Interpolation = "pchip",
     method: SolverMethod = "auto",
     rtol: float = 1e-8,
+    body_force: ArrayLike | None = None,
 ) -> TimeResponse:
     """Simulate the car (with or without HIS) driven by road displacements at the wheels.
 
@@ -285,6 +286,10 @@ def simulate(
         Explicit ``"DOP853"`` is often fastest for smooth (``"cubic"``) random roads.
     rtol
         [-] Relative tolerance; absolute tolerances follow from each state's typical size.
+    body_force
+        [N, N m] External generalised force on the 7 DOFs ``[z_s, phi, theta, z_u1..z_u4]``,
+        shape ``(7,)``, held constant from ``t_s[0]`` (a step: e.g. the roll moment
+        ``m_s a_y h_0s`` of a lateral acceleration, :mod:`hisopt.transient`). Default none.
 
     Returns
     -------
@@ -301,6 +306,9 @@ def simulate(
     if not 0.0 < rtol < 1.0:
         raise ConfigError(f"expected 0 < rtol < 1, got {rtol!r}")
     road = RoadInput(t_s, road_m, interpolation)
+    force = np.zeros(7) if body_force is None else np.asarray(body_force, dtype=float)
+    if force.shape != (7,) or not np.all(np.isfinite(force)):
+        raise ConfigError(f"expected body_force of shape (7,) [N, N m], finite, got shape {force.shape}")
     ((_, contracted),) = model.groups()  # a single design: one group
     quadratic = valve_kq > 0.0 or (mode == "nonlinear" and _has_quadratic_orifice(model))
     if contracted is not model and quadratic:
@@ -316,8 +324,8 @@ def simulate(
     # by itself, and one evaluation per step suits steps capped at the input spacing.
     chosen = "LSODA" if method == "auto" else method
     if mode == "linear":
-        return _simulate_linear(model, ss, road, chosen, rtol, u_scale)
-    return _simulate_nonlinear(model, ss, road, chosen, rtol, u_scale, valve_kq, tyre_liftoff)
+        return _simulate_linear(model, ss, road, chosen, rtol, u_scale, force)
+    return _simulate_nonlinear(model, ss, road, chosen, rtol, u_scale, valve_kq, tyre_liftoff, force)
 
 
 def _has_quadratic_orifice(model: CoupledModel) -> bool:
@@ -327,21 +335,33 @@ def _has_quadratic_orifice(model: CoupledModel) -> bool:
     return any(bool(np.any(np.asarray(kq) > 0.0)) for _, kq in model.his.values.orifice.values())
 
 
+def _body_acceleration(model: CoupledModel, n_states: int, force: np.ndarray) -> np.ndarray:
+    """State derivative ``M^-1 f`` of a generalised force on the velocity rows (7..13)."""
+    out = np.zeros(n_states)
+    out[7:14] = force / np.diag(model.mass)
+    return out
+
+
 def _simulate_linear(
-    model: CoupledModel, ss: StateSpace, road: RoadInput, method: str, rtol: float, u_scale: float
+    model: CoupledModel, ss: StateSpace, road: RoadInput, method: str, rtol: float, u_scale: float, force: np.ndarray
 ) -> TimeResponse:
     a, b0, b1 = _linear_matrices(ss)
     forcing = b0 + a @ b1  # input matrix of the shifted state x - B1 u
+    push = _body_acceleration(model, a.shape[0], force)
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
-        f = forcing @ road.value(t)
+        f = forcing @ road.value(t) + push
         return a @ y + (f[:, None] if y.ndim == 2 else f)
 
-    atol = 1e-3 * rtol * u_scale * state_scales(a, b0, b1)
+    scales = state_scales(a, b0, b1)
+    if np.any(force):  # the force's own static response sets the states' sizes too
+        static = np.abs(np.linalg.solve(a, push))
+        scales = np.maximum(scales * u_scale, static) / u_scale
+    atol = 1e-3 * rtol * u_scale * scales
     y = _integrate(fun, np.zeros(a.shape[0]), road, method, rtol, atol, lambda t, y: a)
     u, du = road.z_m.T, road.sampled_rate().T
     x = y + b1 @ u
-    dx = a @ x + b0 @ u + b1 @ du
+    dx = a @ x + b0 @ u + b1 @ du + push[:, None]
     names: tuple[str, ...] = ()
     p = np.zeros((0, x.shape[1]))
     vol = np.zeros_like(p)
@@ -364,6 +384,7 @@ def _simulate_nonlinear(
     u_scale: float,
     valve_kq: float,
     tyre_liftoff: bool,
+    force: np.ndarray,
 ) -> TimeResponse:
     net = NonlinearModel(model, valve_kq, tyre_liftoff)
     a, b0, b1 = _linear_matrices(ss)
@@ -374,12 +395,14 @@ def _simulate_nonlinear(
     scale[14 + net.acc_state] *= net.e_dyn[net.acc_state]
     has_ct = bool(np.any(net.ct))
     zeros = np.zeros((4, 1))
+    push = (force / np.diag(model.mass))[:, None]
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
         column = y.ndim == 1
         yy = y[:, None] if column else y
         du = road.rate(t)[:, None] if has_ct else zeros
         dy, _ = net.derivative(yy, road.value(t)[:, None], du)
+        dy[7:14] += push
         return dy[:, 0] if column else dy
 
     def jac(t: float, y: np.ndarray) -> np.ndarray:
@@ -389,6 +412,7 @@ def _simulate_nonlinear(
     if net.volume_margin(y[14:]) >= GAS_VOLUME_LIMIT * (1.0 - 1e-9):
         raise ModelError("an accumulator bottomed out (oil filled its gas volume): reduce the input or raise V0")
     dy, h = net.derivative(y, road.z_m.T, road.sampled_rate().T)
+    dy[7:14] += push
     p_nodes = h[net.dyn][net.acc_state]
     p = np.zeros((len(net.acc.names), y.shape[1]))
     vol = np.zeros_like(p)

@@ -20,7 +20,8 @@ SI unit                   shown as
 ``N``                     N, kN from 10 kN
 ``N/m``, ``N s/m``        N/m, kN/m from 10 kN/m (and N s/m, kN s/m likewise)
 ``rad``, ``rad/g``        deg, deg/g: roll angles and roll gradients as vehicle engineers
-                          quote them; the number shown is in the unit shown (180/pi x rad)
+                          quote them; the number shown is in the unit shown (180/pi x rad);
+                          likewise ``rad/s`` and ``rad/(m/s^2)`` (deg/s, deg/(m/s^2))
 PSDs (``<u>^2/Hz``)       scientific notation in the SI unit (``8.468e-5 rad^2/Hz``)
 anything else             4 significant figures in the SI unit (``1.795 Hz``, ``0.3082 -``)
 ========================  ===================================================================
@@ -62,6 +63,8 @@ _STEPS: dict[str, tuple[tuple[float, str, float], ...]] = {
     "N s/m": ((0.0, "N s/m", 1.0), (1e4, "kN s/m", 1e-3)),
     "rad": ((0.0, "deg", 180.0 / math.pi),),
     "rad/g": ((0.0, "deg/g", 180.0 / math.pi),),
+    "rad/s": ((0.0, "deg/s", 180.0 / math.pi),),
+    "rad/(m/s^2)": ((0.0, "deg/(m/s^2)", 180.0 / math.pi),),
 }
 
 _FIXED: dict[str, str] = {

@@ -12,7 +12,7 @@ from hisopt.linalg import join
 from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
 from hisopt.reference import converged_grid, grid_quantities
-from tests.conftest import random_designs
+from tests.conftest import every_quantity, random_designs
 
 REFERENCE = {  # docs/model.md §7.1 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
     (2.0e6, 10e-4, 0.5, 8e5): (0.5534, 8.4675e-05, 4.3444e-05, 4.7222e04),
@@ -23,7 +23,7 @@ REFERENCE = {  # docs/model.md §7.1 (default vehicle, class C, 10 m/s, 0.5-80 H
 @pytest.fixture(scope="module")
 def all_metrics_problem(problem):
     data = problem.spec.model_dump(by_alias=True)
-    data["objectives"] = list(METRICS)
+    data["objectives"], data["constraints"] = every_quantity()
     return problem_from_dict(data, "all-metrics")
 
 

@@ -140,6 +140,21 @@ def _ldlt_solve(a_re: Any, a_im: Any, b_re: Any, b_im: Any) -> tuple[Any, Any]:
 
 
 # --- the model -----------------------------------------------------------------------------
+def check_refinable(problem: Problem) -> None:
+    """Raise :class:`~hisopt.errors.ConfigError` if an objective or constraint of ``problem``
+    has no CasADi expression: the transient roll quantities (docs/model.md §6.6)."""
+    from hisopt.errors import ConfigError
+
+    names = list(problem.objective_names) + list(problem.constraint_names)
+    transient = [name for name in names if METRICS[name].kind == "transient"]
+    if transient:
+        raise ConfigError(
+            f"{transient[0]}: the gradient refinement has no CasADi model of the transient roll quantities; "
+            "expected a problem without them (optimise with NSGA only, or drop them before refining)",
+            file=str(problem.path) if getattr(problem, "path", None) else None,
+        )
+
+
 class CasadiModel:
     """Objectives and constraints of a problem as CasADi expressions (module docstring).
 
@@ -157,6 +172,7 @@ class CasadiModel:
     def __init__(self, problem: Problem, compile: bool = True):
         from hisopt.evaluate import Evaluator
 
+        check_refinable(problem)
         self.compile = compile
         self.problem = problem
         ev = Evaluator(problem)

@@ -645,9 +645,11 @@ def refine_front(
         ``max_points < 1``, the front lacks a variable or objective column, or a row is not a valid start
         (:func:`start_designs`).
     """
+    from hisopt.optim.casadi_model import check_refinable
     from hisopt.optim.decision import hypervolume, reference_point
     from hisopt.parallel import Backend
 
+    check_refinable(problem)
     started = time.perf_counter()
     settings = settings or RefineSettings()
     names = list(problem.objective_names)

@@ -1,0 +1,154 @@
+"""Transient roll quantities (hisopt/transient.py, docs/model.md §6.6) against independent
+methods: the static roll gradient, the time-domain simulator (scipy's integrator on the same
+state space, with the roll moment as an external body force), a direct solve of the dynamic
+stiffness on a very fine grid, and the CLI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import hisopt
+from hisopt.constants import G_MPS2
+from hisopt.errors import ConfigError
+from hisopt.problem import problem_from_dict
+from hisopt.psd import roll_gradient
+from hisopt.timedomain import simulate
+from hisopt.transient import NAMES, direct_response, modal_form, roll_moment_input, transient_quantities
+from tests.conftest import ROOT
+
+STEP_G = 0.4
+DESIGNS = np.array([[2.0e6, 10e-4, 0.5, 8e5], [0.0, 1e-4, 0.1, 0.0]])
+
+
+def _form(model):
+    ss = model.state_space()
+    n, size = ss.a.shape[0], ss.a.shape[-1]
+    b = np.broadcast_to(roll_moment_input(model.vehicle, size), (n, size))
+    static = -np.linalg.solve(ss.a, b[..., None])[:, 1, 0]
+    return modal_form(ss.a, b, static)
+
+
+@pytest.fixture(scope="module")
+def axle_roll() -> hisopt.Problem:
+    return hisopt.load_problem(ROOT / "problems" / "layout_axle_roll.toml")
+
+
+def test_moment_input_matches_the_dynamic_stiffness(problem, axle_roll):
+    for p in (problem, axle_roll):
+        model = p.model(p.baseline[None]).groups()[0][1]
+        ss = model.state_space()
+        s = 2j * np.pi * np.array([0.3, 1.7, 9.0])
+        via_states = direct_response(s / (2j * np.pi) * np.ones((1, 3)), ss.a, roll_moment_input(model.vehicle, ss.a.shape[-1])[None], None, model.vehicle)
+        via_stiffness = model.vehicle.m_s * model.vehicle.h_0s * np.linalg.inv(model.dynamic_stiffness(s))[..., 1, 1]
+        np.testing.assert_allclose(via_states, via_stiffness, rtol=1e-9)
+
+
+def test_steady_state_and_zero_frequency_gain_equal_the_roll_gradient(problem, axle_roll):
+    for p in (problem, axle_roll):
+        model = p.model(DESIGNS if p is problem else p.baseline[None])
+        gradient = roll_gradient(model.stiffness(), model.vehicle)  # [rad/g]
+        form, trusted = _form(model.groups()[0][1])
+        assert trusted.all()
+        # the step response settles at the roll gradient times the step, H(0) per m/s^2
+        np.testing.assert_allclose(form.static * STEP_G * G_MPS2, gradient * STEP_G, rtol=1e-10)
+        late = form(np.full((len(form.lam), 1), 200.0), 0)[:, 0]
+        np.testing.assert_allclose(late, gradient / G_MPS2, rtol=1e-9)
+        np.testing.assert_allclose(form.frequency_response(np.zeros((len(form.lam), 1)))[:, 0], gradient / G_MPS2, rtol=1e-9)
+
+
+@pytest.mark.parametrize("which", ["default", "axle_roll"])
+def test_peaks_match_the_time_domain_simulator(problem, axle_roll, which):
+    p = problem if which == "default" else axle_roll
+    x = DESIGNS if which == "default" else np.vstack([p.baseline, p.lower + 0.3 * (p.upper - p.lower)])
+    for design in x:
+        model = p.model(design[None])
+        q = transient_quantities(model, model.vehicle, NAMES, STEP_G)
+        v = model.vehicle
+        t = np.linspace(0.0, 4.0, 20_001)
+        force = np.zeros(7)
+        force[1] = v.m_s * STEP_G * G_MPS2 * v.h_0s
+        r = simulate(model, t, np.zeros((len(t), 4)), body_force=force, rtol=1e-10)
+        phi, rate = r.displacement[:, 1], r.velocity[:, 1]
+        steady = roll_gradient(model.stiffness(), v)[0] * STEP_G
+        assert q["roll_step_peak"][0] == pytest.approx(np.abs(phi).max(), rel=5e-3)
+        assert q["roll_rate_peak"][0] == pytest.approx(np.abs(rate).max(), rel=5e-3)
+        assert q["roll_step_overshoot"][0] == pytest.approx(np.abs(phi).max() / steady - 1, rel=5e-3)
+        # in fact the refined peaks are never below the samples, and within 1e-6 of them
+        assert np.abs(phi).max() <= q["roll_step_peak"][0] * (1 + 1e-8) and np.abs(phi).max() >= q["roll_step_peak"][0] * (1 - 1e-6)
+        assert q["roll_step_overshoot"][0] > 0.05  # a real overshoot is being compared
+
+
+def test_gain_peak_is_refined_off_the_grid(problem):
+    model = problem.model(DESIGNS)
+    q = transient_quantities(model, model.vehicle, ["roll_gain_peak", "roll_gain_peak_hz"], STEP_G)
+    f = np.linspace(0.1, 4.0, 400_001)
+    for i in range(len(DESIGNS)):
+        sub = model.subset(np.array([i]))
+        fine = np.abs(direct_response(f[None], np.zeros((1, 1, 1)), np.zeros((1, 1)), sub, model.vehicle))[0]
+        j = np.argmax(fine)
+        assert q["roll_gain_peak"][i] == pytest.approx(fine[j], rel=1e-6)
+        assert q["roll_gain_peak_hz"][i] == pytest.approx(f[j], abs=2e-5)
+        assert q["roll_gain_peak"][i] >= fine[j] * (1 - 1e-12)
+        coarse = np.abs(direct_response(np.linspace(0.1, 4.0, 14)[None], np.zeros((1, 1, 1)), np.zeros((1, 1)), sub, model.vehicle))[0]
+        assert coarse.max() < q["roll_gain_peak"][i] * (1 - 1e-3)  # a plain grid misses the peak
+
+
+def test_unstable_and_singular_designs_give_nan(problem):
+    model = problem.model(DESIGNS[:1])
+    ss = model.state_space()
+    a = ss.a.copy()
+    a[0, 8, 8] = +50.0  # negative roll damping: unstable
+    q = transient_quantities(type(ss)(a, ss.b0, ss.b1, ss.labels, ss.kinetic_weights), model.vehicle, NAMES, STEP_G)
+    assert all(np.isnan(q[name]).all() for name in NAMES)
+    df = problem.evaluate(np.array([[2e6, 10e-4, 1.0, 8e5]]))  # lam = 1: singular, not evaluated
+    assert df["status"].iloc[0] != "ok"
+
+
+def test_evaluator_and_the_step_size(problem):
+    data = problem.spec.model_dump(by_alias=True)
+    data["objectives"] = ["sigma_aw", "roll_step_peak", "roll_gain_peak"]
+    data["constraints"] = [{"name": "roll_rate_peak", "limit": 1.0}, {"name": "roll_step_overshoot", "limit": 2.0}]
+    p = problem_from_dict(data)
+    data["handling"] = {"step_g": 0.8}
+    twice = problem_from_dict(data)
+    a, b = p.evaluate(DESIGNS), twice.evaluate(DESIGNS)
+    np.testing.assert_allclose(b["roll_step_peak"], 2 * a["roll_step_peak"], rtol=1e-12)
+    np.testing.assert_allclose(b["roll_step_overshoot"], a["roll_step_overshoot"], rtol=1e-12)
+    np.testing.assert_allclose(b["roll_gain_peak"], a["roll_gain_peak"], rtol=1e-12)
+    assert a.attrs["units"]["roll_step_peak"] == "rad" and a.attrs["units"]["roll_rate_peak"] == "rad/s"
+    assert a.attrs["units"]["roll_gain_peak"] == "rad/(m/s^2)"
+    np.testing.assert_allclose(a["sigma_aw"], problem.evaluate(DESIGNS)["sigma_aw"], rtol=1e-12)
+
+
+def test_problem_file_rules(problem):
+    data = problem.spec.model_dump(by_alias=True)
+    data["objectives"] = ["sigma_aw", "roll_gain_peak_hz"]
+    with pytest.raises(ConfigError, match="roll_gain_peak_hz.*constrain it"):
+        problem_from_dict(data)
+    data["objectives"] = ["sigma_aw"]
+    data["handling"] = {"step_g": 0.0}
+    with pytest.raises(ConfigError, match="handling.step_g"):
+        problem_from_dict(data)
+
+
+def test_refinement_refuses_transient_quantities(problem):
+    from hisopt.optim.casadi_model import CasadiModel
+
+    data = problem.spec.model_dump(by_alias=True)
+    data["constraints"] = [{"name": "roll_step_peak", "limit": 0.05}]
+    with pytest.raises(ConfigError, match="roll_step_peak: the gradient refinement"):
+        CasadiModel(problem_from_dict(data), compile=False)
+
+
+def test_cli_evaluates_a_problem_with_transient_quantities(tmp_path):
+    from tests.cli_inprocess import run_cli
+
+    text = (ROOT / "problems" / "roll_plane_his.toml").read_text()
+    text = text.replace('objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "roll_gain_peak"]')
+    text += '\n[handling]\nstep_g = 0.5\n\n[[constraints]]\nname = "roll_step_peak"\nlimit = 0.05\n'
+    path = tmp_path / "transient.toml"
+    path.write_text(text)
+    result = run_cli("evaluate", str(path))
+    assert result.code == 0, result.stderr
+    assert "roll_step_peak [deg]" in result.stdout and "roll_gain_peak [deg/(m/s^2)]" in result.stdout
