@@ -399,10 +399,6 @@ def optimize_cmd(
     from hisopt.problem import load_problem
 
     p = load_problem(problem)
-    if refine:  # refuse before the run, not after it
-        from hisopt.optim.casadi_model import check_refinable
-
-        check_refinable(p)
     settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed)
     if out is None:
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")

@@ -132,13 +132,54 @@ def test_problem_file_rules(problem):
         problem_from_dict(data)
 
 
-def test_refinement_refuses_transient_quantities(problem):
+def test_finite_difference_designs_stay_in_the_box():
+    from hisopt.optim.transient_callback import difference_designs
+
+    u = np.array([0.0, 0.5, 1.0])
+    designs, spread = difference_designs(u, 1e-3)
+    assert designs.shape == (7, 3) and np.all((designs >= 0) & (designs <= 1))
+    np.testing.assert_allclose(spread, 2e-3)
+    np.testing.assert_allclose(designs[1:4] - designs[4:], np.diag(spread))  # u + up_i e_i - (u - down_i e_i)
+
+
+def test_refinement_callback_equals_the_evaluator_and_its_slopes(problem):
+    from hisopt.optim.transient_callback import TransientCallback
+
+    names = ["roll_step_peak", "roll_rate_peak", "roll_gain_peak"]
+    span = problem.upper - problem.lower
+    cb = TransientCallback(problem, names, problem.lower, span)
+    u = np.array([0.4, 0.3, 0.6, 0.5])
+    value, jac = cb.evaluate(u, jacobian=True)
+    data = problem.spec.model_dump(by_alias=True)
+    data["objectives"] = names
+    q = problem_from_dict(data).evaluator()((problem.lower + span * u)[None])
+    np.testing.assert_allclose(value, [q[n][0] for n in names], rtol=1e-12)
+    for i in range(4):  # a wider central difference, independently: slopes agree to its truncation and noise
+        e = np.eye(4)[i] * 4e-3
+        wide = (cb.values((u + e)[None]) - cb.values((u - e)[None]))[0] / 8e-3
+        np.testing.assert_allclose(jac[:, i], wide, rtol=1e-2)
+
+
+def test_refinement_meets_a_step_steer_limit(problem):
+    """The CasADi refinement with a roll_step_peak constraint: the refined design improves on
+    its start and the evaluator confirms it meets the limit."""
     from hisopt.optim.casadi_model import CasadiModel
+    from hisopt.optim.refine import Part, RefineSettings, refine_point
 
     data = problem.spec.model_dump(by_alias=True)
-    data["constraints"] = [{"name": "roll_step_peak", "limit": 0.05}]
-    with pytest.raises(ConfigError, match="roll_step_peak: the gradient refinement"):
-        CasadiModel(problem_from_dict(data), compile=False)
+    q0 = problem_from_dict(data | {"objectives": ["roll_step_peak"]}).evaluator()(problem.baseline[None])
+    limit = 1.02 * float(q0["roll_step_peak"][0])  # softer roll would help comfort: the limit binds
+    data["objectives"] = ["sigma_aw", "max_tire_load_psd"]
+    data["constraints"] = [{"name": "roll_step_peak", "limit": limit}]
+    p = problem_from_dict(data)
+    x0 = p.baseline
+    q = p.evaluator()(x0[None])
+    f0 = np.array([q[n][0] for n in p.objective_names])
+    result = refine_point(p, [Part(None, p, CasadiModel(p, compile=False))], 0, x0, f0, np.full(2, 3.0), RefineSettings(rounds=3))
+    q1 = p.evaluator()(result.x[None])
+    f1 = np.array([q1[n][0] for n in p.objective_names])
+    assert result.accepted and np.all(f1 <= f0) and np.any(f1 < f0 * (1 - 1e-3))
+    assert q1["roll_step_peak"][0] <= limit
 
 
 def test_cli_evaluates_a_problem_with_transient_quantities(tmp_path):

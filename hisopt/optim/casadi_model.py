@@ -140,21 +140,6 @@ def _ldlt_solve(a_re: Any, a_im: Any, b_re: Any, b_im: Any) -> tuple[Any, Any]:
 
 
 # --- the model -----------------------------------------------------------------------------
-def check_refinable(problem: Problem) -> None:
-    """Raise :class:`~hisopt.errors.ConfigError` if an objective or constraint of ``problem``
-    has no CasADi expression: the transient roll quantities (docs/model.md §6.6)."""
-    from hisopt.errors import ConfigError
-
-    names = list(problem.objective_names) + list(problem.constraint_names)
-    transient = [name for name in names if METRICS[name].kind == "transient"]
-    if transient:
-        raise ConfigError(
-            f"{transient[0]}: the gradient refinement has no CasADi model of the transient roll quantities; "
-            "expected a problem without them (optimise with NSGA only, or drop them before refining)",
-            file=str(problem.path) if getattr(problem, "path", None) else None,
-        )
-
-
 class CasadiModel:
     """Objectives and constraints of a problem as CasADi expressions (module docstring).
 
@@ -172,7 +157,6 @@ class CasadiModel:
     def __init__(self, problem: Problem, compile: bool = True):
         from hisopt.evaluate import Evaluator
 
-        check_refinable(problem)
         self.compile = compile
         self.problem = problem
         ev = Evaluator(problem)
@@ -341,7 +325,7 @@ class CasadiModel:
         g = stroke_matrix(veh)
         return roll_gradient(ca.DM(stiffness_matrix(veh)) + ca.DM(g.T) @ k_his @ ca.DM(g), veh)
 
-    def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool) -> dict[str, ca.MX]:
+    def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool, transient: Any = None) -> dict[str, ca.MX]:
         def integral(output: str, weighting: str | None) -> ca.MX:
             weights = fs.weight_hz if weighting is None else fs.comfort_weight[output]
             return psd[self.output_index[output], :] @ ca.DM(weights)
@@ -357,12 +341,15 @@ class CasadiModel:
             integral,
             maximum,
             lambda name: self.roll_gradient(x),
+            transient,
         )
 
-    def integrals(self, x: ca.MX, fs: FrequencySet, spectra: ca.MX | None = None) -> dict[str, ca.MX]:
-        """Quadrature quantities (``sigma_aw``, ``rms_*``) and ``roll_gradient`` on ``fs``."""
+    def integrals(self, x: ca.MX, fs: FrequencySet, spectra: ca.MX | None = None, transient: Any = None) -> dict[str, ca.MX]:
+        """Quadrature quantities (``sigma_aw``, ``rms_*``), ``roll_gradient`` and, given
+        ``transient`` (name -> expression, :class:`~hisopt.optim.transient_callback.TransientCallback`),
+        the transient roll quantities on ``fs``."""
         psd = self.spectra(x, fs.params) if spectra is None else spectra
-        return self._reduce(x, fs, psd, with_maxima=False)
+        return self._reduce(x, fs, psd, with_maxima=False, transient=transient)
 
     def quantities(self, x: ca.MX, fs: FrequencySet) -> dict[str, ca.MX]:
         """Every objective and constraint on ``fs``: integrals by quadrature, maxima over all nodes."""

@@ -350,6 +350,7 @@ def solve_asf(
     import casadi as ca
 
     from hisopt.optim.casadi_model import SpectraCallback
+    from hisopt.optim.transient_callback import TransientCallback
 
     lower, upper = problem.lower, problem.upper
     n_var = lower.size
@@ -367,12 +368,18 @@ def solve_asf(
 
     # ---- each load case's model on its fixed nodes ----------------------------------------------
     z_of: list[dict[str, Any]] = []
-    callbacks = []  # CasADi keeps no reference to a Python callback: these must outlive the solve
+    callbacks: list[Any] = []  # CasADi keeps no reference to a Python callback: these must outlive the solve
     for part in parts:
         assert part.plan is not None
         callbacks.append(SpectraCallback(part.model, part.plan.fs, lower, upper - lower))
         psd = callbacks[-1](u)
-        z = {name: log10(value) for name, value in part.model.integrals(x, part.plan.fs, psd).items()}
+        steps = [m.name for m in part.model.metrics if m.kind == "transient"]
+        transient = None
+        if steps:  # from the numpy code through a callback (hisopt.optim.transient_callback)
+            callbacks.append(TransientCallback(part.problem, steps, lower, upper - lower))
+            values = callbacks[-1](u)
+            transient = {name: values[k] for k, name in enumerate(steps)}.__getitem__
+        z = {name: log10(value) for name, value in part.model.integrals(x, part.plan.fs, psd, transient).items()}
         for name, nodes in part.plan.max_nodes.items():
             t = ca.MX.sym(f"t_{name}_{len(levels)}")
             levels.append(t)
@@ -645,11 +652,9 @@ def refine_front(
         ``max_points < 1``, the front lacks a variable or objective column, or a row is not a valid start
         (:func:`start_designs`).
     """
-    from hisopt.optim.casadi_model import check_refinable
     from hisopt.optim.decision import hypervolume, reference_point
     from hisopt.parallel import Backend
 
-    check_refinable(problem)
     started = time.perf_counter()
     settings = settings or RefineSettings()
     names = list(problem.objective_names)
