@@ -166,3 +166,23 @@ def test_refinement_over_load_cases_improves_the_baseline(how):
     f = np.array([q[n][0] for n in p.objective_names])
     assert result.accepted and np.all(f <= f0) and np.any(f < f0 * (1 - 1e-3))
     assert q["roll_gradient@laden"][0] <= 0.06
+
+
+def test_shipped_robust_problem_runs_through_optimize_refine_and_report(tmp_path):
+    from tests.cli_inprocess import run_cli
+
+    path = ROOT / "problems" / "roll_plane_his_robust.toml"
+    p = hisopt.load_problem(path)
+    assert {"city", "rural", "motorway", "laden"} <= set(p.scenario_names)
+    roads = {sc.name: (sc.road.road_class, sc.road.speed) for sc in p.spec.scenarios}
+    assert roads["city"] == ("C", 10.0) and roads["rural"] == ("B", 20.0) and roads["motorway"] == ("A", 33.0)
+    assert p.constraint_scenarios("roll_step_peak") == ("laden",)
+    run = tmp_path / "run"
+    out = run_cli("optimize", path, "--pop", "12", "--gens", "2", "--out", run)
+    assert out.code == 0, out.stderr
+    out = run_cli("refine", run, "--max-points", "1")
+    assert out.code == 0, out.stderr
+    out = run_cli("report", run)
+    assert out.code == 0, out.stderr
+    page = (run / "report.html").read_text()
+    assert "Load cases" in page and "roll_step_peak@laden" in page and "(laden)" in page

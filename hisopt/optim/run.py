@@ -153,9 +153,11 @@ def optimize(
     if info is not None:
         info["settings"] = asdict(settings) | {
             "objectives": list(problem.objective_names),
-            "constraints": [{"name": c.name, "limit": c.limit} for c in problem.spec.constraints],
+            "constraints": [{"name": c.name, "limit": c.limit} | ({"scenarios": c.scenarios} if c.scenarios else {}) for c in problem.spec.constraints],
             "hypervolume_reference_log10": reference.tolist(),
         }
+        if problem.spec.scenarios:  # load cases (docs/model.md §14)
+            info["settings"] |= {"scenarios": list(problem.scenario_names), "aggregate": problem.spec.robust.aggregate}
         info["versions"] = rundir.versions()
     return _drive(engine, run_dir, info, progress)
 

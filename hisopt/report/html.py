@@ -146,6 +146,7 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
     for key, value in settings.items():
         if key == "constraints":
             text = "; ".join(f"{c['name']} <= {format_quantity(float(c['limit']), METRICS[c['name']].unit)}"
+                             + (f" ({', '.join(c['scenarios'])})" if c.get("scenarios") else "")
                              if c.get("name") in METRICS else json.dumps(c) for c in value) or "none"
         elif key == "hypervolume_reference_log10":
             text = ", ".join(format_number(float(v)) for v in value) + " decades (log10 of each objective in SI units)"
