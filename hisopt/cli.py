@@ -664,6 +664,11 @@ def regions_cmd(
     typer.echo(f"wrote {out / (stem + '.csv')} and {out / (stem + '.html')}")
 
 
+from hisopt.cli_compare import register  # noqa: E402  (after this module's option types, which it uses)
+
+register(app)
+
+
 def main() -> None:
     """Entry point: map user errors to exit code 2 and internal errors to 1."""
     from hisopt.cli_usage import usage_error_line
