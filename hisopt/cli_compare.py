@@ -59,12 +59,14 @@ def compare_layouts_command(
     from rich.console import Console
 
     from hisopt import interrupt
-    from hisopt.optim.layout_study import run_layout_study
+    from hisopt.optim.layout_study import check_arguments, read_study_record, run_layout_study, study_budget
     from hisopt.parallel import open_backend
     from hisopt.problem import load_problem
     from hisopt.report.layout_report import write_layout_report
 
     problem = load_problem(problem_path)
+    check_arguments(problem, layouts, seeds, handling, handling_limit)  # one line and exit 2 before any work
+    read_study_record(out, problem, study_budget(problem, pop, gens))
 
     def progress(run: dict[str, Any]) -> None:
         typer.echo(f"{run['layout']} seed {run['seed']} done: {run['evaluations']} designs, "

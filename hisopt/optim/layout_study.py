@@ -135,25 +135,52 @@ def problem_digest(problem: Problem) -> str:
     return hashlib.sha256(problem.spec.model_dump_json(by_alias=True).encode()).hexdigest()
 
 
-def _study_record(out: Path | None, problem: Problem, budget: dict[str, int | None], handling: str,
+def study_budget(problem: Problem, pop_size: int | None, generations: int | None) -> dict[str, int]:
+    """[-] ``{"pop_size", "generations"}`` of every run (overrides or the problem's ``[optimizer]``).
+
+    Raises
+    ------
+    ConfigError
+        An override is out of range.
+    """
+    from hisopt.optim.settings import resolve_settings
+
+    settings = resolve_settings(problem, pop_size=pop_size, generations=generations)
+    return {"pop_size": settings.pop_size, "generations": settings.generations}
+
+
+def read_study_record(out: Path | None, problem: Problem, budget: dict[str, int]) -> dict[str, Any]:
+    """``out/study.json`` if it is a study of ``problem`` with ``budget`` ({} when there is none).
+
+    Raises
+    ------
+    RunError
+        ``out`` holds a study of another problem or budget, or an unreadable record.
+    """
+    path = None if out is None else Path(out) / STUDY_JSON
+    if path is None or not path.is_file():
+        return {}
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise RunError(f"{path}: unreadable ({exc}); choose another --out") from None
+    if not isinstance(record, dict) or record.get("format") != STUDY_FORMAT:
+        raise RunError(f"{path}: not a hisopt layout study; choose another --out")
+    digest = problem_digest(problem)
+    if record["problem"]["sha256"] != digest:
+        raise RunError(f"{out} holds a layout study of another problem (sha256 {record['problem']['sha256'][:12]} -> "
+                       f"{digest[:12]}); choose another --out or delete {out}")
+    if record["budget"] != budget:
+        raise RunError(f"{out} holds a layout study with budget {record['budget']}, not {budget}; "
+                       f"use the same --pop and --gens, or another --out")
+    return record
+
+
+def _study_record(out: Path | None, problem: Problem, budget: dict[str, int], handling: str,
                   cases: list[LayoutCase]) -> tuple[dict[str, Any], Normalisation]:
     """The stored record (checked against this study) or a new one, with its normalisation."""
     digest = problem_digest(problem)
-    path = None if out is None else out / STUDY_JSON
-    record: dict[str, Any] = {}
-    if path is not None and path.is_file():
-        try:
-            record = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise RunError(f"{path}: unreadable ({exc}); choose another --out") from None
-        if record.get("format") != STUDY_FORMAT:
-            raise RunError(f"{path}: not a hisopt layout study; choose another --out")
-        if record["problem"]["sha256"] != digest:
-            raise RunError(f"{out} holds a layout study of another problem (sha256 {record['problem']['sha256'][:12]} -> "
-                           f"{digest[:12]}); choose another --out or delete {out}")
-        if record["budget"] != budget:
-            raise RunError(f"{out} holds a layout study with budget {record['budget']}, not {budget}; "
-                           f"use the same --pop and --gens, or another --out")
+    record = read_study_record(out, problem, budget)
     norms = record.get("normalisation", {})
     if handling in norms:
         norm = Normalisation.from_json(norms[handling])
@@ -204,6 +231,23 @@ class LayoutStudyResult:
     out: Path | None
 
 
+def check_arguments(problem: Problem, layouts: str | Sequence[str] | None, seeds: str | Sequence[int], handling: str | None,
+                    handling_limit: float | None) -> tuple[list[int], list[LayoutCase], str]:
+    """The seeds, the layouts and the handling quantity of a study, checked (before any work).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`run_layout_study`.
+    """
+    seed_list = parse_seed_list(seeds)
+    cases = layout_cases(problem, layouts)
+    name = check_handling(problem, handling or default_handling_quantity(problem))
+    if handling_limit is not None and not (np.isfinite(handling_limit) and handling_limit > 0):
+        raise ConfigError(f"expected a finite limit > 0 of {name}, got {handling_limit!r}", key="--handling-limit")
+    return seed_list, cases, name
+
+
 def run_layout_study(
     problem: Problem,
     layouts: str | Sequence[str] | None = None,
@@ -241,19 +285,13 @@ def run_layout_study(
         ``out`` holds a study of another problem or budget, or a run that cannot be resumed.
     """
     from hisopt.io import ensure_writable_dir
-    from hisopt.optim.settings import resolve_settings
     from hisopt.parallel import Backend
 
-    seed_list = parse_seed_list(seeds)
-    cases = layout_cases(problem, layouts)
-    handling = check_handling(problem, handling or default_handling_quantity(problem))
-    if handling_limit is not None and not (np.isfinite(handling_limit) and handling_limit > 0):
-        raise ConfigError(f"expected a finite limit > 0 of {handling}, got {handling_limit!r}", key="--handling-limit")
-    resolve_settings(problem, pop_size=pop_size, generations=generations)  # bad budgets fail before any work
+    seed_list, cases, handling = check_arguments(problem, layouts, seeds, handling, handling_limit)
+    budget = study_budget(problem, pop_size, generations)  # bad budgets fail before any work
     out_dir = None if out is None else Path(out)
     if out_dir is not None:
         ensure_writable_dir(out_dir)
-    budget = {"pop_size": pop_size, "generations": generations}
     record, norm = _study_record(out_dir, problem, budget, handling, cases)
     if out_dir is not None:
         from hisopt.io import atomic_write_json

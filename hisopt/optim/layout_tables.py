@@ -124,6 +124,8 @@ def assemble(
         att = attainment(sets)
         for kind, pts, pct in (("eaf", att.surfaces[:, :2], att.surfaces[:, 2]),
                                ("vorobev", att.vorobev_expectation, np.full(len(att.vorobev_expectation), att.vorobev_threshold_pct))):
+            inside = np.all(np.asarray(pts).reshape(-1, 2) < 1.0, axis=1)  # not the placeholder corner of a seed that attains nothing
+            pts, pct = np.asarray(pts).reshape(-1, 2)[inside], pct[inside]
             phys = norm.from_plane(pts) if len(pts) else np.zeros((0, 2))
             attain_rows.append(pd.DataFrame({"layout": c.name, "kind": kind, "percentile_pct": pct, COMFORT: phys[:, 0], handling: phys[:, 1]}))
 
@@ -188,7 +190,7 @@ def _with_stiffness_and_designs(table: pd.DataFrame, cases: list[LayoutCase], po
     extra = pd.DataFrame(stiffness)
     units |= {k: "N/m" for k in extra.columns if k.startswith("k_")} | {k: "N s/m" for k in extra.columns if k.startswith("c_")}
     units["stiffness_coupling"] = NO_UNIT
-    columns = list(dict.fromkeys(k for d in [*designs, *[{f"best_{n}": 0 for c in cases for n in c.problem.variable_names}]] for k in d))
+    columns = list(dict.fromkeys(f"best_{n}" for c in cases for n in c.problem.variable_names))
     out = pd.concat([table, extra, pd.DataFrame(designs, columns=columns)], axis=1)
     out.attrs["units"] = units
     return out

@@ -522,10 +522,21 @@ def refine_constrained(
     objective, limits : as :func:`constrained_problem`
     """
     sub = constrained_problem(problem, objective, limits)
-    model = _worker_model(sub)
-    start = _evaluate(sub, np.asarray(x0, dtype=float))
-    return refine_point(_WORKER["problem"], model, 0, np.asarray(x0, dtype=float), np.array([start[objective]]), np.ones(1),
-                        settings or RefineSettings())
+    # The CasADi model does not depend on the limits (they enter the NLP's bounds): one per
+    # problem and set of constrained quantities, whatever their limits.
+    model = _worker_model(_limits_one(sub))
+    x0 = np.asarray(x0, dtype=float)
+    start = _evaluate(sub, x0)
+    return refine_point(sub, model, 0, x0, np.array([start[objective]]), np.ones(1), settings or RefineSettings())
+
+
+def _limits_one(problem: Problem) -> Problem:
+    """``problem`` with every constraint limit 1 (a cache key that ignores the limits)."""
+    from hisopt.problem import problem_from_dict
+
+    data = problem.spec.model_dump(by_alias=True)
+    data["constraints"] = [{"name": c["name"], "limit": 1.0} for c in data["constraints"]]
+    return problem_from_dict(data, problem.name)
 
 
 # --- many start designs, in parallel --------------------------------------------------------

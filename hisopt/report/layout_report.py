@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hisopt.report.axes import log_axis
 from hisopt.report.html import _CSS, html_table
 from hisopt.report.theme import COLORS, template
 from hisopt.units import display_for, display_frame, format_quantity
@@ -83,7 +84,8 @@ def curve_figure(result: LayoutStudyResult) -> go.Figure:
                   annotation_text=f"limit {format_quantity(result.handling_limit, unit)}")
     fig.update_layout(template=template(), height=520, title=f"Best ride comfort against the {h} limit (stars: the equal-handling "
                       "comparison; diamonds: refined by the NLP)",
-                      xaxis={"title": shown_h.label(f"{h} limit"), "type": "log"}, yaxis={"title": "best sigma_aw [m/s^2]", "type": "log"})
+                      xaxis=log_axis(shown_h.values(result.curve[h].to_numpy())) | {"title": shown_h.label(f"{h} limit")},
+                      yaxis=log_axis(result.curve["sigma_aw"].to_numpy()) | {"title": "best sigma_aw [m/s^2]"})
     return fig
 
 
@@ -106,7 +108,8 @@ def attainment_figure(result: LayoutStudyResult) -> go.Figure:
                                      line={"shape": "hv", "color": _colour(i), "dash": styles[str(kind)], "width": width}))
     fig.update_layout(template=template(), height=560, title="Attainment across seeds in the comfort-handling plane "
                       "(thin: best and worst seed; thick: median; dotted: Vorob'ev expectation)",
-                      xaxis={"title": shown_h.label(h), "type": "log"}, yaxis={"title": "sigma_aw [m/s^2]", "type": "log"})
+                      xaxis=log_axis(shown_h.values(result.attainment[h].to_numpy())) | {"title": shown_h.label(h)},
+                      yaxis=log_axis(result.attainment["sigma_aw"].to_numpy()) | {"title": "sigma_aw [m/s^2]"})
     return fig
 
 
