@@ -1,18 +1,18 @@
 """``hisopt compare-layouts``: registered on :mod:`hisopt.cli`'s app by :func:`register`."""
 
-# No `from __future__ import annotations`: typer reads the command's annotations, which
-# name option types imported inside register().
+from __future__ import annotations
+
 import sys
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
+from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, number
+
 
 def register(app: typer.Typer) -> None:
-    """Add the ``compare-layouts`` command to ``app`` (with :mod:`hisopt.cli`'s option types)."""
-    from hisopt.cli import ProblemArg, SchedulerOpt, WorkersOpt
-    from hisopt.cli_usage import integer, number
+    """Add the ``compare-layouts`` command to ``app`` (:mod:`hisopt.cli`'s)."""
 
     @app.command("compare-layouts")
     def compare_layouts_cmd(
@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
         workers: WorkersOpt = None,
         scheduler: SchedulerOpt = None,
     ) -> None:
-        """Optimise several HIS layouts and compare ride comfort at equal handling.
+        """Compare HIS layouts: ride comfort at equal handling.
 
         Every layout and seed is a resumable run in OUT/<layout>/seed-<n>/ (the same command
         resumes an interrupted study); writes OUT/layouts.csv and OUT/report.html

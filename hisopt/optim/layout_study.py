@@ -10,10 +10,11 @@ objectives and constraints with the same budget per layout and seed, then compar
    (EAF, Vorob'ev expectation and deviation).
 2. **Equal handling**: for a handling limit (default: the handling quantity of the study
    problem's baseline design on the roll-plane layout), per layout the best comfort
-   (``sigma_aw``) among every feasible design its runs evaluated that meets the limit, then
-   refined by the epsilon-constraint NLP (:func:`hisopt.optim.refine.refine_constrained`:
-   minimise ``sigma_aw`` subject to the constraints and ``handling <= limit``, started from
-   that design; kept only if the evaluator confirms it), and its gain over the roll-plane
+   (``sigma_aw``) among every feasible design its runs evaluated that meets the limit, and
+   the epsilon-constraint NLP (:func:`hisopt.optim.refine.refine_constrained`: minimise
+   ``sigma_aw`` subject to the constraints and ``handling <= limit``) started from each
+   seed's best such design (kept only if the evaluator confirms it); the best of these, and
+   its gain over the roll-plane
    layout at the same limit, ``gain_vs_roll_plane_pct = 100 (1 - sigma_layout / sigma_roll_plane)``
    (positive: better comfort). The trade-off curve of best comfort against the limit is the
    staircase of the non-dominated (handling, comfort) pairs of all those designs, plus a few

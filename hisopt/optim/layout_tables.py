@@ -73,14 +73,16 @@ def assemble(
     h_unit = METRICS[handling].unit if handling in METRICS else column_unit(handling)
     pools = {c.name: _pool(runs, c.name) for c in cases}
 
-    # ---- refinements: the equal-handling point, then points along each curve -----------------------
+    # ---- refinements: from each seed's best design at the limit, then points along each curve ------
     tasks: list[tuple[str, np.ndarray, float]] = []
     best_row: dict[str, int | None] = {}
     for c in cases:
         pool, names = pools[c.name], list(c.problem.variable_names)
         best_row[c.name] = best_at_limit(pool[COMFORT].to_numpy(), pool[handling].to_numpy(), limit) if len(pool) else None
-        if best_row[c.name] is not None:
-            tasks.append((c.name, pool.loc[best_row[c.name], names].to_numpy(dtype=float), limit))
+        for _, part in pool.groupby("seed", sort=True):  # several starts: the NLP finds local optima
+            i = best_at_limit(part[COMFORT].to_numpy(), part[handling].to_numpy(), limit)
+            if i is not None:
+                tasks.append((c.name, part.iloc[i][names].to_numpy(dtype=float), limit))
     n_equal = len(tasks)
     for c in cases:
         pool, names = pools[c.name], list(c.problem.variable_names)
@@ -105,14 +107,18 @@ def assemble(
 
     # ---- curve, attainment and the table, per layout -----------------------------------------------
     curve_parts, attain_rows, rows = [], [], []
-    equal = {tasks[i][0]: refined[i] for i in range(n_equal)}
+    designs: dict[str, np.ndarray | None] = {}
+    equal: dict[str, list[dict[str, Any]]] = {}
+    for i in range(n_equal):
+        equal.setdefault(tasks[i][0], []).append(refined[i])
     along = [(tasks[i][0], refined[i]) for i in range(n_equal, len(tasks))]
     for c in cases:
         pool = pools[c.name]
         steps = pool.iloc[plane_front(pool[COMFORT].to_numpy(), pool[handling].to_numpy())]
         sampled = pd.DataFrame({"layout": c.name, "source": "sampled", "seed": steps["seed"].to_numpy(),
                                 handling: steps[handling].to_numpy(), COMFORT: steps[COMFORT].to_numpy()})
-        better = [res for name, res in along + ([(c.name, equal[c.name])] if c.name in equal else []) if name == c.name and res["accepted"]]
+        better = [res for name, res in along if name == c.name and res["accepted"]]
+        better += [res for res in equal.get(c.name, []) if res["accepted"]]
         extra = pd.DataFrame({"layout": c.name, "source": "refined", "seed": -1, handling: [r[handling] for r in better],
                               COMFORT: [r[COMFORT] for r in better]})
         both = pd.concat([sampled, extra], ignore_index=True) if len(extra) else sampled
@@ -136,12 +142,14 @@ def assemble(
                                "hv_min": hv.min(), "hv_max": hv.max(), "hv_merged": normalised_hypervolume(merged, norm),
                                "vorobev_threshold_pct": att.vorobev_threshold_pct, "vorobev_deviation": att.vorobev_deviation,
                                "handling": handling, "handling_limit": limit}
-        row |= _equal_handling(c, pool, best_row[c.name], equal.get(c.name), handling)
+        choice = _equal_handling(c, pool, best_row[c.name], equal.get(c.name, []), handling)
+        designs[c.name] = choice.pop("x")
+        row |= choice
         rows.append(row)
     table = pd.DataFrame(rows)
     reference = table.loc[table["layout"] == REFERENCE_LAYOUT, "sigma_aw_at_limit"].to_numpy()
     table.insert(table.columns.get_loc("refined") + 1, "gain_vs_roll_plane_pct", 100.0 * (1.0 - table["sigma_aw_at_limit"] / reference[0]))
-    table = _with_stiffness_and_designs(table, cases, pools, best_row, equal)
+    table = _with_stiffness_and_designs(table, cases, designs)
 
     curve = pd.concat(curve_parts, ignore_index=True)
     attain = pd.concat(attain_rows, ignore_index=True)
@@ -157,40 +165,36 @@ def assemble(
             (("table", table), ("runs", run_frame), ("fronts", fronts), ("curve", curve), ("attainment", attain))}
 
 
-def _equal_handling(case: LayoutCase, pool: pd.DataFrame, best: int | None, refined: dict[str, Any] | None,
+def _equal_handling(case: LayoutCase, pool: pd.DataFrame, best: int | None, refined: list[dict[str, Any]],
                     handling: str) -> dict[str, Any]:
-    """``sigma_aw_at_limit``, ``handling_at_best``, ``refined`` of one layout (NaN: none meets the limit)."""
+    """``sigma_aw_at_limit``, ``handling_at_best``, ``refined`` and the design ``x`` of one layout:
+    the best of the sampled designs and the accepted refinements (NaN, None: none meets the limit)."""
     if best is None:
-        return {"sigma_aw_at_limit": np.nan, "handling_at_best": np.nan, "refined": False}
-    sampled = float(pool.loc[best, COMFORT])
-    if refined is not None and refined["accepted"] and refined[COMFORT] < sampled:
-        return {"sigma_aw_at_limit": refined[COMFORT], "handling_at_best": refined[handling], "refined": True}
-    return {"sigma_aw_at_limit": sampled, "handling_at_best": float(pool.loc[best, handling]), "refined": False}
+        return {"sigma_aw_at_limit": np.nan, "handling_at_best": np.nan, "refined": False, "x": None}
+    out = {"sigma_aw_at_limit": float(pool.loc[best, COMFORT]), "handling_at_best": float(pool.loc[best, handling]),
+           "refined": False, "x": pool.loc[best, list(case.problem.variable_names)].to_numpy(dtype=float)}
+    for r in refined:  # in seed order; the first of equals stays
+        if r["accepted"] and r[COMFORT] < out["sigma_aw_at_limit"]:
+            out = {"sigma_aw_at_limit": r[COMFORT], "handling_at_best": r[handling], "refined": True, "x": r["x"]}
+    return out
 
 
-def _with_stiffness_and_designs(table: pd.DataFrame, cases: list[LayoutCase], pools: dict[str, pd.DataFrame],
-                                best: dict[str, int | None], refined: dict[str, dict[str, Any]]) -> pd.DataFrame:
+def _with_stiffness_and_designs(table: pd.DataFrame, cases: list[LayoutCase], designs: dict[str, np.ndarray | None]) -> pd.DataFrame:
     """The mode stiffness columns (``hisopt layouts``) and ``best_<variable>`` columns."""
     from hisopt.layouts import layout_system, pattern_properties
 
     units: dict[str, str] = {}
-    stiffness, designs = [], []
+    stiffness, rows = [], []
     for c in cases:
-        props = pattern_properties(layout_system(c.problem.spec.his))
-        stiffness.append(props)
+        stiffness.append(pattern_properties(layout_system(c.problem.spec.his)))
         names = list(c.problem.variable_names)
         units |= {f"best_{n}": u for n, u in variable_units(c.problem).items()}
-        design: dict[str, float] = {}
-        if best[c.name] is not None:
-            row = pools[c.name].loc[best[c.name], names].to_numpy(dtype=float)
-            if table.loc[table["layout"] == c.name, "refined"].item():
-                row = refined[c.name]["x"]
-            design = {f"best_{n}": float(v) for n, v in zip(names, row, strict=True)}
-        designs.append(design)
+        x = designs[c.name]
+        rows.append({} if x is None else {f"best_{n}": float(v) for n, v in zip(names, x, strict=True)})
     extra = pd.DataFrame(stiffness)
     units |= {k: "N/m" for k in extra.columns if k.startswith("k_")} | {k: "N s/m" for k in extra.columns if k.startswith("c_")}
     units["stiffness_coupling"] = NO_UNIT
     columns = list(dict.fromkeys(f"best_{n}" for c in cases for n in c.problem.variable_names))
-    out = pd.concat([table, extra, pd.DataFrame(designs, columns=columns)], axis=1)
+    out = pd.concat([table, extra, pd.DataFrame(rows, columns=columns)], axis=1)
     out.attrs["units"] = units
     return out

@@ -38,7 +38,7 @@ def schematics(result: LayoutStudyResult) -> list[go.Figure]:
     figs = []
     for case in result.cases:
         fig = layout_schematic(case.problem.layout(), his_parameter_values(case.problem.spec.his), title=case.name)
-        fig.update_layout(height=380, margin={"l": 10, "r": 10, "t": 50, "b": 10}, showlegend=False)
+        fig.update_layout(height=380, margin={"l": 10, "r": 10, "t": 50, "b": 10}, showlegend=False, title_font_size=14)
         figs.append(fig)
     return figs
 
@@ -104,7 +104,9 @@ def attainment_figure(result: LayoutStudyResult) -> go.Figure:
             g = g.sort_values(h)
             label = f"{case.name}: {'Vorob' + chr(39) + 'ev expectation' if kind == 'vorobev' else f'{pct:.0f} % attained'}"
             width = 2.5 if kind == "eaf" and pct == 50 else 1.2
-            fig.add_trace(go.Scatter(x=shown_h.values(g[h].to_numpy()), y=g["sigma_aw"], mode="lines", name=label, legendgroup=case.name,
+            median = kind == "eaf" and pct == 50
+            fig.add_trace(go.Scatter(x=shown_h.values(g[h].to_numpy()), y=g["sigma_aw"], mode="lines", legendgroup=case.name,
+                                     name=case.name if median else label, showlegend=bool(median), hovertext=label, hoverinfo="text+x+y",
                                      line={"shape": "hv", "color": _colour(i), "dash": styles[str(kind)], "width": width}))
     fig.update_layout(template=template(), height=560, title="Attainment across seeds in the comfort-handling plane "
                       "(thin: best and worst seed; thick: median; dotted: Vorob'ev expectation)",
@@ -120,10 +122,13 @@ def table_html(result: LayoutStudyResult) -> str:
              "sigma_aw_at_limit", "handling_at_best", "refined", "gain_vs_roll_plane_pct"]
     second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c == "stiffness_coupling"]
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
-    return (html_table(display_frame(t[first]), f"Equal handling ({result.handling} <= {limit}) and spread across seeds",
-                       text_columns=("layout", "refined"))
-            + html_table(display_frame(t[second]), "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit",
-                         text_columns=("layout", "variables")))
+    shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
+    labels = ("layout [-]", "refined [-]", "variables [-]")
+    return ('<div style="overflow-x:auto">'
+            + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
+            + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit",
+                         text_columns=labels)
+            + "</div>")
 
 
 def write_layout_report(result: LayoutStudyResult, path: str | Path | None = None) -> Path:
@@ -138,7 +143,8 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
             raise ConfigError("the study has no directory; give the report a path")
         path = result.out / "report.html"
     figs = schematics(result)
-    cells = "".join(f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}')}</div>" for i, f in enumerate(figs))
+    cells = "".join(f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}', config={'displayModeBar': False})}</div>"
+                    for i, f in enumerate(figs))
     sections: list[tuple[str, Any]] = [
         ("Layouts", f'<div class="schematics">{cells}</div>'),
         ("Comparison", table_html(result)),
