@@ -207,3 +207,21 @@ def test_cli_study_resumes_after_sigkill_to_identical_files(tmp_path):
     changed = subprocess.run(_cli(problem, out), cwd=ROOT, capture_output=True, text=True, timeout=300)
     lines = [line for line in changed.stderr.splitlines() if line.strip()]
     assert changed.returncode == 2 and len(lines) == 1 and "another problem" in lines[0], changed.stderr
+
+
+def test_layout_cases_take_variables_from_the_catalogue_and_custom_files(problem, rng):
+    from hisopt.optim.layout_cases import layout_cases
+
+    cases = {c.name: c for c in layout_cases(problem, "roll_plane_twin_accumulator,problems/layout_custom_roll_plane.toml")}
+    assert list(cases) == ["roll_plane", "roll_plane_twin_accumulator", "layout_custom_roll_plane"]
+    twin = cases["roll_plane_twin_accumulator"].problem
+    assert twin.variable_names == ("p0", "dA", "lam", "Rv", "Rv_link")  # the catalogue's bounds of its extra parameter
+    assert (twin.spec.variables["Rv_link"].lower, twin.spec.variables["Rv_link"].upper) == (1e6, 5e9)
+    assert twin.spec.objectives == problem.spec.objectives and twin.spec.road == problem.spec.road
+    # the custom file writes the paper's circuits out: the same quantities as the catalogue's roll_plane
+    custom, paper = cases["layout_custom_roll_plane"].problem, cases["roll_plane"].problem
+    assert custom.spec.his.layout == "custom" and custom.variable_names == paper.variable_names
+    x = paper.lower + (paper.upper - paper.lower) * rng.random((20, 4))
+    a, b = paper.evaluate(x), custom.evaluate(x)
+    for name in problem.objective_names:
+        np.testing.assert_allclose(b[name], a[name], rtol=1e-9, err_msg=name)
