@@ -7,6 +7,7 @@ Public API (docs/model.md §8)::
     df = problem.evaluate(X)
     modes = hisopt.modal_analysis(problem, design, his=True)
     run = hisopt.optimize(problem, ...)
+    table = hisopt.compare_layouts(problem, layouts="axle_roll,pitch_plane", seeds="1-3", out="runs/layouts")
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from hisopt.errors import ConfigError, HisoptError, ModelError, ProblemFileNotFo
 
 if TYPE_CHECKING:
     from hisopt.modal import modal_analysis
+    from hisopt.optim.layout_study import compare_layouts
     from hisopt.optim.run import optimize, resume
     from hisopt.problem import Problem, load_problem
 
@@ -30,6 +32,7 @@ __all__ = [
     "Problem",
     "ProblemFileNotFoundError",
     "RunError",
+    "compare_layouts",
     "load_problem",
     "modal_analysis",
     "optimize",
@@ -41,6 +44,7 @@ __all__ = [
 _LAZY = {
     "Problem": "hisopt.problem",
     "load_problem": "hisopt.problem",
+    "compare_layouts": "hisopt.optim.layout_study",
     "modal_analysis": "hisopt.modal",
     "optimize": "hisopt.optim.run",
     "resume": "hisopt.optim.run",

@@ -12,7 +12,7 @@ from typing import Annotated
 
 import typer
 
-from hisopt.cli_usage import integer, number
+from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, number
 
 # Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
 app = typer.Typer(
@@ -27,17 +27,6 @@ app = typer.Typer(
 # Listed here rather than read from the model so that `hisopt --help` need not import it.
 SET_KEYS = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "pipe_model", "layout")
 
-ProblemArg = Annotated[
-    Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
-]
-WorkersOpt = Annotated[
-    int | None,
-    typer.Option("--workers", parser=integer, metavar="N", help="start a local Dask cluster with N worker processes"),
-]
-SchedulerOpt = Annotated[
-    str | None,
-    typer.Option("--scheduler", metavar="ADDRESS", help="address of an existing Dask scheduler, e.g. tcp://host:8786"),
-]
 SetOpt = Annotated[
     list[str] | None,
     typer.Option(
@@ -172,7 +161,7 @@ def droptest(
     mode: Annotated[str, typer.Option("--mode", help="simulation model: linear or nonlinear (gas law, tyre lift-off)")] = "linear",
     set_: SetOpt = None,
 ) -> None:
-    """Drop tests, simulated and optionally measured (paper Table 3).
+    """Drop tests, simulated and measured (paper Table 3).
 
     Repeats the paper's drop tests (Section VI, Table 3, Fig. 13) on the model. Writes
     OUT/droptest.csv (case, p0, mode, frequency_time_hz, frequency_model_hz,
@@ -521,7 +510,7 @@ def report(
     color_by: Annotated[str | None, typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
     design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
 ) -> None:
-    """Write RUN_DIR/report.html, a self-contained report of the run.
+    """Write RUN_DIR/report.html, the run's offline report.
 
     Front, parallel coordinates, convergence, spectra and modes of one design; plotly.js
     is embedded, so the file opens offline.
@@ -542,7 +531,7 @@ def refine_cmd(
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Refine RUN_DIR's front with exact gradients (CasADi/IPOPT).
+    """Refine RUN_DIR's front by gradients (CasADi/IPOPT).
 
     Writes RUN_DIR/front_refined.csv. Each of up to --max-points designs spread over
     front.csv is moved towards the Pareto front by an NLP (its achievement scalarising
@@ -595,7 +584,7 @@ def sweep_cmd(
     scheduler: SchedulerOpt = None,
     scenario: ScenarioOpt = None,
 ) -> None:
-    """Sweep one design variable across its bounds (paper Figures 5-8).
+    """Sweep one variable across its bounds (paper Figures 5-8).
 
     Frequencies and peak responses of the roll, pitch and bounce modes and of the FL tyre
     force; writes OUT/sweep_NAME.csv and OUT/sweep_NAME.html.
@@ -625,7 +614,7 @@ def regions_cmd(
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Feasible region of two design variables (paper Figures 9-10).
+    """Feasible region of two variables (paper Figures 9-10).
 
     The four indicators on a grid of the --pair variables, with the region that meets the
     constraints; writes OUT/regions_A_B.csv and OUT/regions_A_B.html.
@@ -648,6 +637,11 @@ def regions_cmd(
     write_csv(result.to_frame(), out / f"{stem}.csv")
     write_html(result.plot(), out / f"{stem}.html")
     typer.echo(f"wrote {out / (stem + '.csv')} and {out / (stem + '.html')}")
+
+
+from hisopt.cli_compare import register  # noqa: E402  (the command joins the app defined above)
+
+register(app)
 
 
 def main() -> None:

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Sequence
-from typing import Any
+from pathlib import Path
+from typing import Annotated, Any
 
 import typer
 
@@ -33,6 +34,20 @@ def number(text: str) -> float:
         return float(text)
     except (TypeError, ValueError):
         raise typer.BadParameter(f"expected a number, got {text!r}") from None
+
+
+# Option types several commands share (hisopt.cli, hisopt.cli_compare).
+ProblemArg = Annotated[
+    Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
+]
+WorkersOpt = Annotated[
+    int | None,
+    typer.Option("--workers", parser=integer, metavar="N", help="start a local Dask cluster with N worker processes"),
+]
+SchedulerOpt = Annotated[
+    str | None,
+    typer.Option("--scheduler", metavar="ADDRESS", help="address of an existing Dask scheduler, e.g. tcp://host:8786"),
+]
 
 
 def is_usage_error(exc: BaseException) -> bool:

@@ -65,9 +65,11 @@ class Backend:
         # Unique keys (hash=False): a repeated scatter of the same object must not share a
         # key whose release by an earlier call would drop it from under the new tasks.
         shared = [self.client.scatter(a, broadcast=True, hash=False) for a in args]
-        # Items are scattered too, so the task graph stays small whatever the data size.
-        item_futures = self.client.scatter(list(items), hash=False)
-        futures = self.client.map(fn, item_futures, *[[s] * len(items) for s in shared], pure=False)
+        # Items are scattered too, so the task graph stays small whatever the data size; to
+        # every worker, like the shared arguments, so that losing a worker (a missed
+        # heartbeat on a loaded machine) loses no input and a retry can run elsewhere.
+        item_futures = self.client.scatter(list(items), hash=False, broadcast=True)
+        futures = self.client.map(fn, item_futures, *[[s] * len(items) for s in shared], pure=False, retries=2)
         if on_result is None:
             return self.client.gather(futures)
         from dask.distributed import as_completed

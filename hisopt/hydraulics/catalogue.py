@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from typing import Any
 
@@ -66,6 +66,17 @@ REAR_TIED = ("dA", "lam", "Rv")
 (:func:`hisopt.hydraulics.roll_plane.parameter_values`)."""
 
 
+class ParameterBounds(BaseModel):
+    """Study bounds of an extra parameter (``[variables]`` of a catalogue data file) [SI]."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    lower: float
+    upper: float
+    unit: str = ""
+    description: str = ""
+
+
 class LayoutFile(BaseModel):
     """A catalogue data file (module docstring)."""
 
@@ -76,6 +87,7 @@ class LayoutFile(BaseModel):
     description: str
     source: str
     parameters: dict[str, float] = Field(default_factory=dict)
+    variables: dict[str, ParameterBounds] = Field(default_factory=dict)
     circuits: list[CircuitSpec] = Field(min_length=1)
 
     @field_validator("circuits")
@@ -96,6 +108,8 @@ class CatalogueEntry:
     name, summary, description, source : [-] texts of the data file
     parameters : [SI] defaults of the extra parameters the layout's elements read
     base : the layout without pipes and chamber volumes
+    variables : [SI] bounds of the extra parameters a layout study varies (``[variables]``
+        of the data file, a problem file's syntax; the others stay at their defaults)
     """
 
     name: str
@@ -104,6 +118,7 @@ class CatalogueEntry:
     source: str
     parameters: Mapping[str, float]
     base: Layout
+    variables: Mapping[str, ParameterBounds] = field(default_factory=dict)
 
     def layout(self, pipes: bool = False, chamber: bool = False) -> Layout:
         """The layout with a pipe per chamber (``pipes``) and chamber volumes (``chamber``)."""
@@ -120,8 +135,11 @@ def _read_entry(name: str) -> CatalogueEntry:
         raise ModelError(f"hisopt/data/layouts/{name}.toml: {exc}") from None
     if data.name != name:
         raise ModelError(f"hisopt/data/layouts/{name}.toml: name {data.name!r}; expected {name!r}")
+    stray = [k for k, b in data.variables.items() if k not in data.parameters or not b.lower <= data.parameters[k] <= b.upper]
+    if stray:
+        raise ModelError(f"hisopt/data/layouts/{name}.toml: variables.{stray[0]}: expected bounds around a [parameters] default")
     return CatalogueEntry(name, data.summary, " ".join(data.description.split()), data.source, dict(data.parameters),
-                          build_layout(data.circuits, name))
+                          build_layout(data.circuits, name), dict(data.variables))
 
 
 @functools.cache

@@ -591,6 +591,65 @@ def refine_point(
     )
 
 
+# --- one quantity under limits (epsilon-constraint) -------------------------------------------
+def constrained_problem(problem: Problem, objective: str, limits: dict[str, float]) -> Problem:
+    """``problem`` with the single objective ``objective`` and ``limits`` as constraints
+    (a limit on an already constrained quantity keeps the tighter of the two).
+
+    Parameters
+    ----------
+    objective : [-] quantity to minimise, e.g. ``"sigma_aw"``
+    limits : [quantity units] upper limit per quantity, e.g. ``{"roll_gradient": 0.03}``
+    """
+    from hisopt.problem import problem_from_dict
+
+    data = problem.spec.model_dump(by_alias=True)
+    constraints = {c["name"]: dict(c) for c in data["constraints"]}
+    for name, limit in limits.items():
+        old = constraints.get(name, {}).get("limit", np.inf)
+        # a constraint keeps the scenarios it holds in (docs/model.md §14.1)
+        constraints[name] = constraints.get(name, {"name": name}) | {"limit": float(min(limit, old))}
+    data["objectives"] = [objective]
+    data["constraints"] = list(constraints.values())
+    if data["scenarios"] and data["robust"]["aggregate"] == "per_scenario":  # one objective: its worst case
+        data["robust"]["aggregate"] = "worst"
+    return problem_from_dict(data, f"{problem.name} ({objective} under limits)")
+
+
+def refine_constrained(
+    problem: Problem, x0: np.ndarray, objective: str, limits: dict[str, float], settings: RefineSettings | None = None
+) -> PointResult:
+    """Minimise ``objective`` subject to the problem's constraints and ``limits`` from ``x0``.
+
+    The epsilon-constraint form of the refinement: :func:`refine_point` on
+    :func:`constrained_problem` (one objective, so the ASF NLP minimises ``log10`` of it with
+    every limit as a constraint, inside the trust region). The result is kept
+    (``accepted``) only if the evaluator finds it feasible, every limit met exactly, and
+    strictly better than ``x0``; otherwise ``x`` is ``x0``.
+
+    Parameters
+    ----------
+    x0 : [variable units] a start design meeting every limit, ``(n_var,)``
+    objective, limits : as :func:`constrained_problem`
+    """
+    sub = constrained_problem(problem, objective, limits)
+    # The CasADi model does not depend on the limits (they enter the NLP's bounds): one per
+    # problem and set of constrained quantities, whatever their limits.
+    parts = _worker_parts(_limits_one(sub))
+    x0 = np.asarray(x0, dtype=float)
+    start = _evaluate(sub, x0)
+    return refine_point(sub, parts, 0, x0, np.array([start[objective]]), np.ones(1), settings or RefineSettings())
+
+
+def _limits_one(problem: Problem) -> Problem:
+    """``problem`` with every constraint limit 1 (a cache key that ignores the limits)."""
+    from hisopt.problem import problem_from_dict
+
+    data = problem.spec.model_dump(by_alias=True)
+    data["constraints"] = [c | {"limit": 1.0} for c in data["constraints"]]
+    return problem_from_dict(data, problem.name)
+
+
 # --- many start designs, in parallel --------------------------------------------------------
 _WORKER: dict[str, Any] = {}
 """Per-process cache: the problem and its CasADi model (built once per worker)."""

@@ -1,0 +1,178 @@
+"""``DIR/report.html`` of a layout study (:mod:`hisopt.optim.layout_study`): one offline page.
+
+Schematics of the layouts side by side, their fronts overlaid in the shared normalised
+objective space, the best comfort against the handling limit, the attainment surfaces across
+seeds and the table of ``layouts.csv``; engineering units throughout (:mod:`hisopt.units`).
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from hisopt.report.axes import log_axis
+from hisopt.report.html import _CSS, html_table
+from hisopt.report.theme import COLORS, template
+from hisopt.units import display_for, display_frame, format_quantity
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+    from hisopt.optim.layout_study import LayoutStudyResult
+
+_GRID_CSS = ".schematics{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}"
+
+
+def _colour(i: int) -> str:
+    return COLORS[i % len(COLORS)]
+
+
+def schematics(result: LayoutStudyResult) -> list[go.Figure]:
+    """One plan-view schematic per layout, at its baseline values (hover)."""
+    from hisopt.hydraulics.catalogue import his_parameter_values
+    from hisopt.report.schematic import layout_schematic
+
+    figs = []
+    for case in result.cases:
+        fig = layout_schematic(case.problem.layout(), his_parameter_values(case.problem.spec.his), title=case.name)
+        fig.update_layout(height=380, margin={"l": 10, "r": 10, "t": 50, "b": 10}, showlegend=False, title_font_size=14)
+        figs.append(fig)
+    return figs
+
+
+def fronts_figure(result: LayoutStudyResult) -> go.Figure:
+    """Every seed's front per layout in the shared normalised space (scatter matrix)."""
+    import plotly.graph_objects as go
+
+    names = list(result.normalisation.objectives)
+    fig = go.Figure()
+    for i, case in enumerate(result.cases):
+        part = result.fronts[result.fronts["layout"] == case.name]
+        dims = [{"label": f"{n} [-]", "values": part[f"{n}_norm"]} for n in names]
+        fig.add_trace(go.Splom(dimensions=dims, name=case.name, marker={"size": 4, "color": _colour(i), "opacity": 0.6},
+                               diagonal_visible=False, showupperhalf=False, text=[f"{case.name}, seed {s}" for s in part["seed"]]))
+    fig.update_layout(template=template(), height=720, title="Fronts in the shared normalised space "
+                      "(0: ideal, 1: reference of the roll-plane grid; lower is better)")
+    return fig
+
+
+def curve_figure(result: LayoutStudyResult) -> go.Figure:
+    """Best comfort against the handling limit per layout (staircases), the limit marked."""
+    import plotly.graph_objects as go
+
+    h, unit = result.handling, result.table.attrs["units"]["handling_limit"]
+    shown_h = display_for(unit, result.curve[h].to_numpy())
+    fig = go.Figure()
+    for i, case in enumerate(result.cases):
+        part = result.curve[result.curve["layout"] == case.name].sort_values(h)
+        if not len(part):
+            continue
+        x = shown_h.values(part[h].to_numpy())
+        fig.add_trace(go.Scatter(x=x, y=part["sigma_aw"], mode="lines", line={"shape": "hv", "color": _colour(i)}, name=case.name))
+        refined = part[part["source"] == "refined"]
+        fig.add_trace(go.Scatter(x=shown_h.values(refined[h].to_numpy()), y=refined["sigma_aw"], mode="markers", showlegend=False,
+                                 marker={"symbol": "diamond", "size": 8, "color": _colour(i)}, name=f"{case.name} (refined)"))
+        row = result.table[result.table["layout"] == case.name].iloc[0]
+        if np.isfinite(row["sigma_aw_at_limit"]):
+            fig.add_trace(go.Scatter(x=shown_h.values(np.array([row["handling_at_best"]])), y=[row["sigma_aw_at_limit"]], mode="markers",
+                                     marker={"symbol": "star", "size": 13, "color": _colour(i), "line": {"width": 1, "color": "black"}},
+                                     showlegend=False, name=f"{case.name} at the limit"))
+    fig.add_vline(x=float(shown_h.values(np.array([result.handling_limit]))[0]), line={"dash": "dash", "color": "#556"},
+                  annotation_text=f"limit {format_quantity(result.handling_limit, unit)}")
+    fig.update_layout(template=template(), height=520, title=f"Best ride comfort against the {h} limit (stars: the equal-handling "
+                      "comparison; diamonds: refined by the NLP)",
+                      xaxis=log_axis(shown_h.values(result.curve[h].to_numpy())) | {"title": shown_h.label(f"{h} limit")},
+                      yaxis=log_axis(result.curve["sigma_aw"].to_numpy()) | {"title": "best sigma_aw [m/s^2]"})
+    return fig
+
+
+def attainment_figure(result: LayoutStudyResult) -> go.Figure:
+    """EAF surfaces (best, median, worst seed) and the Vorob'ev expectation per layout."""
+    import plotly.graph_objects as go
+
+    h, unit = result.handling, result.table.attrs["units"]["handling_limit"]
+    shown_h = display_for(unit, result.attainment[h].to_numpy())
+    fig = go.Figure()
+    styles = {"eaf": "solid", "vorobev": "dot"}
+    for i, case in enumerate(result.cases):
+        part = result.attainment[result.attainment["layout"] == case.name]
+        groups = part.groupby(["kind", "percentile_pct"], sort=True)
+        for (kind, pct), g in groups:
+            g = g.sort_values(h)
+            label = f"{case.name}: {'Vorob' + chr(39) + 'ev expectation' if kind == 'vorobev' else f'{pct:.0f} % attained'}"
+            width = 2.5 if kind == "eaf" and pct == 50 else 1.2
+            median = kind == "eaf" and pct == 50
+            fig.add_trace(go.Scatter(x=shown_h.values(g[h].to_numpy()), y=g["sigma_aw"], mode="lines", legendgroup=case.name,
+                                     name=case.name if median else label, showlegend=bool(median), hovertext=label, hoverinfo="text+x+y",
+                                     line={"shape": "hv", "color": _colour(i), "dash": styles[str(kind)], "width": width}))
+    fig.update_layout(template=template(), height=560, title="Attainment across seeds in the comfort-handling plane "
+                      "(thin: best and worst seed; thick: median; dotted: Vorob'ev expectation)",
+                      xaxis=log_axis(shown_h.values(result.attainment[h].to_numpy())) | {"title": shown_h.label(h)},
+                      yaxis=log_axis(result.attainment["sigma_aw"].to_numpy()) | {"title": "sigma_aw [m/s^2]"})
+    return fig
+
+
+def table_html(result: LayoutStudyResult) -> str:
+    """``layouts.csv`` in engineering units, split into the comparison and the layouts' data."""
+    t = result.table
+    first = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "hv_merged", "vorobev_threshold_pct", "vorobev_deviation",
+             "sigma_aw_at_limit", "handling_at_best", "refined", "gain_vs_roll_plane_pct"]
+    second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c == "stiffness_coupling"]
+    limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
+    shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
+    labels = ("layout [-]", "refined [-]", "variables [-]")
+    return ('<div style="overflow-x:auto">'
+            + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
+            + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit",
+                         text_columns=labels)
+            + "</div>")
+
+
+def write_layout_report(result: LayoutStudyResult, path: str | Path | None = None) -> Path:
+    """Write the report (default ``DIR/report.html``) and return its path."""
+    import plotly.offline
+
+    from hisopt.errors import ConfigError
+    from hisopt.io import atomic_write_text
+
+    if path is None:
+        if result.out is None:
+            raise ConfigError("the study has no directory; give the report a path")
+        path = result.out / "report.html"
+    figs = schematics(result)
+    cells = "".join(f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}', config={'displayModeBar': False})}</div>"
+                    for i, f in enumerate(figs))
+    sections: list[tuple[str, Any]] = [
+        ("Layouts", f'<div class="schematics">{cells}</div>'),
+        ("Comparison", table_html(result)),
+        ("Best comfort at equal handling", curve_figure(result)),
+        ("Spread across seeds: attainment", attainment_figure(result)),
+        ("Fronts", fronts_figure(result)),
+    ]
+    parts = []
+    for i, (title, content) in enumerate(sections):
+        parts.append(f"<h2>{html.escape(title)}</h2>")
+        parts.append(content if isinstance(content, str) else
+                     '<div class="figure">' + content.to_html(full_html=False, include_plotlyjs=False, div_id=f"fig{i}") + "</div>")
+    runs = result.runs
+    seeds = sorted(set(runs["seed"]))
+    budget = runs["evaluations"].iloc[0] if len(runs) else 0
+    name = result.cases[0].problem.name.removesuffix(f"-{result.cases[0].name}")
+    page = f"""<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>hisopt layout study: {html.escape(name)}</title>
+<style>{_CSS}{_GRID_CSS}</style>
+<script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
+<body><h1>hisopt layout study: {html.escape(name)}</h1>
+<p class="meta">{len(result.cases)} layouts, seeds {html.escape(", ".join(map(str, seeds)))}, {budget} evaluations per run;
+objectives {html.escape(", ".join(result.normalisation.objectives))}. Equal handling: {html.escape(result.handling)}
+&le; {html.escape(format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"]))}.
+gain_vs_roll_plane_pct &gt; 0: better comfort than the paper's roll-plane layout at that limit. Hypervolumes in
+the shared normalisation (docs/model.md §15). Values in engineering units (SI in the CSV files).</p>
+{''.join(parts)}
+</body></html>"""
+    atomic_write_text(path, page)
+    return Path(path)
+

@@ -1,0 +1,227 @@
+"""Layout study (`hisopt compare-layouts`, hisopt.optim.layout_study) on a tiny budget.
+
+- end to end through the CLI in a real process, SIGKILLed mid-study and re-run: the same
+  files as an uninterrupted study; a changed problem is refused with one line;
+- serial and on a 2-worker Dask LocalCluster: the same numbers (within 1e-12 relative);
+- the equal-handling design of each layout meets the limit (checked with an independent
+  roll-gradient computation) and no feasible design its runs evaluated that meets the limit
+  has better comfort;
+- the shared normalisation: the same front has the same hypervolume whichever other layouts
+  a study holds.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hisopt.io import read_csv
+from hisopt.optim import rundir
+from hisopt.optim.layout_study import run_layout_study
+from tests.cli_inprocess import run_cli
+from tests.conftest import DEFAULT_PROBLEM, ROOT
+
+POP, GENS, SEEDS = 12, 6, "1-2"
+STUDY_FILES = ("layouts.csv", "runs.csv", "fronts.csv", "handling_curve.csv", "attainment.csv")
+
+
+@pytest.fixture(scope="module")
+def serial(problem, tmp_path_factory):
+    out = tmp_path_factory.mktemp("layout-study") / "serial"
+    return run_layout_study(problem, "axle_roll", SEEDS, out=out, pop_size=POP, generations=GENS)
+
+
+def _numeric_equal(a: pd.DataFrame, b: pd.DataFrame, rtol: float = 1e-12) -> None:
+    assert list(a.columns) == list(b.columns) and len(a) == len(b)
+    for col in a.columns:
+        if pd.api.types.is_numeric_dtype(a[col]) and not pd.api.types.is_bool_dtype(a[col]):
+            np.testing.assert_allclose(b[col].to_numpy(float), a[col].to_numpy(float), rtol=rtol, atol=0, err_msg=col)
+        else:
+            assert a[col].tolist() == b[col].tolist(), col
+
+
+def test_study_outputs_and_units(serial):
+    table = serial.table
+    assert table["layout"].tolist() == ["roll_plane", "axle_roll"]  # the reference first
+    units = table.attrs["units"]
+    assert units["gain_vs_roll_plane_pct"] == "%" and units["sigma_aw_at_limit"] == "m/s^2"
+    assert units["handling_limit"] == "rad/g" and units["k_roll"] == "N/m" and units["best_p0"] == "Pa"
+    assert table.loc[0, "gain_vs_roll_plane_pct"] == 0.0
+    assert np.all(table["hv_min"] <= table["hv_mean"]) and np.all(table["hv_mean"] <= table["hv_max"])
+    assert np.all(table["hv_merged"] >= table["hv_max"] - 1e-12)  # the merged front dominates each seed's
+    # the stiffness columns are those of `hisopt layouts` (mode_stiffness) for the catalogue
+    from hisopt.layouts import mode_stiffness
+
+    ref = mode_stiffness(serial.cases[0].problem).set_index("layout")
+    for name in table["layout"]:
+        row = table.set_index("layout").loc[name]
+        for col in ("k_bounce", "k_roll", "k_pitch", "k_warp", "c_roll", "stiffness_coupling"):
+            assert row[col] == pytest.approx(ref.loc[name, col], rel=1e-12, abs=1e-9)
+    for name in STUDY_FILES:
+        back = read_csv(serial.out / name)
+        assert back.attrs["units"], name
+    assert (serial.out / "axle_roll" / "seed-2" / rundir.FRONT_CSV).is_file()
+    # the trade-off staircase: comfort falls as the handling limit rises
+    for name, part in serial.curve.groupby("layout"):
+        h = part[serial.handling].to_numpy()
+        s = part["sigma_aw"].to_numpy()
+        assert np.all(np.diff(h) >= 0) and np.all(np.diff(s) < 0), name
+
+
+def test_equal_handling_is_feasible_and_beats_every_sampled_design(serial):
+    from hisopt.evaluate import roll_gradient
+
+    limit = serial.handling_limit
+    assert serial.handling == "roll_gradient"
+    # the default limit: the roll-plane baseline's own roll gradient, computed independently
+    base = serial.cases[0].problem
+    assert limit == pytest.approx(float(roll_gradient(base.model(base.baseline[None, :]))[0]), rel=1e-12)
+    assert serial.table["refined"].any()  # the NLP found better designs than the sampled ones
+    for case in serial.cases:
+        row = serial.table.set_index("layout").loc[case.name]
+        names = list(case.problem.variable_names)
+        x = np.array([[row[f"best_{n}"] for n in names]])
+        rg = float(roll_gradient(case.problem.model(x))[0])
+        assert rg <= limit * (1 + 1e-6)
+        assert rg == pytest.approx(row["handling_at_best"], rel=1e-9)
+        again = case.problem.evaluate(x)
+        assert bool(again["feasible"].iloc[0])
+        assert again["sigma_aw"].iloc[0] == pytest.approx(row["sigma_aw_at_limit"], rel=1e-12)
+        sampled = []
+        for seed in (1, 2):
+            hist = pd.read_parquet(serial.out / case.name / f"seed-{seed}" / rundir.EVALUATIONS)
+            hist = hist[hist["feasible"]]
+            meets = roll_gradient(case.problem.model(hist[names].to_numpy())) <= limit
+            sampled.append(hist.loc[meets, "sigma_aw"].to_numpy())
+        best_sampled = np.concatenate(sampled).min()
+        assert row["sigma_aw_at_limit"] <= best_sampled
+    rp, ar = serial.table["sigma_aw_at_limit"]
+    assert serial.table.loc[1, "gain_vs_roll_plane_pct"] == pytest.approx(100 * (1 - ar / rp), rel=1e-12)
+
+
+def test_normalisation_does_not_depend_on_the_other_layouts(problem, serial):
+    from hisopt.optim.layout_metrics import normalised_hypervolume
+
+    other = run_layout_study(problem, ["pitch_plane", "axle_roll"], SEEDS, pop_size=POP, generations=GENS)
+    assert other.table["layout"].tolist() == ["roll_plane", "pitch_plane", "axle_roll"]
+    for field in ("ideal_log", "reference_log", "plane_ideal_log", "plane_reference_log"):
+        assert np.array_equal(getattr(other.normalisation, field), getattr(serial.normalisation, field))
+    a = serial.runs.set_index(["layout", "seed"])["hypervolume"]
+    b = other.runs.set_index(["layout", "seed"])["hypervolume"]
+    for key in a.index:
+        assert b[key] == a[key]
+    # the same front, hypervolume computed alone: the same number
+    front = serial.fronts[(serial.fronts["layout"] == "axle_roll") & (serial.fronts["seed"] == 1)]
+    alone = normalised_hypervolume(front[list(problem.objective_names)].to_numpy(), other.normalisation)
+    assert alone == a[("axle_roll", 1)] > 0
+    # a dominated copy of a front has a smaller hypervolume: the measure is not constant
+    worse = front[list(problem.objective_names)].to_numpy() * 1.05
+    assert normalised_hypervolume(worse, other.normalisation) < alone
+
+
+def test_serial_and_dask_give_the_same_study(problem, serial):
+    from hisopt.parallel import open_backend
+
+    with open_backend(workers=2) as backend:
+        dist = run_layout_study(problem, "axle_roll", SEEDS, pop_size=POP, generations=GENS, backend=backend)
+    for name in ("table", "runs", "fronts", "curve", "attainment"):
+        _numeric_equal(getattr(serial, name).reset_index(drop=True), getattr(dist, name).reset_index(drop=True))
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (("--layouts", "roll_plane,nope"), "unknown layout 'nope'"),
+        (("--layouts", "missing.toml"), "not found"),
+        (("--seeds", "3-1"), "increasing seed range"),
+        (("--seeds", "a-b"), "expected seeds like"),
+        (("--handling", "bogus"), "unknown quantity 'bogus'"),
+        (("--handling", "sigma_aw"), "must differ from the comfort one"),
+        (("--handling-limit", "-1"), "expected a finite limit > 0"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(tmp_path, args, needle):
+    outcome = run_cli("compare-layouts", str(DEFAULT_PROBLEM), "--out", str(tmp_path / "s"), "--pop", "8", "--gens", "1", *args)
+    assert outcome.code == 2 and len(outcome.error_lines) == 1, outcome.stderr
+    assert needle in outcome.stderr and "Traceback" not in outcome.stderr
+    assert not (tmp_path / "s" / "roll_plane").exists()  # nothing ran
+
+
+# --- real processes ----------------------------------------------------------------------------
+CLI_ARGS = ("--layouts", "axle_roll", "--seeds", "1-2", "--pop", "12", "--gens", "20")
+
+
+def _cli(problem: Path, out: Path) -> list[str]:
+    return [sys.executable, "-m", "hisopt", "compare-layouts", str(problem), "--out", str(out), *CLI_ARGS]
+
+
+def _checkpoint(run_dir: Path) -> int:
+    return rundir.checkpoint_generation(run_dir) if (run_dir / rundir.CHECKPOINT).exists() else 0
+
+
+@pytest.mark.slow
+def test_cli_study_resumes_after_sigkill_to_identical_files(tmp_path):
+    problem = tmp_path / "problem.toml"
+    shutil.copy(DEFAULT_PROBLEM, problem)
+    reference = subprocess.run(_cli(problem, tmp_path / "reference"), cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert reference.returncode == 0, reference.stderr
+    assert "wrote" in reference.stdout and (tmp_path / "reference" / "report.html").is_file()
+
+    out = tmp_path / "killed"
+    target = out / "axle_roll" / "seed-1"
+    proc = subprocess.Popen(_cli(problem, out), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 300
+        while _checkpoint(target) < 3:
+            assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
+            assert time.monotonic() < deadline, "no checkpoint in time"
+            time.sleep(0.005)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        if proc.poll() is None:
+            proc.kill()  # ours, by its id
+        proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL
+    assert rundir.read_run_json(target)["status"] == "running"  # cut short mid-run
+    assert not (out / "layouts.csv").exists()
+    again = subprocess.run(_cli(problem, out), cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    for name in STUDY_FILES:
+        assert (out / name).read_bytes() == (tmp_path / "reference" / name).read_bytes(), name
+    for layout in ("roll_plane", "axle_roll"):
+        for seed in (1, 2):
+            run = Path(layout) / f"seed-{seed}" / rundir.FRONT_CSV
+            assert (out / run).read_bytes() == (tmp_path / "reference" / run).read_bytes()
+
+    # the problem changed: refused with one line, exit 2
+    problem.write_text(problem.read_text().replace("speed = 10.0", "speed = 12.0"))
+    changed = subprocess.run(_cli(problem, out), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    lines = [line for line in changed.stderr.splitlines() if line.strip()]
+    assert changed.returncode == 2 and len(lines) == 1 and "another problem" in lines[0], changed.stderr
+
+
+def test_layout_cases_take_variables_from_the_catalogue_and_custom_files(problem, rng):
+    from hisopt.optim.layout_cases import layout_cases
+
+    cases = {c.name: c for c in layout_cases(problem, "roll_plane_twin_accumulator,problems/layout_custom_roll_plane.toml")}
+    assert list(cases) == ["roll_plane", "roll_plane_twin_accumulator", "layout_custom_roll_plane"]
+    twin = cases["roll_plane_twin_accumulator"].problem
+    assert twin.variable_names == ("p0", "dA", "lam", "Rv", "Rv_link")  # the catalogue's bounds of its extra parameter
+    assert (twin.spec.variables["Rv_link"].lower, twin.spec.variables["Rv_link"].upper) == (1e6, 5e9)
+    assert twin.spec.objectives == problem.spec.objectives and twin.spec.road == problem.spec.road
+    # the custom file writes the paper's circuits out: the same quantities as the catalogue's roll_plane
+    custom, paper = cases["layout_custom_roll_plane"].problem, cases["roll_plane"].problem
+    assert custom.spec.his.layout == "custom" and custom.variable_names == paper.variable_names
+    x = paper.lower + (paper.upper - paper.lower) * rng.random((20, 4))
+    a, b = paper.evaluate(x), custom.evaluate(x)
+    for name in problem.objective_names:
+        np.testing.assert_allclose(b[name], a[name], rtol=1e-9, err_msg=name)
