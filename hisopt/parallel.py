@@ -134,7 +134,7 @@ def chunks(n: int, size: int) -> list[slice]:
 
 
 def _evaluate_chunk(x: np.ndarray, problem: DesignSpace) -> dict[str, np.ndarray]:
-    from hisopt.evaluate import evaluator_for
+    from hisopt.scenario_evaluator import evaluator_for
 
     return evaluator_for(problem)(x)
 

@@ -15,12 +15,12 @@ import pandas as pd
 
 from hisopt.config import parse_problem, read_problem_file
 from hisopt.design_space import DesignSpace
-from hisopt.evaluate import Evaluator, evaluator_for, results_frame
+from hisopt.evaluate import Evaluator, results_frame
+from hisopt.scenario_evaluator import ScenarioEvaluator, evaluator_for
 from hisopt.validation import design_matrix, flag_summary
 
 if TYPE_CHECKING:
     from hisopt.parallel import Backend
-    from hisopt.scenario_evaluator import ScenarioEvaluator
 
 
 class Problem(DesignSpace):

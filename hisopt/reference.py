@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hisopt.evaluate import DirectOutputs, Evaluator, roll_gradient
+from hisopt.channels import DirectOutputs
+from hisopt.evaluate import Evaluator, roll_gradient
 from hisopt.psd import comfort_gain_squared, reduce_metrics
 from hisopt.transient import transient_quantities
 

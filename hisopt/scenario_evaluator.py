@@ -67,3 +67,12 @@ class ScenarioEvaluator:
             out[col] = per[self.scenarios.index(s)][q]
         out["valid"] = np.all([r["valid"] for r in per], axis=0)
         return out
+
+
+def evaluator_for(space: DesignSpace) -> Evaluator | ScenarioEvaluator:
+    """The evaluator of ``space`` (a :class:`ScenarioEvaluator` for a problem with
+    ``[[scenarios]]``), built once and kept with it (its cache survives as long as the problem
+    object; a pickled problem builds its own)."""
+    if "evaluator" not in space._cache:
+        space._cache["evaluator"] = ScenarioEvaluator(space) if space.spec.scenarios else Evaluator(space)
+    return space._cache["evaluator"]

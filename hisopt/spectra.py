@@ -8,7 +8,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from hisopt.evaluate import DirectOutputs, Evaluator
+from hisopt.channels import DirectOutputs
+from hisopt.evaluate import Evaluator
 from hisopt.units import psd_unit, variable_units, with_units
 
 if TYPE_CHECKING:

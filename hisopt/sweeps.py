@@ -117,7 +117,8 @@ def response_peaks(
     -------
     dict name -> ``(f_peak_hz (n,), psd_peak (n,))``
     """
-    from hisopt.evaluate import DirectOutputs, Evaluator, poles
+    from hisopt.channels import DirectOutputs
+    from hisopt.evaluate import Evaluator, poles
     from hisopt.peaks import refine_maximum
 
     ev = Evaluator(problem)

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import hisopt
+import hisopt.channels as channels
 import hisopt.evaluate as evaluate
 from hisopt.problem import problem_from_dict
 from hisopt.reference import converged_grid, grid_quantities
@@ -99,7 +100,7 @@ def test_symmetric_split_equals_full_path_within_1e10(problem, rng, case, monkey
         p = variant(problem, 10.0, CASES[case])
     x = random_designs(p, 20, rng)
     split = p.evaluator()(x)
-    monkeypatch.setattr(evaluate, "split", lambda ss, mirror: None)
+    monkeypatch.setattr(channels, "split", lambda ss, mirror: None)
     full = evaluate.Evaluator(p)(x)
     # (with hydraulic states in the model the residues carry its conditioning: 2e-10 measured)
     rtol = 1e-9 if case == "twin_accumulator" else 1e-10

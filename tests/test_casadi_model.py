@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import hisopt
-from hisopt.evaluate import DirectOutputs
+from hisopt.channels import DirectOutputs
 from hisopt.metrics import COMFORT_OUTPUTS
 from hisopt.optim.casadi_model import CasadiModel, FrequencySet, SpectraCallback, compiled
 from hisopt.standards import iso_2631_1_1997 as iso2631

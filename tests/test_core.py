@@ -24,7 +24,8 @@ import numpy as np
 import pytest
 
 import hisopt
-from hisopt.evaluate import DirectOutputs, Evaluator, poles
+from hisopt.channels import DirectOutputs
+from hisopt.evaluate import Evaluator, poles
 from hisopt.metrics import METRICS
 from hisopt.optim.casadi_model import CasadiModel
 from hisopt.peaks import refine_maximum

@@ -17,7 +17,7 @@ import pytest
 from scipy.optimize import brentq
 
 import hisopt
-from hisopt import evaluate
+from hisopt import channels, evaluate
 from hisopt.constants import G_MPS2, P_ATM_PA
 from hisopt.errors import ConfigError
 from hisopt.hydraulics.coupling import HydraulicSystem
@@ -108,7 +108,7 @@ def test_lateral_payload_breaks_the_mirror_and_is_evaluated_whole(rng, monkeypat
     ss_c = m_c.state_space()
     assert split(ss_c, state_mirror(m_c, ss_c)) is not None
     fast = p.evaluator()(x)
-    monkeypatch.setattr(evaluate, "split", lambda ss, mirror: None)
+    monkeypatch.setattr(channels, "split", lambda ss, mirror: None)
     full = evaluate.Evaluator(p)(x)
     for name in p.objective_names:
         np.testing.assert_allclose(fast[name], full[name], rtol=1e-10, atol=0, err_msg=name)
@@ -192,7 +192,7 @@ def test_numpy_and_casadi_give_the_same_static_rise(source, rng):
 
 
 def test_casadi_spectra_of_a_laden_car_equal_numpy(rng):
-    from hisopt.evaluate import DirectOutputs
+    from hisopt.channels import DirectOutputs
     from hisopt.optim.casadi_model import CasadiModel
 
     p = laden_problem({"mass": 300.0, "x": 0.4, "y": 0.25, "z": 0.2})

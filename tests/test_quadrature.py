@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from hisopt import kernels, quadrature
-from hisopt.evaluate import DirectOutputs, ModalChannels, frf_power
+from hisopt.channels import DirectOutputs, ModalChannels, frf_power
 from hisopt.peaks import refine_maximum
 from hisopt.quadrature import POLE_MARGIN, design_rho, panel_nodes, panels, ripple_error, ripple_splits, singularities
 from tests.conftest import random_designs

@@ -244,7 +244,8 @@ def test_response_peaks_are_continuous_maxima(problem):
     # the refined peak is at least the largest value on a fine grid and within 1e-6 of it
     x = problem.design_matrix({"p0": [0.0, 4e6], "lam": [0.1, 0.8]})
     peaks = response_peaks(problem, x, ("acc_roll", "tire_load_fl"))
-    from hisopt.evaluate import DirectOutputs, Evaluator
+    from hisopt.channels import DirectOutputs
+    from hisopt.evaluate import Evaluator
 
     ev = Evaluator(problem)
     f = np.geomspace(0.5, 80.0, 40001)[None, :].repeat(2, axis=0)
