@@ -6,13 +6,28 @@ shows tracebacks.
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
 from pathlib import Path
 from typing import Annotated
 
-import typer
 
-from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, number
+def _quit_now(signum: int, frame: object) -> None:
+    """Ctrl-C or SIGTERM while importing, or SIGTERM in a command with nothing to save: one
+    line and the shell's exit code, not a traceback (runs install their own handlers, which
+    save a checkpoint first; files are written atomically, so none is left half written)."""
+    os.write(2, f"interrupted by {signal.Signals(signum).name}\n".encode())
+    os._exit(128 + signum)
+
+
+if os.path.basename(sys.argv[0]) in ("hisopt", "__main__.py"):  # the command line, not a library import
+    for _signal in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(_signal, _quit_now)
+
+import typer  # noqa: E402
+
+from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, number  # noqa: E402
 
 # Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
 app = typer.Typer(
@@ -20,7 +35,8 @@ app = typer.Typer(
     no_args_is_help=True,
     rich_markup_mode=None,
     context_settings={"help_option_names": ["-h", "--help"]},
-    help="Design optimiser for roll-plane HIS vehicles. Start with `hisopt init problem.toml`.",
+    help="Design optimiser for hydraulically interconnected suspensions (HIS): layouts, load cases, Pareto fronts. "
+    "Start with `hisopt init problem.toml`.",
 )
 
 # The scalar [his] keys --set accepts (RollPlaneHIS fields; tests/test_cli.py keeps them in step).
@@ -644,11 +660,24 @@ from hisopt.cli_compare import register  # noqa: E402  (the command joins the ap
 register(app)
 
 
+_INTERRUPTED: list[bool] = []
+"""Set by Ctrl-C outside a run: whether a command reported it (runs and savers do)."""
+
+
+def _keyboard_interrupt(signum: int, frame: object) -> None:
+    _INTERRUPTED.append(False)
+    raise KeyboardInterrupt
+
+
 def main() -> None:
     """Entry point: map user errors to exit code 2 and internal errors to 1."""
     from hisopt.cli_usage import usage_error_line
     from hisopt.errors import HisoptError
 
+    # Imports are done: Ctrl-C is a KeyboardInterrupt again (commands that save work catch it
+    # and say so; typer turns the others into a silent exit 130, named below); SIGTERM keeps
+    # the quiet exit until a run installs its own handler (hisopt.interrupt).
+    signal.signal(signal.SIGINT, _keyboard_interrupt)
     args = sys.argv[1:]
     if all(arg == "--debug" for arg in args):  # bare `hisopt`: the help, exit 0
         args = [*args, "--help"]
@@ -665,6 +694,8 @@ def main() -> None:
     except typer.Abort:
         typer.echo("aborted", err=True)
         sys.exit(130)
+    except KeyboardInterrupt:  # a command with nothing to save (runs report their own)
+        code = 130
     except Exception as exc:  # command-line usage errors come through here too
         line = usage_error_line(exc, args)  # by what they carry: their classes move between typer versions
         if line is not None:
@@ -674,5 +705,7 @@ def main() -> None:
             raise
         typer.echo(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for a traceback)", err=True)
         sys.exit(1)
+    if code == 130 and _INTERRUPTED and not _INTERRUPTED[0]:  # no command reported it
+        typer.echo("interrupted by SIGINT", err=True)
     if isinstance(code, int) and code:
         sys.exit(code)

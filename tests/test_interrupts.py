@@ -147,3 +147,28 @@ def test_resume_refuses_a_run_that_is_still_running(tmp_path, reference):
     assert read_state(run_dir).status == "killed"
     assert run_cli("resume", run_dir).code == 0
     assert_same_run(run_dir, reference)
+
+
+def test_interrupted_before_the_first_generation_says_to_start_again(tmp_path):
+    from hisopt.interrupt import Interrupted
+    from hisopt.optim.runstate import interrupted_line
+
+    (tmp_path / "problem.toml").write_text("")  # the run directory as optimize leaves it that early
+    line = interrupted_line(tmp_path, Interrupted(signal.SIGINT))
+    assert "nothing to resume" in line and f"hisopt optimize PROBLEM --out {tmp_path}" in line and "hisopt resume" not in line
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_outside_a_run_is_one_line_not_a_traceback(tmp_path, sig):
+    """Ctrl-C or SIGTERM while a command without a run directory works (here a large feasible
+    region), or while it imports: one line naming the signal, exit 128 + signal."""
+    cmd = [sys.executable, "-m", "hisopt", "regions", str(DEFAULT_PROBLEM), "--pair", "p0,dA", "--points", "300", "--out", str(tmp_path)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    import time
+
+    time.sleep(1.5)  # past the imports (about 0.3 s) and well inside the 90,000 designs
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert proc.returncode == 128 + sig, err
+    assert len(lines) == 1 and signal.Signals(sig).name in lines[0] and "Traceback" not in err

@@ -176,6 +176,9 @@ def interrupted_line(run_dir: Path, exc: BaseException) -> str:
     from hisopt.interrupt import signal_name
 
     name = signal_name(exc)
+    if not (Path(run_dir) / rundir.RUN_JSON).is_file():  # before the first generation began
+        return (f"interrupted by {name} before the first generation; nothing to resume. "
+                f"Start again with the same `hisopt optimize PROBLEM --out {run_dir}`")
     try:
         state = read_state(run_dir)
     except (RunError, OSError, ValueError, KeyError):
