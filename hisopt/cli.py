@@ -112,7 +112,7 @@ def modes(problem: ProblemArg, set_: SetOpt = None, scenario: ScenarioOpt = None
 @app.command()
 def layouts(
     problem: Annotated[
-        Path | None, typer.Argument(metavar="[PROBLEM]", help="problem file whose [his] values are used (default: the paper's problem)")
+        Path | None, typer.Argument(metavar="PROBLEM", help="problem file whose [his] values are used (default: the paper's problem)")
     ] = None,
     set_: SetOpt = None,
 ) -> None:

@@ -32,7 +32,7 @@ def console_progress(total: int, start: int = 0) -> tuple[Any, ProgressFn]:
         TextColumn("HV {task.fields[hv]}"),
         TimeElapsedColumn(),
         TimeRemainingColumn(),
-        console=Console(stderr=True),
+        console=Console(stderr=True, width=None if sys.stderr.isatty() else 160),  # logs get whole lines
         transient=False,
     )
     task = progress.add_task("optimise", total=total, completed=start, evals="-", feasible="-", front="-", hv="-")
