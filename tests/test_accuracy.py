@@ -2,7 +2,7 @@
 
 Every quantity within 1e-3 of a direct solve on a converged grid (:mod:`hisopt.reference`),
 at 10, 20 and 33 m/s (the rear-wheel delay's ripple narrows as the speed falls), without
-pipes, with pipes, with pipes of a micrometre (a state matrix spanning many decades) and of
+pipes, with pipes (lumped, and distributed: the direct path), with pipes of a micrometre (a state matrix spanning many decades) and of
 1e-10 m (where the state matrix's eigenvalues go wrong and the evaluator must repair or
 flag the design); the 16 corners of the box (nearly undamped roll) and random designs.
 The symmetric split equals the full pole-residue path within 1e-10.
@@ -25,6 +25,7 @@ CASES = {
     "no_pipes": {},
     "pipes": {"pipes": PIPES},
     "micrometre_pipes": {"pipes": {"diameter": 0.01, "length_front": 1e-6, "length_rear": 1e-6}},
+    "distributed_pipes": {"pipes": PIPES, "pipe_model": "distributed"},  # no state space: the direct path
 }
 
 
