@@ -197,7 +197,9 @@ class Evaluator:
         both = channels.powers(f_all, roads)
         order = np.argsort(f_all, axis=1, kind="stable")  # the peak search's sorted samples, for all roads
         bases = self._peak_bases()
-        peaks = (np.take_along_axis(f_all, order, 1), np.take_along_axis(both[:, bases], order[None, None], 3))
+        flat = (order + f_all.shape[1] * np.arange(len(order))[:, None]).ravel()  # one gather for all roads
+        values = np.take(both[:, bases].reshape(len(roads) * len(bases), -1), flat, axis=1).reshape(len(roads), len(bases), *order.shape)
+        peaks = (np.take_along_axis(f_all, order, 1), values)
         return [Prior(edges, f, w, f_peak, both[r], (peaks[0], peaks[1][r])) for r in range(len(evaluators))]
 
     def _peak_bases(self) -> list[int]:

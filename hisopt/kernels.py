@@ -90,6 +90,35 @@ def _channel_frfs(w: float, lam_p: np.ndarray, alpha: np.ndarray, beta: np.ndarr
             jw_re, jw_im = -jw_im * w, jw_re * w
 
 
+@njit(cache=True, inline="always")
+def _roads_psd(
+    w: float, f: float, i: int, q: int, first: int, last: int, tau: np.ndarray, coherence: np.ndarray, coherent: bool, road: np.ndarray,
+    col_s: np.ndarray, col_a: np.ndarray, hs_re: np.ndarray, hs_im: np.ndarray, ha_re: np.ndarray, ha_im: np.ndarray,
+    gather: np.ndarray, out: np.ndarray,
+) -> None:
+    """:func:`channel_psd` at one frequency on every road: the FRFs of each output gathered
+    once (rows: sym front, sym rear, anti front, anti rear; re, im), then per road the same
+    :func:`hisopt.psd.channel_power` as one road gets."""
+    for o in range(first, last):
+        gather[0, o], gather[1, o] = hs_re[col_s[0, o]], hs_im[col_s[0, o]]
+        gather[2, o], gather[3, o] = hs_re[col_s[1, o]], hs_im[col_s[1, o]]
+        gather[4, o], gather[5, o] = ha_re[col_a[0, o]], ha_im[col_a[0, o]]
+        gather[6, o], gather[7, o] = ha_re[col_a[1, o]], ha_im[col_a[1, o]]
+    for r in range(tau.shape[0]):
+        cos_t, sin_t = math.cos(w * tau[r]), math.sin(w * tau[r])
+        g = coherence[r, i, q] if coherent else 0.0
+        g1, exponent = road[r, 0], road[r, 1]
+        road_psd = g1 / (f * f) if exponent == 2.0 else g1 * f**-exponent
+        for o in range(first, last):
+            out[r, o, i, q] = road_psd * _channel_power(
+                ((gather[0, o], gather[1, o]), (gather[2, o], gather[3, o])),
+                ((gather[4, o], gather[5, o]), (gather[6, o], gather[7, o])),
+                cos_t,
+                sin_t,
+                g,
+            )
+
+
 @njit(cache=True)
 def channel_psd(
     f_hz: np.ndarray,
@@ -130,6 +159,7 @@ def channel_psd(
     hs_im = np.zeros(al_s.shape[2] + 1)
     ha_re = np.zeros(al_a.shape[2] + 1)
     ha_im = np.zeros(al_a.shape[2] + 1)
+    gather = np.zeros((8, n_out))
     out[:] = 0.0
     for i in range(n):
         # this design's terms, taken once (not per frequency)
@@ -151,6 +181,9 @@ def channel_psd(
                 _single_poles(w, l1a, rra, ria, ha_re, ha_im)
             f = f_hz[i, q]
             first, last = (0, n_out) if output_of[q] < 0 else (output_of[q], output_of[q] + 1)
+            if n_road > 1:  # several roads: each output's FRFs gathered once, then a tight loop per road
+                _roads_psd(w, f, i, q, first, last, tau, coherence, coherent, road, col_s, col_a, hs_re, hs_im, ha_re, ha_im, gather, out)
+                continue
             for r in range(n_road):
                 cos_t, sin_t = math.cos(w * tau[r]), math.sin(w * tau[r])
                 g = coherence[r, i, q] if coherent else 0.0
