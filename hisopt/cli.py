@@ -295,34 +295,12 @@ def evaluate(
             raise ConfigError(f"cannot write {out} ({exc.strerror or exc})", key="--out") from None
         typer.echo(f"wrote {len(result)} designs to {out}")
     if designs is None or out is None:
+        from hisopt.console import units_table
         from hisopt.units import display_frame
 
-        Console(width=200).print(_units_table(display_frame(result.head(20)), f"{p.name}: {len(result)} design(s)"))
+        Console(width=200).print(units_table(display_frame(result.head(20)), f"{p.name}: {len(result)} design(s)"))
         if len(result) > 20:
             typer.echo(f"showing the first 20 of {len(result)} designs; write them all with --out FILE")
-
-
-def _units_table(shown, title: str):
-    """A rich table of :func:`hisopt.units.display_frame` strings (headers ``name [unit]``).
-
-    Up to four rows print transposed, one line per quantity, so that nothing is cut.
-    """
-    from rich.table import Table
-    from rich.text import Text
-
-    table = Table(title=Text(title))
-    if len(shown) <= 4:
-        table.add_column(Text("quantity [unit]"))
-        for i in range(len(shown)):
-            table.add_column("value" if len(shown) == 1 else f"design {i + 1}", justify="right")
-        for col in shown.columns:
-            table.add_row(Text(col), *[Text(v) for v in shown[col]])
-        return table
-    for col in shown.columns:
-        table.add_column(Text(col.replace(" [", "\n[")), justify="right", overflow="fold")  # unit under the name
-    for row in shown.itertuples(index=False):
-        table.add_row(*[Text(v) for v in row])
-    return table
 
 
 @app.command()
@@ -431,7 +409,9 @@ def optimize_cmd(
     if code:
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
     if refine:
-        _refine_and_report(out, max_points, None, None)
+        from hisopt.console import refine_with_progress
+
+        refine_with_progress(out, max_points, None, None)
 
 
 @app.command("resume")
@@ -511,11 +491,12 @@ def study(
         where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
         typer.echo(f"running {len(seed_list)} seeds {where}", err=True)
         result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend, progress=progress)
+    from hisopt.console import units_table
     from hisopt.units import display_frame, hypervolume_unit
 
     hv = f"{result.hypervolume:.6g} {hypervolume_unit(len(p.objective_names))}"
     title = f"{p.name}: {len(seed_list)} seeds, merged front of {len(result.front)} designs, hypervolume {hv}"
-    Console(width=120).print(_units_table(display_frame(result.runs), title))
+    Console(width=120).print(units_table(display_frame(result.runs), title))
     if out is not None:
         typer.echo(f"wrote {out / 'front.csv'} and {out / 'runs.csv'}")
 
@@ -558,33 +539,9 @@ def refine_cmd(
 
     if max_points < 1:
         raise ConfigError(f"expected at least 1, got {max_points}", key="--max-points")
-    _refine_and_report(run_dir, max_points, workers, scheduler)
+    from hisopt.console import refine_with_progress
 
-
-def _refine_and_report(run_dir: Path, max_points: int, workers: int | None, scheduler: str | None) -> None:
-    """Refine a run's front with a progress bar; in this process unless Dask is asked for."""
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from hisopt.optim.refine import refine_run, start_designs
-    from hisopt.optim.rundir import FRONT_CSV, FRONT_REFINED_CSV, read_front, run_problem
-    from hisopt.parallel import open_backend
-
-    problem = run_problem(run_dir)[0]  # every check before the progress bar
-    front = read_front(run_dir / FRONT_CSV)
-    start_designs(problem, front, str(run_dir / FRONT_CSV))
-    bar = Progress(TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"),
-                   TimeElapsedColumn(), console=Console(stderr=True))
-    task = bar.add_task("refine", total=min(max_points, len(front)))
-    with open_backend(workers, scheduler) as backend, bar:
-        result = refine_run(run_dir, max_points, backend=backend, progress=lambda _: bar.update(task, advance=1))
-    accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
-    typer.echo(
-        f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
-        f"{result.hypervolume_after:.6g} decades^{len(result.reference_point)} ({100 * result.hypervolume_gain:+.2f} %), "
-        f"{result.seconds_per_point:.2f} s per design"
-    )
-    typer.echo(f"wrote {run_dir / FRONT_REFINED_CSV}")
+    refine_with_progress(run_dir, max_points, workers, scheduler)
 
 
 @app.command("sweep")

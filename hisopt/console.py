@@ -163,3 +163,52 @@ def print_modes(p: Any) -> None:
     console.print(table)
     old = "wheel_hop_" + "/".join(k.removeprefix("wheel_hop_") for k in MODE_ALIASES)
     console.print(f"older names: {old} = {', '.join(MODE_ALIASES.values())}")
+
+
+def units_table(shown: Any, title: str) -> Any:
+    """A rich table of :func:`hisopt.units.display_frame` strings (headers ``name [unit]``).
+
+    Up to four rows print transposed, one line per quantity, so that nothing is cut.
+    """
+    from rich.table import Table
+    from rich.text import Text
+
+    table = Table(title=Text(title))
+    if len(shown) <= 4:
+        table.add_column(Text("quantity [unit]"))
+        for i in range(len(shown)):
+            table.add_column("value" if len(shown) == 1 else f"design {i + 1}", justify="right")
+        for col in shown.columns:
+            table.add_row(Text(col), *[Text(v) for v in shown[col]])
+        return table
+    for col in shown.columns:
+        table.add_column(Text(col.replace(" [", "\n[")), justify="right", overflow="fold")  # unit under the name
+    for row in shown.itertuples(index=False):
+        table.add_row(*[Text(v) for v in row])
+    return table
+
+
+def refine_with_progress(run_dir: Path, max_points: int, workers: int | None, scheduler: str | None) -> None:
+    """Refine a run's front with a progress bar; in this process unless Dask is asked for."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from hisopt.optim.refine import refine_run, start_designs
+    from hisopt.optim.rundir import FRONT_CSV, FRONT_REFINED_CSV, read_front, run_problem
+    from hisopt.parallel import open_backend
+
+    problem = run_problem(run_dir)[0]  # every check before the progress bar
+    front = read_front(run_dir / FRONT_CSV)
+    start_designs(problem, front, str(run_dir / FRONT_CSV))
+    bar = Progress(TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"),
+                   TimeElapsedColumn(), console=Console(stderr=True))
+    task = bar.add_task("refine", total=min(max_points, len(front)))
+    with open_backend(workers, scheduler) as backend, bar:
+        result = refine_run(run_dir, max_points, backend=backend, progress=lambda _: bar.update(task, advance=1))
+    accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
+    print(
+        f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
+        f"{result.hypervolume_after:.6g} decades^{len(result.reference_point)} ({100 * result.hypervolume_gain:+.2f} %), "
+        f"{result.seconds_per_point:.2f} s per design"
+    )
+    print(f"wrote {run_dir / FRONT_REFINED_CSV}")
