@@ -100,6 +100,10 @@ class Evaluator:
         self.tau = problem.vehicle.wheelbase / self.speed
         self.road = temporal_power_law(self.gd_n0, self.speed)  # G(f) = G_1 f^-w
         self.tolerance = tolerance
+        self.unread: frozenset[str] = frozenset()
+        """Transient quantities left NaN (and out of the validity check) because no one reads
+        them: set by :class:`~hisopt.scenario_evaluator.ScenarioEvaluator` for a load case
+        whose model serves only scenarios where they are not asked for."""
         self.forced_edges = np.empty(0)  # [Hz] breakpoints every design's panels keep
         if spec.comfort.method == "band":  # the band method's weighting steps at the band edges
             bands = iso2631.third_octave_bands(self.f_lo, self.f_hi)
@@ -175,18 +179,22 @@ class Evaluator:
         scale = np.abs(lam).max(axis=1)
         stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
         shared = self._shared_samples(lam, channels, evaluators) if len(evaluators) > 1 else [None]
-        steps = self._transient(model)  # of the model alone: once for all the roads
+        steps = self._transient(model, len(lam))  # of the model alone: once for all the roads
         out = []
         for ev, prior in zip(evaluators, shared, strict=True):
             values = ev.quantities(lam, channels, model, prior, steps)
-            out.append((values, stable & np.all([np.isfinite(v) for v in values.values()], axis=0)))
+            finite = [np.isfinite(v) for k, v in values.items() if k not in self.unread]
+            out.append((values, stable & np.all(finite, axis=0)))
         return out
 
-    def _transient(self, model: CoupledModel) -> dict[str, np.ndarray]:
-        """The transient roll quantities asked for (docs/model.md §6.6), which depend on the
-        model and ``[handling]``, not on the road."""
+    def _transient(self, model: CoupledModel, n: int) -> dict[str, np.ndarray]:
+        """The transient roll quantities asked for (docs/model.md §6.6) of ``n`` designs,
+        which depend on the model and ``[handling]``, not on the road; NaN for those in
+        :attr:`unread`."""
         names = [m.name for m in self.metrics if m.kind == "transient"]
-        return transient_quantities(model, model.vehicle, names, self.problem.spec.handling.step_g) if names else {}
+        wanted = [name for name in names if name not in self.unread]
+        steps = transient_quantities(model, model.vehicle, wanted, self.problem.spec.handling.step_g) if wanted else {}
+        return steps | {name: np.full(n, np.nan) for name in names if name in self.unread}
 
     def _shared_samples(self, lam: np.ndarray, channels: Channels, evaluators: list[Evaluator]) -> list[Prior]:
         """The pole-aware nodes, laid once, and every evaluator's road PSDs there from one pass
@@ -352,7 +360,7 @@ class Evaluator:
         if peaks:
             spectra = np.stack([self._derive(name, f, values[j]) for j, name in enumerate(peaks)])
             maxima = self._refined_maxima(peaks, f, spectra, frf)
-        steps = self._transient(model) if steps is None else steps
+        steps = self._transient(model, len(lam)) if steps is None else steps
         return reduce_metrics(
             self.metrics,
             self.problem.spec.comfort,

@@ -39,6 +39,10 @@ class ScenarioEvaluator:
             groups.setdefault(None if empty else sc.payload, []).append(i)
         self.groups = list(groups.values())
         """Scenarios sharing a model (the same payload), by index, in file order."""
+        for group in self.groups:  # a step steer constrained in the laden case only: not computed empty
+            read = set(spec.objectives) | {c.name for c in spec.constraints if set(problem.constraint_scenarios(c.name)) & {self.scenarios[i] for i in group}}
+            lead = self.evaluators[group[0]]
+            lead.unread = frozenset(m.name for m in lead.metrics if m.kind == "transient" and m.name not in read)
         plain = list(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
         self.names = tuple(plain) + problem.scenario_columns
 

@@ -186,3 +186,22 @@ def test_shipped_robust_problem_runs_through_optimize_refine_and_report(tmp_path
     assert out.code == 0, out.stderr
     page = (run / "report.html").read_text()
     assert "Load cases" in page and "roll_step_peak@laden" in page and "(laden)" in page
+
+
+def test_robust_problem_columns_equal_each_load_case_alone(designs):
+    """Payload and road scenarios with a step steer constrained in one of them: every column
+    equals the single-case problem of its scenario, and the models that serve no scenario
+    asking for the step steer skip it (they are valid nonetheless)."""
+    p = hisopt.load_problem(ROOT / "problems" / "roll_plane_his_robust.toml")
+    ev = p.evaluator()
+    skipped = {p.scenario_names[g[0]]: ev.evaluators[g[0]].unread for g in ev.groups}
+    assert skipped == {"city": frozenset({"roll_step_peak"}), "laden": frozenset()}
+    q = ev(designs)
+    assert q["valid"].all()
+    data = p.spec.model_dump(by_alias=True)
+    for sc in data["scenarios"]:
+        alone = data | {"scenarios": [], "road": sc["road"], "payload": sc["payload"], "robust": {"aggregate": "worst", "alpha": 0.8}}
+        alone["constraints"] = [c | {"scenarios": None} for c in data["constraints"]]
+        single = problem_from_dict(alone).evaluator()(designs)
+        for col in [c for c in q if c.endswith("@" + sc["name"])]:
+            np.testing.assert_allclose(q[col], single[col.split("@")[0]], rtol=1e-9, atol=0)
