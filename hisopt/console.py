@@ -6,12 +6,12 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from hisopt import interrupt
 from hisopt.errors import HisoptError
-from hisopt.optim import runstate
-from hisopt.optim.results import GenerationStats, OptimizationResult, ProgressFn
+
+if TYPE_CHECKING:  # the run machinery is imported where a run needs it: `evaluate` prints tables too
+    from hisopt.optim.results import GenerationStats, OptimizationResult, ProgressFn
 
 
 def console_progress(total: int, start: int = 0) -> tuple[Any, ProgressFn]:
@@ -71,6 +71,9 @@ def run_with_console(
         line on stderr saying what ``run.json`` now records and what to do.
     """
     from rich.console import Console
+
+    from hisopt import interrupt
+    from hisopt.optim import runstate
 
     display, update = console_progress(total, done)
     try:
