@@ -35,8 +35,8 @@ class ScenarioEvaluator:
         self.evaluators = [Evaluator(problem.scenario_space(name)) for name in self.scenarios]
         groups: dict[Any, list[int]] = {}
         for i, sc in enumerate(spec.scenarios):
-            empty = sc.payload is None or sc.payload.mass == 0.0  # a 0 kg payload is no payload (§13)
-            groups.setdefault(None if empty else sc.payload, []).append(i)
+            laden = sc.payload is not None and sc.payload.active  # a 0 kg payload is no payload (§13)
+            groups.setdefault(sc.payload if laden else None, []).append(i)
         self.groups = list(groups.values())
         """Scenarios sharing a model (the same payload), by index, in file order."""
         for group in self.groups:  # a step steer constrained in the laden case only: not computed empty
