@@ -22,6 +22,12 @@ def scenario_column(quantity: str, scenario: str) -> str:
     return f"{quantity}{SEPARATOR}{scenario}"
 
 
+def split_column(column: str) -> tuple[str, str]:
+    """``"sigma_aw@city"`` -> ``("sigma_aw", "city")`` (the inverse of :func:`scenario_column`)."""
+    quantity, scenario = column.split(SEPARATOR, 1)
+    return quantity, scenario
+
+
 def quantity_of(column: str) -> str:
     """The quantity a column holds: ``"sigma_aw@city"`` -> ``"sigma_aw"`` (plain names unchanged)."""
     return column.split(SEPARATOR, 1)[0]

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hisopt.evaluate import Evaluator
-from hisopt.robust import aggregate, worst
+from hisopt.robust import aggregate, split_column, worst
 
 if TYPE_CHECKING:
     from hisopt.design_space import DesignSpace
@@ -67,7 +67,7 @@ class ScenarioEvaluator:
             values = np.stack([per[self.scenarios.index(s)][c.name] for s in where], axis=1)
             out.setdefault(c.name, worst(values))
         for col in self.problem.scenario_columns:
-            q, s = col.split("@", 1)
+            q, s = split_column(col)
             out[col] = per[self.scenarios.index(s)][q]
         out["valid"] = np.all([r["valid"] for r in per], axis=0)
         return out

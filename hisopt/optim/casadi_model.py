@@ -465,7 +465,7 @@ class SpectraCallback(ca.Callback):
         return True
 
     def get_jacobian(self, name: str, inames: Sequence[str], onames: Sequence[str], opts: Mapping[str, Any]) -> ca.Function:
-        self._jacobian = _SpectraJacobian(name, self, opts)
+        self._jacobian = JacobianCallback(name, self, opts)
         return self._jacobian
 
     # -- numbers --
@@ -490,10 +490,12 @@ class SpectraCallback(ca.Callback):
         return result
 
 
-class _SpectraJacobian(ca.Callback):
-    """Jacobian of :class:`SpectraCallback`: ``(u, nominal output) -> (n_out F, n_var)``."""
+class JacobianCallback(ca.Callback):
+    """The Jacobian of a one-input, one-output callback whose ``evaluate(u, jacobian=True)``
+    returns ``(value, d vec(value) / du)``: ``(u, nominal output) -> (numel out, numel u)``
+    (:class:`SpectraCallback`, :class:`hisopt.optim.transient_callback.TransientCallback`)."""
 
-    def __init__(self, name: str, parent: SpectraCallback, opts: Mapping[str, Any]):
+    def __init__(self, name: str, parent: Any, opts: Mapping[str, Any]):
         ca.Callback.__init__(self)
         self.parent = parent
         self.construct(name, dict(opts))
@@ -508,7 +510,7 @@ class _SpectraJacobian(ca.Callback):
         return self.parent.get_sparsity_in(0) if i == 0 else self.parent.get_sparsity_out(0)
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self.parent.outputs_count * self.parent.nodes_count, self.parent.model.n_var)
+        return ca.Sparsity.dense(self.parent.get_sparsity_out(0).numel(), self.parent.get_sparsity_in(0).numel())
 
     def eval(self, arg: Sequence[Any]) -> list[Any]:
         return [self.parent.evaluate(np.array(arg[0]).ravel(), jacobian=True)[1]]

@@ -26,6 +26,7 @@ values below 1e-300 are clipped to it):
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -97,15 +98,27 @@ _REFERENCE_CACHE: dict[str, np.ndarray] = {}
 def _reference_point(problem: Problem) -> np.ndarray:
     x = grid_designs(problem.lower, problem.upper)
     q = problem.evaluator()(x)
-    valid = np.asarray(q["valid"], dtype=bool)
     f = np.column_stack([q[name] for name in problem.objective_names])
+    return reference_from_sample(f[grid_sample_rows(problem, q)])
+
+
+def grid_sample_rows(problem: Problem, q: Mapping[str, np.ndarray]) -> np.ndarray:
+    """[-] The designs of a grid over the box (:func:`grid_designs`, quantities ``q``) that
+    place a reference: the feasible ones, or the valid ones if none is feasible.
+
+    Raises
+    ------
+    RunError
+        No design of the grid can be evaluated.
+    """
+    valid = np.asarray(q["valid"], dtype=bool)
     feasible = valid.copy()
     for c in problem.spec.constraints:
         feasible &= q[c.name] <= c.limit
     chosen = feasible if feasible.any() else valid
     if not chosen.any():
-        raise RunError(f"no design of a {len(x)}-design grid over the box of {problem.name} can be evaluated")
-    return reference_from_sample(f[chosen])
+        raise RunError(f"no design of a {len(valid)}-design grid over the box of {problem.name} can be evaluated")
+    return chosen
 
 
 def hypervolume(f: np.ndarray, reference_log: np.ndarray) -> float:

@@ -32,10 +32,10 @@ from typing import TYPE_CHECKING, Any
 import moocore
 import numpy as np
 
-from hisopt.errors import ConfigError, RunError
+from hisopt.errors import ConfigError
 from hisopt.metrics import METRICS
 from hisopt.optim.archive import non_dominated_mask
-from hisopt.optim.decision import grid_designs, log_objectives, reference_from_sample
+from hisopt.optim.decision import grid_designs, grid_sample_rows, log_objectives, reference_from_sample
 
 if TYPE_CHECKING:
     from hisopt.problem import Problem
@@ -166,13 +166,7 @@ def shared_normalisation(reference_problem: Problem, handling: str) -> Normalisa
     x = grid_designs(reference_problem.lower, reference_problem.upper)
     objectives = reference_problem.objective_names
     q = evaluate_quantities(reference_problem, x, (*objectives, *reference_problem.constraint_names, COMFORT, handling))
-    valid = q["valid"].astype(bool)
-    feasible = valid.copy()
-    for c in reference_problem.spec.constraints:
-        feasible &= q[c.name] <= c.limit
-    chosen = feasible if feasible.any() else valid
-    if not chosen.any():
-        raise RunError(f"no design of a {len(x)}-design grid over the box of {reference_problem.name} can be evaluated")
+    chosen = grid_sample_rows(reference_problem, q)
     ideal, reference = _ideal_and_reference(np.column_stack([q[n][chosen] for n in objectives]))
     plane_ideal, plane_reference = _ideal_and_reference(np.column_stack([q[COMFORT][chosen], q[handling][chosen]]))
     return Normalisation(tuple(objectives), ideal, reference, handling, plane_ideal, plane_reference)

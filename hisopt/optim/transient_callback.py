@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
+from hisopt.optim.casadi_model import JacobianCallback
+
 if TYPE_CHECKING:
     from hisopt.design_space import DesignSpace
 
@@ -81,7 +83,7 @@ class TransientCallback(ca.Callback):
         return True
 
     def get_jacobian(self, name: str, inames: Sequence[str], onames: Sequence[str], opts: Mapping[str, Any]) -> ca.Function:
-        self._jacobian = _TransientJacobian(name, self, opts)
+        self._jacobian = JacobianCallback(name, self, opts)
         return self._jacobian
 
     # -- numbers --
@@ -111,27 +113,3 @@ class TransientCallback(ca.Callback):
         while len(self._cache) > 8:
             self._cache.pop(next(iter(self._cache)))
         return result
-
-
-class _TransientJacobian(ca.Callback):
-    """Jacobian of :class:`TransientCallback`: ``(u, nominal output) -> (k, n_var)``."""
-
-    def __init__(self, name: str, parent: TransientCallback, opts: Mapping[str, Any]):
-        ca.Callback.__init__(self)
-        self.parent = parent
-        self.construct(name, dict(opts))
-
-    def get_n_in(self) -> int:
-        return 2
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return self.parent.get_sparsity_in(0) if i == 0 else self.parent.get_sparsity_out(0)
-
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(len(self.parent.names), self.parent.lower.size)
-
-    def eval(self, arg: Sequence[Any]) -> list[Any]:
-        return [self.parent.evaluate(np.array(arg[0]).ravel(), jacobian=True)[1]]
