@@ -27,7 +27,7 @@ if os.path.basename(sys.argv[0]) in ("hisopt", "__main__.py"):  # the command li
 
 import typer  # noqa: E402
 
-from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, number  # noqa: E402
+from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, quantity  # noqa: E402
 
 # Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
 app = typer.Typer(
@@ -48,8 +48,8 @@ SetOpt = Annotated[
     typer.Option(
         "--set",
         metavar="KEY=VALUE",
-        help="override a [his] value of the problem file, e.g. --set p0=3e6 (repeatable; SI units); "
-        f"KEY is one of {', '.join(SET_KEYS)}",
+        help="override a [his] value of the problem file, e.g. --set p0=3e6 or --set \"p0=2.5 MPa\" (repeatable; "
+        f"bare numbers are SI, a value may carry its unit); KEY is one of {', '.join(SET_KEYS)}",
     ),
 ]
 
@@ -151,10 +151,14 @@ def layouts(
 def droptest(
     problem: ProblemArg,
     out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
-    p0: Annotated[str, typer.Option("--p0", help="accumulator precharges in Pa (gauge), comma-separated")] = "1e6,2e6,3e6",
+    p0: Annotated[
+        str,
+        typer.Option("--p0", help="accumulator precharges (gauge), comma-separated; bare numbers in Pa, or with a unit, e.g. \"1 MPa,2 MPa\""),
+    ] = "1e6,2e6,3e6",
     height: Annotated[
         float,
-        typer.Option("--height", parser=number, metavar="METRES", help="drop height in m (the wheels roll off blocks this high)"),
+        typer.Option("--height", parser=quantity("m"), metavar="HEIGHT",
+                     help="drop height (the wheels roll off blocks this high); a bare number in m, or with a unit, e.g. 5cm"),
     ] = 0.05,
     measured: Annotated[
         Path | None,
@@ -171,7 +175,8 @@ def droptest(
     measured_p0: Annotated[
         float | None,
         typer.Option(
-            "--measured-p0", parser=number, metavar="PA", help="precharge in Pa (gauge) of the measured test (default: the problem's p0)"
+            "--measured-p0", parser=quantity("Pa"), metavar="PRESSURE",
+            help="precharge (gauge) of the measured test, a bare number in Pa or with a unit, e.g. \"2 MPa\" (default: the problem's p0)",
         ),
     ] = None,
     mode: Annotated[str, typer.Option("--mode", help="simulation model: linear or nonlinear (gas law, tyre lift-off)")] = "linear",
@@ -190,12 +195,10 @@ def droptest(
     from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure
     from hisopt.errors import ConfigError
     from hisopt.io import write_csv
+    from hisopt.quantities import to_si
     from hisopt.units import display_for, format_number
 
-    try:
-        p0_values = [float(v) for v in p0.split(",") if v.strip()]
-    except ValueError:
-        raise ConfigError(f"expected comma-separated numbers in Pa, e.g. 1e6,2e6,3e6; got {p0!r}", key="--p0") from None
+    p0_values = [to_si(v, "Pa", key="--p0") for v in p0.split(",") if v.strip()]
     from hisopt.validation import parameter_rule, plausible
 
     if not p0_values or not parameter_rule("p0").holds(p0_values).all():
@@ -253,7 +256,9 @@ def evaluate(
     problem: ProblemArg,
     set_: SetOpt = None,
     designs: Annotated[
-        Path | None, typer.Option(help="CSV with one column per design variable, SI units, e.g. examples/designs.csv")
+        Path | None,
+        typer.Option(help="CSV with one column per design variable, e.g. examples/designs.csv; an optional units row "
+                     "below the header ([MPa], [cm^2], [-]) gives each column's unit, else SI"),
     ] = None,
     out: Annotated[Path | None, typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
     workers: WorkersOpt = None,
@@ -278,7 +283,9 @@ def evaluate(
     if out is not None:
         ensure_writable_file(out, "--out")  # fail before any work
     if designs is not None:
-        frame = read_designs(designs, p.variable_names)
+        from hisopt.units import variable_units
+
+        frame = read_designs(designs, p.variable_names, variable_units(p))
         from hisopt.parallel import open_backend
 
         with open_backend(workers, scheduler) as backend:

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, number
+from hisopt.cli_usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
 
 
 def register(app: typer.Typer) -> None:
@@ -24,8 +24,9 @@ def register(app: typer.Typer) -> None:
         pop: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")] = None,
         gens: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
         handling: Annotated[str | None, typer.Option(metavar="QUANTITY", help="quantity held equal (default roll_gradient)")] = None,
-        handling_limit: Annotated[float | None, typer.Option(
-            "--handling-limit", parser=number, metavar="VALUE", help="its limit, SI (default: the roll-plane baseline design's value)")] = None,
+        handling_limit: Annotated[str | None, typer.Option(
+            "--handling-limit", metavar="VALUE", help="its limit, a bare number in SI (rad/g for roll_gradient) or with a unit, "
+                                                      "e.g. \"1.8 deg/g\" (default: the roll-plane baseline design's value)")] = None,
         workers: WorkersOpt = None,
         scheduler: SchedulerOpt = None,
     ) -> None:
@@ -48,7 +49,7 @@ def compare_layouts_command(
     pop: int | None,
     gens: int | None,
     handling: str | None,
-    handling_limit: float | None,
+    handling_limit: str | float | None,
     workers: int | None,
     scheduler: str | None,
 ) -> int:
@@ -65,7 +66,8 @@ def compare_layouts_command(
     from hisopt.report.layout_report import write_layout_report
 
     problem = load_problem(problem_path)
-    check_arguments(problem, layouts, seeds, handling, handling_limit)  # one line and exit 2 before any work
+    limit = _handling_limit(problem, handling, handling_limit)
+    check_arguments(problem, layouts, seeds, handling, limit)  # one line and exit 2 before any work
     read_study_record(out, problem, study_budget(problem, pop, gens))
 
     def progress(run: dict[str, Any]) -> None:
@@ -77,7 +79,7 @@ def compare_layouts_command(
             where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
             typer.echo(f"{problem.name}: layout study in {out}, runs {where}", err=True)
             result = run_layout_study(problem, layouts, seeds, out=out, pop_size=pop, generations=gens, handling=handling,
-                                      handling_limit=handling_limit, backend=backend, progress=progress)
+                                      handling_limit=limit, backend=backend, progress=progress)
     except KeyboardInterrupt as exc:
         print(f"interrupted by {interrupt.signal_name(exc)}; finished runs are kept and the others saved their "
               f"checkpoints. Resume with the same command (--out {out})", file=sys.stderr)
@@ -88,17 +90,29 @@ def compare_layouts_command(
     return 0
 
 
+def _handling_limit(problem: Any, handling: str | None, text: str | float | None) -> float | None:
+    """``--handling-limit`` in the SI unit of the handling quantity (``"1.8 deg/g"`` -> rad/g)."""
+    if text is None:
+        return None
+    from hisopt.optim.layout_metrics import check_handling, default_handling_quantity
+    from hisopt.quantities import to_si
+    from hisopt.units import column_unit
+
+    name = check_handling(problem, handling or default_handling_quantity(problem))  # an unknown name first
+    return to_si(text, column_unit(name) or "-", key="--handling-limit")
+
+
 def _table(result: Any) -> Any:
     """The headline columns of ``layouts.csv`` as a rich table (engineering units)."""
     from rich.table import Table
     from rich.text import Text
 
-    from hisopt.units import display_frame
+    from hisopt.units import display_frame, format_quantity
 
     columns = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "vorobev_deviation", "sigma_aw_at_limit",
                "handling_at_best", "gain_vs_roll_plane_pct", "k_roll", "k_warp"]
     shown = display_frame(result.table[columns])
-    limit = display_frame(result.table[["handling_limit"]].head(1)).iloc[0, 0]
+    limit = format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"])  # with its unit: pasted back as is
     table = Table(title=Text(f"Layouts at equal handling: {result.handling} <= {limit} "
                              f"(normalised hypervolume across seeds; gain in comfort over roll_plane)"))
     for col in shown.columns:

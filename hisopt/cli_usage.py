@@ -10,7 +10,7 @@ messages are ours (``expected an integer, got 'abc'``) and not the parser's of t
 from __future__ import annotations
 
 import difflib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -28,12 +28,20 @@ def integer(text: str) -> int:
         raise typer.BadParameter(f"expected an integer, got {text!r}") from None
 
 
-def number(text: str) -> float:
-    """Option value: a real number such as ``0.05`` or ``3e6`` (``typer.Option(parser=number)``)."""
-    try:
-        return float(text)
-    except (TypeError, ValueError):
-        raise typer.BadParameter(f"expected a number, got {text!r}") from None
+def quantity(unit: str) -> Callable[[str], float]:
+    """Option value parser: a number in the SI unit ``unit`` (``0.05``) or with its own unit
+    (``"5 cm"``), converted to SI (:func:`hisopt.quantities.to_si`)."""
+
+    def parse(text: str) -> float:
+        from hisopt.errors import ConfigError
+        from hisopt.quantities import to_si
+
+        try:
+            return to_si(text, unit)
+        except ConfigError as exc:
+            raise typer.BadParameter(exc.detail) from None
+
+    return parse
 
 
 # Option types several commands share (hisopt.cli, hisopt.cli_compare).

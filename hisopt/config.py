@@ -20,6 +20,8 @@ from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_prob
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.payload import Payload, laden_problem
+from hisopt.problem_units import convert_problem_units
+from hisopt.quantities import si
 from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
@@ -52,7 +54,7 @@ class Road(_Strict):
     """ISO 8608 road at constant speed (docs/model.md §4)."""
 
     road_class: Literal["A", "B", "C", "D", "E", "F", "G", "H"] = Field("C", alias="class")
-    speed: float = Field(10.0, gt=0, description="[m/s] vehicle speed")
+    speed: float = Field(10.0, gt=0, description="vehicle speed", json_schema_extra=si("m/s"))
     coherence: Literal["independent", "isotropic"] = "independent"
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, allow_inf_nan=False)
@@ -61,8 +63,8 @@ class Road(_Strict):
 class Band(_Strict):
     """Frequency band of every response integral and maximum [Hz]."""
 
-    f_min_hz: float = Field(0.5, gt=0)
-    f_max_hz: float = Field(80.0, gt=0)
+    f_min_hz: float = Field(0.5, gt=0, json_schema_extra=si("Hz"))
+    f_max_hz: float = Field(80.0, gt=0, json_schema_extra=si("Hz"))
 
     @model_validator(mode="after")
     def _ordered(self) -> Band:
@@ -74,9 +76,9 @@ class Band(_Strict):
 class Comfort(_Strict):
     """ISO 2631-1 comfort evaluation (docs/model.md §5)."""
 
-    k_x: float = Field(1.0, ge=0)
-    k_y: float = Field(1.0, ge=0)
-    k_z: float = Field(1.0, ge=0)
+    k_x: float = Field(1.0, ge=0, json_schema_extra=si("-"))
+    k_y: float = Field(1.0, ge=0, json_schema_extra=si("-"))
+    k_z: float = Field(1.0, ge=0, json_schema_extra=si("-"))
     method: Literal["filter", "band"] = "filter"
 
 
@@ -108,7 +110,7 @@ class Scenario(_Strict):
     name: str = Field(min_length=1, max_length=40)
     road: Road | None = None
     payload: Payload | None = None
-    weight: float = Field(1.0, gt=0)
+    weight: float = Field(1.0, gt=0, json_schema_extra=si("-"))
 
     @field_validator("name")
     @classmethod
@@ -122,13 +124,13 @@ class Robust(_Strict):
     """How a scenario problem's objectives combine its scenarios (docs/model.md §14.3)."""
 
     aggregate: Literal["worst", "expected", "cvar", "per_scenario"] = "worst"
-    alpha: float = Field(0.8, ge=0, lt=1, description="[-] CVaR level: the mean of the worst 1 - alpha of the weight")
+    alpha: float = Field(0.8, ge=0, lt=1, description="CVaR level: the mean of the worst 1 - alpha of the weight", json_schema_extra=si("-"))
 
 
 class Handling(_Strict):
     """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6)."""
 
-    step_g: float = Field(0.4, gt=0, description="[g] lateral-acceleration step of roll_step_peak and roll_rate_peak")
+    step_g: float = Field(0.4, gt=0, description="lateral-acceleration step of roll_step_peak and roll_rate_peak", json_schema_extra=si("g"))
 
 
 class Optimizer(_Strict):
@@ -310,11 +312,13 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
 def parse_problem(data: dict[str, Any], source: str = "<problem>") -> ProblemSpec:
     """Validate a problem dictionary; raise :class:`ConfigError` naming the key on failure.
 
-    Validation is strict: a number must be a TOML integer or float (a boolean or a string is
-    not a number; an integer field takes no float) and finite (no ``inf``, ``nan``, ``1e309``),
+    Validation is strict: a number must be a TOML integer or float, or a string of a number
+    and its unit (``"2.5 MPa"``, read in that unit: :mod:`hisopt.problem_units`; a boolean or
+    other text is not a number; an integer field takes no float) and finite (no ``inf``, ``nan``, ``1e309``),
     and every number is zero or of a magnitude within
     :data:`hisopt.validation.MAGNITUDE_RANGE` (1e-15 to 1e15).
     """
+    data = convert_problem_units(data, source, ProblemSpec)  # "2.5 MPa" -> 2.5e6: SI before the strict validation
     try:
         spec = ProblemSpec.model_validate(data, strict=True)
     except ValidationError as exc:

@@ -28,6 +28,7 @@ from hisopt.hydraulics import backend as bk
 from hisopt.hydraulics import laws
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Pipe
+from hisopt.quantities import si
 from hisopt.vehicle import VehicleParams, stiffness_matrix, stroke_matrix
 
 NEWTON_STEPS = 8
@@ -50,12 +51,12 @@ class Payload(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    mass: float = Field(0.0, ge=0, description="[kg] payload mass")
-    x: float = Field(0.0, description="[m] position forward of the unladen CG")
-    y: float = Field(0.0, description="[m] position to the left of the unladen CG")
-    z: float = Field(0.0, description="[m] position above the unladen CG")
-    I_x: float = Field(0.0, ge=0, description="[kg m^2] roll inertia of the payload about its own centre")
-    I_y: float = Field(0.0, ge=0, description="[kg m^2] pitch inertia of the payload about its own centre")
+    mass: float = Field(0.0, ge=0, description="payload mass", json_schema_extra=si("kg"))
+    x: float = Field(0.0, description="position forward of the unladen CG", json_schema_extra=si("m"))
+    y: float = Field(0.0, description="position to the left of the unladen CG", json_schema_extra=si("m"))
+    z: float = Field(0.0, description="position above the unladen CG", json_schema_extra=si("m"))
+    I_x: float = Field(0.0, ge=0, description="roll inertia of the payload about its own centre", json_schema_extra=si("kg m^2"))
+    I_y: float = Field(0.0, ge=0, description="pitch inertia of the payload about its own centre", json_schema_extra=si("kg m^2"))
 
     @property
     def active(self) -> bool:

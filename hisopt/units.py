@@ -101,25 +101,13 @@ def hypervolume_unit(n_objectives: int) -> str:
 
 
 def variable_units(problem: DesignSpace) -> dict[str, str]:
-    """Unit of each design variable: the problem file's ``unit``, else the [his] field's, else
-    that of the element field the layout reads it as (a layout's extra parameter).
+    """Unit of each design variable: the SI unit its ``[his]`` field declares, else that of the
+    element field the layout reads it as (a layout's extra parameter;
+    :func:`hisopt.validation.variable_si_units`), else the problem file's ``unit`` label."""
+    from hisopt.validation import variable_si_units
 
-    The [his] fields document their unit first in their description (``[Pa] ...``).
-    """
-    from hisopt.hydraulics.layout import FIELD_UNITS, parameter_uses
-    from hisopt.hydraulics.roll_plane import RollPlaneHIS
-
-    out = {}
-    for name in problem.variable_names:
-        unit = problem.spec.variables[name].unit
-        if not unit and name in RollPlaneHIS.model_fields:
-            match = re.match(r"\[([^\]]*)\]", RollPlaneHIS.model_fields[name].description or "")
-            unit = match.group(1) if match else ""
-        elif not unit:
-            uses = parameter_uses(problem.layout()).get(name, [])
-            unit = FIELD_UNITS[uses[0]] if uses else ""
-        out[name] = unit
-    return out
+    declared = variable_si_units(problem)
+    return {name: declared[name] or problem.spec.variables[name].unit for name in problem.variable_names}
 
 
 def column_unit(name: str) -> str:

@@ -37,6 +37,7 @@ from pydantic import BaseModel
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.layout import FIELD_LOWER, Layout, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
+from hisopt.quantities import unit_factor
 
 
 class DesignSpace(Protocol):
@@ -57,6 +58,8 @@ class DesignSpace(Protocol):
     def with_values(self, **values: Any) -> Any: ...
 
     def parameter_rule(self, name: str) -> Rule: ...
+
+    def layout(self) -> Layout: ...
 
 
 P = TypeVar("P", bound=DesignSpace)
@@ -270,7 +273,8 @@ def match_columns(columns: Sequence[Any], names: Sequence[str], source: str | No
     return found
 
 
-def _frame_matrix(frame: pd.DataFrame, names: Sequence[str], source: str | None) -> np.ndarray:
+def _frame_matrix(frame: pd.DataFrame, problem: DesignSpace, source: str | None) -> np.ndarray:
+    names = problem.variable_names
     cols = match_columns(list(frame.columns), names, source)
     x = np.empty((len(frame), len(names)))
     for j, name in enumerate(names):
@@ -283,7 +287,22 @@ def _frame_matrix(frame: pd.DataFrame, names: Sequence[str], source: str | None)
             x[:, j] = column.to_numpy(dtype=float)
         except (TypeError, ValueError):
             x[:, j] = [_number(v, f"row {i + 1}, column {name!r}", source) for i, v in enumerate(column.tolist())]
+    given = frame.attrs.get("units")
+    if isinstance(given, Mapping) and given:  # a frame that names its units (hisopt.io.read_csv): to SI
+        si_units = variable_si_units(problem)
+        for j, name in enumerate(names):
+            unit = given.get(str(cols[name]))
+            if isinstance(unit, str) and si_units[name] is not None:
+                x[:, j] *= unit_factor(unit, str(si_units[name]), file=source, key=f"column {name!r} (attrs['units'])")
     return x
+
+
+def variable_si_units(problem: DesignSpace) -> dict[str, str | None]:
+    """[-] The SI unit of each design variable (:func:`hisopt.hydraulics.catalogue.parameter_unit`)."""
+    from hisopt.hydraulics.catalogue import parameter_unit
+
+    uses = parameter_uses(problem.layout())
+    return {name: parameter_unit(name, uses) for name in problem.variable_names}
 
 
 def _first_non_number(arr: np.ndarray, names: Sequence[str], source: str | None) -> None:
@@ -303,7 +322,8 @@ def design_matrix(problem: DesignSpace, designs: Any, source: str | None = None)
     problem : the problem (its variable names and baseline)
     designs : [variable units] an array ``(n, n_var)`` or one design ``(n_var,)``; a DataFrame
         with the variable columns (other columns are ignored; ``P0`` is taken for ``p0`` when
-        no column is exactly ``p0``); a dict of names to values or arrays (missing names take
+        no column is exactly ``p0``; a column whose ``attrs["units"]`` names another unit, e.g.
+        ``MPa`` from a units row read by :func:`hisopt.io.read_csv`, is converted); a dict of names to values or arrays (missing names take
         the baseline); or a list of such dicts, one per design
     source : [-] where the designs come from (named in errors), e.g. a file name
 
@@ -320,7 +340,7 @@ def design_matrix(problem: DesignSpace, designs: Any, source: str | None = None)
     """
     names = problem.variable_names
     if isinstance(designs, pd.DataFrame):
-        return _frame_matrix(designs, names, source)
+        return _frame_matrix(designs, problem, source)
     if isinstance(designs, Mapping):
         return _mapping_matrix(problem, designs, source, "")
     if isinstance(designs, (list, tuple)) and any(isinstance(d, Mapping) for d in designs):

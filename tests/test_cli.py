@@ -114,7 +114,9 @@ USAGE_ERRORS = [
     (["bogus"], "error: no such command 'bogus'; expected one of "),
     (["optimize", "{P}", "--popp", "3"], "error: no such option --popp; did you mean --pop?"),
     (["optimise", "{P}"], "error: no such command 'optimise' (did you mean 'optimize'?); expected one of "),
-    (["droptest", "{P}", "--out", "x", "--height", "5cm"], "error: --height: expected a number, got '5cm'"),
+    (["droptest", "{P}", "--out", "x", "--height", "five"], "error: --height: expected a number (SI) or a number with a unit, e.g. "
+     "\"25 mm\" or 0.025 [m]; got 'five'"),
+    (["droptest", "{P}", "--out", "x", "--height", "5kg"], "error: --height: \"5kg\" is a mass; expected a length (e.g. \"25 mm\" or 0.025 [m])"),
     (["droptest", "{P}"], "error: missing option --out"),
     (["optimize", "{P}", "--pop"], "error: --pop: expected a value"),
 ]
@@ -191,17 +193,18 @@ def test_set_help_names_every_key_set_accepts(problem):
 
 def test_help_and_version_import_no_numerical_stack():
     """The timing-free proxy for a fast `hisopt --help`: the CLI module and the help itself
-    import none of numpy, scipy, pandas, pymoo, casadi, plotly, dask."""
+    import none of numpy, scipy, pandas, pymoo, casadi, plotly, dask, nor pint (units are read
+    only when a value carries one), also for the commands whose numeric options take units."""
     code = (
         "import sys\n"
         "from hisopt.cli import main\n"
-        "for args in (['--help'], ['--version'], []):\n"
+        "for args in (['--help'], ['--version'], [], ['droptest', '--help'], ['compare-layouts', '--help'], ['evaluate', '--help']):\n"
         "    sys.argv = ['hisopt', *args]\n"
         "    try:\n"
         "        main()\n"
         "    except SystemExit as exc:\n"
         "        assert not exc.code, exc.code\n"
-        "heavy = {'numpy', 'scipy', 'pandas', 'pymoo', 'casadi', 'plotly', 'dask'}\n"
+        "heavy = {'numpy', 'scipy', 'pandas', 'pymoo', 'casadi', 'plotly', 'dask', 'pint'}\n"
         "print(sorted(heavy & {m.split('.')[0] for m in sys.modules}), file=sys.stderr)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

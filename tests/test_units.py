@@ -99,13 +99,13 @@ def _complete(frame: pd.DataFrame) -> dict[str, str]:
     return units
 
 
-def test_variable_units_fall_back_to_the_his_field_descriptions(problem):
+def test_variable_units_come_from_the_declared_field_units(problem):
     assert variable_units(problem) == {"p0": "Pa", "dA": "m^2", "lam": "-", "Rv": "Pa s m^-3"}
     data = problem.spec.model_dump(by_alias=True)
     for var in data["variables"].values():
         var["unit"] = ""
     bare = problem_from_dict(data)
-    assert variable_units(bare) == variable_units(problem)  # from RollPlaneHIS's "[Pa] ..." descriptions
+    assert variable_units(bare) == variable_units(problem)  # from RollPlaneHIS's json_schema_extra={"unit": ...}
 
 
 def test_evaluate_frame_has_the_unit_of_every_column(problem):

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import functools
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from typing import Any
@@ -30,6 +30,7 @@ from hisopt.errors import ModelError
 from hisopt.hydraulics.layout import (
     ELEMENT_KINDS,
     FIELD_LOWER,
+    FIELD_UNITS,
     ChamberCompliance,
     Circuit,
     Element,
@@ -41,6 +42,7 @@ from hisopt.hydraulics.layout import (
 from hisopt.hydraulics.layout_file import CircuitSpec, build_layout, check_circuits, element_label, parameter_fields
 from hisopt.hydraulics.network import FLUID_PARAMETERS, compile_network, element_values, total_compliance
 from hisopt.hydraulics.roll_plane import RollPlaneHIS, parameter_values, roll_plane_layout
+from hisopt.quantities import field_unit
 
 CATALOGUE_NAMES = (
     "roll_plane",
@@ -184,6 +186,16 @@ def layout_defaults(his: RollPlaneHIS) -> dict[str, float]:
     """[SI] The layout's extra parameters: the catalogue defaults, then ``[his.parameters]``."""
     entry = catalogue().get(his.layout)
     return {**(dict(entry.parameters) if entry is not None else {}), **his.parameters}
+
+
+def parameter_unit(name: str, uses: Mapping[str, Sequence[tuple[type, str]]]) -> str | None:
+    """[-] SI unit of a ``[his]`` value or of a layout's extra parameter: its field's declared
+    unit, else that of the first element field the layout reads it as (``uses``:
+    :func:`~hisopt.hydraulics.layout.parameter_uses`); None if neither knows it."""
+    unit = field_unit(RollPlaneHIS, name)
+    if unit is None and uses.get(name):
+        unit = FIELD_UNITS[uses[name][0]]
+    return unit
 
 
 def his_layout(his: RollPlaneHIS) -> Layout:

@@ -13,7 +13,10 @@ a node of a circuit (docs/model.md §3).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from dataclasses import field as dc_field
 from typing import Literal
+
+from hisopt.quantities import field_unit, si
 
 Chamber = Literal["top", "bottom"]
 
@@ -37,9 +40,9 @@ class Accumulator:
     """Gas-charged accumulator at ``node`` (a shunt compliance, docs/model.md §3.3)."""
 
     node: str
-    volume: ParamRef = "V0"
-    precharge: ParamRef = "p0"
-    gamma: ParamRef = "gamma"
+    volume: ParamRef = dc_field(default="V0", metadata=si("m^3"))
+    precharge: ParamRef = dc_field(default="p0", metadata=si("Pa"))
+    gamma: ParamRef = dc_field(default="gamma", metadata=si("-"))
 
 
 @dataclass(frozen=True)
@@ -47,7 +50,7 @@ class ChamberCompliance:
     """Oil compressibility of the volume at ``node`` (a shunt compliance ``V / beta``)."""
 
     node: str
-    volume: ParamRef = "chamber_volume"
+    volume: ParamRef = dc_field(default="chamber_volume", metadata=si("m^3"))
 
 
 @dataclass(frozen=True)
@@ -57,7 +60,7 @@ class Valve:
 
     a: str
     b: str
-    resistance: ParamRef = "Rv"
+    resistance: ParamRef = dc_field(default="Rv", metadata=si("Pa s m^-3"))
 
 
 @dataclass(frozen=True)
@@ -67,8 +70,8 @@ class Pipe:
 
     a: str
     b: str
-    length: ParamRef
-    diameter: ParamRef
+    length: ParamRef = dc_field(metadata=si("m"))
+    diameter: ParamRef = dc_field(metadata=si("m"))
 
 
 @dataclass(frozen=True)
@@ -81,9 +84,9 @@ class Orifice(Valve):
     nonlinear time domain uses the law itself.
     """
 
-    resistance: ParamRef = 0.0
-    kq: ParamRef = 0.0
-    flow_rms: ParamRef = 0.0
+    resistance: ParamRef = dc_field(default=0.0, metadata=si("Pa s m^-3"))
+    kq: ParamRef = dc_field(default=0.0, metadata=si("Pa s^2 m^-6"))
+    flow_rms: ParamRef = dc_field(default=0.0, metadata=si("m^3/s"))
 
 
 Element = Accumulator | ChamberCompliance | Valve | Orifice | Pipe
@@ -100,19 +103,8 @@ PARAMETER_FIELDS: dict[type, tuple[str, ...]] = {
 }
 """The fields of each element type that hold a :data:`ParamRef`."""
 
-FIELD_UNITS: dict[tuple[type, str], str] = {
-    (Accumulator, "volume"): "m^3",
-    (Accumulator, "precharge"): "Pa",
-    (Accumulator, "gamma"): "-",
-    (ChamberCompliance, "volume"): "m^3",
-    (Valve, "resistance"): "Pa s m^-3",
-    (Orifice, "resistance"): "Pa s m^-3",
-    (Orifice, "kq"): "Pa s^2 m^-6",
-    (Orifice, "flow_rms"): "m^3/s",
-    (Pipe, "length"): "m",
-    (Pipe, "diameter"): "m",
-}
-"""[SI unit] of every element parameter field."""
+FIELD_UNITS: dict[tuple[type, str], str] = {(cls, f): str(field_unit(cls, f)) for cls, fields in PARAMETER_FIELDS.items() for f in fields}
+"""[SI unit] of every element parameter field (declared on the element classes' fields)."""
 
 FIELD_LOWER: dict[tuple[type, str], tuple[float, bool]] = {
     (Accumulator, "volume"): (0.0, False),

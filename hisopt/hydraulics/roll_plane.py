@@ -19,6 +19,7 @@ from hisopt.hydraulics.fluid import Fluid
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
 from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
+from hisopt.quantities import si
 
 CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = {
     "A": ((0, "top"), (1, "bottom"), (2, "top"), (3, "bottom")),
@@ -31,9 +32,9 @@ class PipeLayout(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    diameter: float = Field(0.010, gt=0, description="[m] inner diameter")
-    length_front: float = Field(1.0, gt=0, description="[m] front port to circuit node")
-    length_rear: float = Field(2.5, gt=0, description="[m] rear port to circuit node")
+    diameter: float = Field(0.010, gt=0, description="inner diameter", json_schema_extra=si("m"))
+    length_front: float = Field(1.0, gt=0, description="front port to circuit node", json_schema_extra=si("m"))
+    length_rear: float = Field(2.5, gt=0, description="rear port to circuit node", json_schema_extra=si("m"))
 
 
 class RollPlaneHIS(BaseModel):
@@ -47,16 +48,16 @@ class RollPlaneHIS(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    p0: float = Field(2.0e6, ge=0, description="[Pa] accumulator gauge precharge")
-    dA: float = Field(10e-4, gt=0, description="[m^2] bore minus annulus area A_b - A_t")
-    lam: float = Field(0.5, gt=0, lt=1, description="[-] area ratio A_t / A_b")
-    Rv: float = Field(8e5, ge=0, description="[Pa s m^-3] damper valve coefficient")
-    dA_rear: float | None = Field(None, gt=0, description="[m^2] rear dA (None: = dA)")
-    lam_rear: float | None = Field(None, gt=0, lt=1, description="[-] rear lam (None: = lam)")
-    Rv_rear: float | None = Field(None, ge=0, description="[Pa s m^-3] rear Rv (None: = Rv)")
-    V0: float = Field(1.0e-3, gt=0, description="[m^3] accumulator gas volume at precharge")
-    gamma: float = Field(1.4, ge=1.0, description="[-] polytropic exponent of the gas")
-    chamber_volume: float = Field(0.0, ge=0, description="[m^3] oil volume per chamber (0: off)")
+    p0: float = Field(2.0e6, ge=0, description="accumulator gauge precharge", json_schema_extra=si("Pa"))
+    dA: float = Field(10e-4, gt=0, description="bore minus annulus area A_b - A_t", json_schema_extra=si("m^2"))
+    lam: float = Field(0.5, gt=0, lt=1, description="area ratio A_t / A_b", json_schema_extra=si("-"))
+    Rv: float = Field(8e5, ge=0, description="damper valve coefficient", json_schema_extra=si("Pa s m^-3"))
+    dA_rear: float | None = Field(None, gt=0, description="rear dA (None: = dA)", json_schema_extra=si("m^2"))
+    lam_rear: float | None = Field(None, gt=0, lt=1, description="rear lam (None: = lam)", json_schema_extra=si("-"))
+    Rv_rear: float | None = Field(None, ge=0, description="rear Rv (None: = Rv)", json_schema_extra=si("Pa s m^-3"))
+    V0: float = Field(1.0e-3, gt=0, description="accumulator gas volume at precharge", json_schema_extra=si("m^3"))
+    gamma: float = Field(1.4, ge=1.0, description="polytropic exponent of the gas", json_schema_extra=si("-"))
+    chamber_volume: float = Field(0.0, ge=0, description="oil volume per chamber (0: off)", json_schema_extra=si("m^3"))
     fluid: Fluid = Field(default_factory=Fluid)
     pipes: PipeLayout | None = None
     pipe_model: PipeModel = "lumped"

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from hisopt.quantities import si
+
 
 class VehicleParams(BaseModel):
     """Rigid body on four conventional suspensions and point-contact tyres.
@@ -15,26 +17,26 @@ class VehicleParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    m_s: float = Field(1210.0, gt=0, description="[kg] sprung mass")
-    I_x: float = Field(390.0, gt=0, description="[kg m^2] roll moment of inertia")
-    I_y: float = Field(1920.0, gt=0, description="[kg m^2] pitch moment of inertia")
-    m_uf: float = Field(45.0, gt=0, description="[kg] unsprung mass per front wheel")
-    m_ur: float = Field(45.0, gt=0, description="[kg] unsprung mass per rear wheel")
-    k_sf: float = Field(18_000.0, ge=0, description="[N/m] front suspension spring")
-    k_sr: float = Field(18_000.0, ge=0, description="[N/m] rear suspension spring")
-    c_sf: float = Field(1_500.0, ge=0, description="[N s/m] front damper")
-    c_sr: float = Field(1_500.0, ge=0, description="[N s/m] rear damper")
-    k_tf: float = Field(200_000.0, gt=0, description="[N/m] front tyre vertical stiffness")
-    k_tr: float = Field(200_000.0, gt=0, description="[N/m] rear tyre vertical stiffness")
-    c_tf: float = Field(0.0, ge=0, description="[N s/m] front tyre damping")
-    c_tr: float = Field(0.0, ge=0, description="[N s/m] rear tyre damping")
-    t_f: float = Field(0.74, gt=0, description="[m] front half track")
-    t_r: float = Field(0.74, gt=0, description="[m] rear half track")
-    l_f: float = Field(1.13, gt=0, description="[m] CG to front axle")
-    l_r: float = Field(1.47, gt=0, description="[m] CG to rear axle")
-    h_0s: float = Field(0.30, ge=0, description="[m] CG height above the roll axis")
+    m_s: float = Field(1210.0, gt=0, description="sprung mass", json_schema_extra=si("kg"))
+    I_x: float = Field(390.0, gt=0, description="roll moment of inertia", json_schema_extra=si("kg m^2"))
+    I_y: float = Field(1920.0, gt=0, description="pitch moment of inertia", json_schema_extra=si("kg m^2"))
+    m_uf: float = Field(45.0, gt=0, description="unsprung mass per front wheel", json_schema_extra=si("kg"))
+    m_ur: float = Field(45.0, gt=0, description="unsprung mass per rear wheel", json_schema_extra=si("kg"))
+    k_sf: float = Field(18_000.0, ge=0, description="front suspension spring", json_schema_extra=si("N/m"))
+    k_sr: float = Field(18_000.0, ge=0, description="rear suspension spring", json_schema_extra=si("N/m"))
+    c_sf: float = Field(1_500.0, ge=0, description="front damper", json_schema_extra=si("N s/m"))
+    c_sr: float = Field(1_500.0, ge=0, description="rear damper", json_schema_extra=si("N s/m"))
+    k_tf: float = Field(200_000.0, gt=0, description="front tyre vertical stiffness", json_schema_extra=si("N/m"))
+    k_tr: float = Field(200_000.0, gt=0, description="rear tyre vertical stiffness", json_schema_extra=si("N/m"))
+    c_tf: float = Field(0.0, ge=0, description="front tyre damping", json_schema_extra=si("N s/m"))
+    c_tr: float = Field(0.0, ge=0, description="rear tyre damping", json_schema_extra=si("N s/m"))
+    t_f: float = Field(0.74, gt=0, description="front half track", json_schema_extra=si("m"))
+    t_r: float = Field(0.74, gt=0, description="rear half track", json_schema_extra=si("m"))
+    l_f: float = Field(1.13, gt=0, description="CG to front axle", json_schema_extra=si("m"))
+    l_r: float = Field(1.47, gt=0, description="CG to rear axle", json_schema_extra=si("m"))
+    h_0s: float = Field(0.30, ge=0, description="CG height above the roll axis", json_schema_extra=si("m"))
     y_cg: float = Field(
-        0.0, description="[m] lateral offset of the CG to the left of the track centre line (a laden car, hisopt.payload)"
+        0.0, description="lateral offset of the CG to the left of the track centre line (a laden car, hisopt.payload)", json_schema_extra=si("m")
     )
 
     @model_validator(mode="after")
