@@ -253,7 +253,28 @@ def _parse(text: str, gravity: bool) -> Any:
     ureg = _registry()
     if text == NO_UNIT:
         return ureg.dimensionless
+    if not _plain(text):
+        raise ValueError(f"not a unit: {text!r}")
     return ureg.parse_units(_G_TOKEN.sub(_GRAVITY, text) if gravity else text)
+
+
+_NUMERAL = re.compile(r"(?<![\w.])\d+(?:\.\d+)?")  # a number, not the digit of a name (g_0)
+_AFTER_POWER = re.compile(r"(?:\^|\*\*)\s*\(?\s*-?\s*$")
+_POWER_OF_POWER = re.compile(r"(?:\^|\*\*)\s*-?\s*\d[\d.]*\s*(?:\^|\*\*)")
+
+
+def _plain(text: str) -> bool:
+    """Whether pint may evaluate ``text`` safely: numbers only as exponents of up to three
+    characters (``m^-3``, ``s^2``) and the 1 of ``1/s``, no power of a power. pint evaluates
+    numbers in a unit expression exactly: ``10^10^10`` would never return."""
+    if len(text) > 80 or _POWER_OF_POWER.search(text):
+        return False
+    for match in _NUMERAL.finditer(text):
+        exponent = _AFTER_POWER.search(text[: match.start()]) is not None and len(match.group()) <= 3
+        one = match.group() == "1" and text[match.end() :].lstrip().startswith("/")
+        if not (exponent or one):
+            return False
+    return True
 
 
 def _angle_power(units: Any) -> float:

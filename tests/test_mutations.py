@@ -283,7 +283,8 @@ def test_mutated_design_files_flag_every_row_or_exit_2(rows, delimiter, case, or
         header, columns = header + [order[0].upper() if case == "exact" else order[0]], columns + [order[0]]
     lines = [delimiter.join(header)]
     if units:
-        lines.append(delimiter.join("[Pa]" if c == "p0" else "[-]" for c in columns))
+        si = {"p0": "[Pa]", "dA": "[m^2]", "lam": "[-]", "Rv": "[Pa s m^-3]"}  # as hisopt writes them (a unit row converts)
+        lines.append(delimiter.join(si.get(c, "[-]") for c in columns))
     for _, values in rows if damage != "no rows" else []:
         lines.append(delimiter.join(values.get(c, "x") for c in columns))
         if crlf:

@@ -134,6 +134,17 @@ def test_angles_are_not_ratios_and_bare_numbers_stay_si():
         to_si("0.5 -", "rad")
 
 
+def test_a_unit_pint_would_compute_forever_is_refused_at_once():
+    import time
+
+    start = time.perf_counter()
+    for text in ("1 10^10^10", "1 m^10^10", "1 km^99^99", "1 2^1000", "1 m^1000"):
+        with pytest.raises(ConfigError, match="cannot read the unit"):
+            to_si(text, "m")
+    assert time.perf_counter() - start < 5.0  # pint's import included; 10^10^10 alone never returns
+    assert to_si("3 1/s", "Hz") == 3.0 and to_si("1 (m/s^2)^2/Hz", "(m/s^2)^2/Hz") == 1.0
+
+
 def test_messages_name_the_place_the_kind_and_an_example():
     with pytest.raises(ConfigError) as info:
         to_si("2 m", "Pa", file="problems/x.toml", key="his.p0")
