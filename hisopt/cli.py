@@ -153,7 +153,8 @@ def droptest(
     out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
     p0: Annotated[
         str,
-        typer.Option("--p0", help="accumulator precharges (gauge), comma-separated; bare numbers in Pa, or with a unit, e.g. \"1 MPa,2 MPa\""),
+        typer.Option("--p0", metavar="PRESSURES",
+                     help="accumulator precharges (gauge), comma-separated; bare numbers in Pa, or with a unit, e.g. \"1 MPa,2 MPa\""),
     ] = "1e6,2e6,3e6",
     height: Annotated[
         float,

@@ -27,7 +27,7 @@ import dataclasses
 import functools
 import math
 import re
-from decimal import Decimal
+from decimal import Decimal, localcontext
 from typing import TYPE_CHECKING, Any
 
 from hisopt.constants import G_MPS2
@@ -122,7 +122,8 @@ def scaled(number: str, factor: float) -> float:
     if factor == 1.0:
         return float(number)
     try:
-        return float(Decimal(number.strip()) * Decimal(repr(factor)))
+        with localcontext(prec=60):  # exact: no rounding before the one to float
+            return float(Decimal(number.strip()) * Decimal(repr(factor)))
     except ArithmeticError:  # a text float() reads and Decimal does not: one more rounding
         return float(number) * factor
 
@@ -190,11 +191,15 @@ def unit_factor(given: str, unit: str, *, file: str | None = None, key: str | No
             names = [names] if isinstance(names, str) else list(names or [])
             what = f"unknown unit {names[0]!r}" if names else f"cannot read the unit {given!r}"
             raise ConfigError(f"{shown}: {what}; {expected}", file=file, key=key) from None
-    for reading in readings:
-        if _fits(reading, target):
-            factor = float(ureg.Quantity(1.0, reading).to(target).magnitude)
-            if math.isfinite(factor) and factor > 0:
+    try:
+        for reading in readings:
+            if _fits(reading, target):
+                factor = float(ureg.Quantity(1.0, reading).to(target).magnitude)
+                if not (math.isfinite(factor) and factor > 0):
+                    raise OverflowError
                 return float(f"{factor:.16g}")
+    except ArithmeticError:  # km^999 / Mm^999 m: a factor beyond floats
+        raise ConfigError(f"{shown}: the unit {given!r} is out of range; {expected}", file=file, key=key) from None
     kinds = [_kind_of(r) for r in readings]  # the gram's reading first, then gravity's
     is_what = next((k for k in kinds if k.startswith("a")), kinds[0])
     raise ConfigError(f"{shown} is {is_what}; {expected}", file=file, key=key)
@@ -230,8 +235,11 @@ def _example(unit: str) -> str:
 def _kind_of(units: Any) -> str:
     """What a parsed unit measures (``a length``), else its dimension."""
     for unit in KINDS:
-        if _fits(units, _parse(unit, gravity=True)):
-            return KINDS[unit][0]
+        try:
+            if _fits(units, _parse(unit, gravity=True)):
+                return KINDS[unit][0]
+        except ArithmeticError:  # a factor beyond floats: not this kind, whatever it is
+            continue
     ureg = _registry()
     dimension = str(ureg.Quantity(1.0, units).dimensionality)
     return "dimensionless" if dimension == "dimensionless" else f"of dimension {dimension}"

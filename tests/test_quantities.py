@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import hisopt
 from hisopt.config import ProblemSpec
@@ -143,6 +145,24 @@ def test_a_unit_pint_would_compute_forever_is_refused_at_once():
             to_si(text, "m")
     assert time.perf_counter() - start < 5.0  # pint's import included; 10^10^10 alone never returns
     assert to_si("3 1/s", "Hz") == 3.0 and to_si("1 (m/s^2)^2/Hz", "(m/s^2)^2/Hz") == 1.0
+
+
+UNIT_ATOMS = ["m", "km", "Gm", "^", "99", "-3", "2", "/", "*", "(", ")", " ", "g", "deg", "Pa", "s", "1", "%", "-", "µ", "L", "kg",
+              "**", "e", "°", "²", "degC", "min", "'", "[", ",", "_", "0", "."]
+
+
+@settings(max_examples=300, derandomize=True, database=None, deadline=None)
+@given(st.lists(st.sampled_from(UNIT_ATOMS), min_size=1, max_size=8).map("".join) | st.text(max_size=8),
+       st.sampled_from(sorted(KINDS)))
+def test_any_text_is_a_number_in_si_or_one_config_error(unit_text, si_unit):
+    """Whatever follows a number, the reading is a finite SI number or a ConfigError naming
+    the expected kind; never another exception (pint raises many), never a hang."""
+    try:
+        value = to_si(f"1 {unit_text}", si_unit, key="k")
+    except ConfigError as exc:
+        assert str(exc).startswith("k: ") and "\n" not in str(exc) and "expected" in str(exc), exc
+    else:
+        assert math.isfinite(value) and value > 0
 
 
 def test_messages_name_the_place_the_kind_and_an_example():
