@@ -19,6 +19,7 @@ from hisopt.hydraulics.fluid import Fluid
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
 from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
+from hisopt.plausibility import GAMMA_RANGE
 
 CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = {
     "A": ((0, "top"), (1, "bottom"), (2, "top"), (3, "bottom")),
@@ -55,7 +56,7 @@ class RollPlaneHIS(BaseModel):
     lam_rear: float | None = Field(None, gt=0, lt=1, description="[-] rear lam (None: = lam)")
     Rv_rear: float | None = Field(None, ge=0, description="[Pa s m^-3] rear Rv (None: = Rv)")
     V0: float = Field(1.0e-3, gt=0, description="[m^3] accumulator gas volume at precharge")
-    gamma: float = Field(1.4, ge=1.0, description="[-] polytropic exponent of the gas")
+    gamma: float = Field(1.4, ge=GAMMA_RANGE[0], le=GAMMA_RANGE[1], description="[-] polytropic exponent of the gas (1 to 2)")
     chamber_volume: float = Field(0.0, ge=0, description="[m^3] oil volume per chamber (0: off)")
     fluid: Fluid = Field(default_factory=Fluid)
     pipes: PipeLayout | None = None
