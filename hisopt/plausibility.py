@@ -132,14 +132,14 @@ def payload_problem(vehicle: Any, payload: Any) -> str | None:
 
 
 def sprung_vertical_stiffness(vehicle: Any) -> float:
-    """[N/m] Vertical stiffness of the body on its four corners, spring and tyre in series
-    (0 for a car without springs, carried by its HIS alone: its sag depends on the design,
-    so :func:`payload_problem` leaves it to the model)."""
-
-    def corner(k_s: float, k_t: float) -> float:
-        return k_s * k_t / (k_s + k_t) if k_s > 0 else 0.0
-
-    return 2.0 * corner(vehicle.k_sf, vehicle.k_tf) + 2.0 * corner(vehicle.k_sr, vehicle.k_tr)
+    """[N/m] Vertical stiffness of the body on its four corners, spring and tyre in series;
+    0 for a car with an axle without springs, carried there by its HIS alone: its sag then
+    depends on the design, so :func:`payload_problem` leaves it to the model."""
+    if not (vehicle.k_sf > 0 and vehicle.k_sr > 0):
+        return 0.0
+    front = vehicle.k_sf * vehicle.k_tf / (vehicle.k_sf + vehicle.k_tf)
+    rear = vehicle.k_sr * vehicle.k_tr / (vehicle.k_sr + vehicle.k_tr)
+    return 2.0 * front + 2.0 * rear
 
 
 def speed_problem(speed: float) -> str | None:
@@ -159,7 +159,7 @@ def seed_count_problem(count: int) -> str | None:
 
 
 def rule_reason(name: str) -> str:
-    """``"; <reason>"`` for a parameter whose rule has a physical reason to state, else ``""``."""
+    """``" (<reason>)"`` for a parameter whose rule has a physical reason to state, else ``""``."""
     reason = RULE_REASONS.get(name)
     return f" ({reason})" if reason else ""
 
