@@ -66,8 +66,8 @@ cars reach about 136 m/s (490 km/h). A larger value is a unit slip (km/h for m/s
 
 MAX_SEEDS = 100
 """[-] Most seeds of one study (``hisopt study``, and per layout in ``compare-layouts``). Each
-seed is a whole optimisation run (the default 100 x 200 = 20,000 designs take about 10 s:
-100 seeds of six layouts take about two hours on two cores), and what a study reports across
+seed is a whole optimisation run (the default 100 x 200 = 20,000 designs take about 25 s,
+docs/optimize.md: 100 seeds of six layouts take about four hours of one core), and what a study reports across
 seeds (the attainment function in steps of 1/n, hypervolume spread and median) is resolved
 to 1 % by 100; ``--seeds 1-100000`` would have started 200,000 runs."""
 
@@ -153,7 +153,7 @@ def speed_problem(speed: float) -> str | None:
 def seed_count_problem(count: int) -> str | None:
     """Why a study of ``count`` seeds is refused (None: it is not; :data:`MAX_SEEDS`)."""
     if count > MAX_SEEDS:
-        return (f"expected at most {MAX_SEEDS} seeds, got {count}: each seed is a whole optimisation run (about 10 s at the "
+        return (f"expected at most {MAX_SEEDS} seeds, got {count}: each seed is a whole optimisation run (about 25 s at the "
                 f"default budget), and {MAX_SEEDS} seeds resolve what a study reports across seeds to 1 %")
     return None
 
