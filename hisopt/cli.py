@@ -635,7 +635,15 @@ def _keyboard_interrupt(signum: int, frame: object) -> None:
 
 
 def main() -> None:
-    """Entry point: map user errors to exit code 2 and internal errors to 1."""
+    """Entry point: map user errors to exit code 2 and internal errors to 1; print each
+    implausible value's warning as one line and go on."""
+    from hisopt.cli_usage import one_line_warnings
+
+    with one_line_warnings():
+        _main_command()
+
+
+def _main_command() -> None:
     from hisopt.cli_usage import usage_error_line
     from hisopt.errors import HisoptError
 

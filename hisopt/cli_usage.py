@@ -9,8 +9,10 @@ messages are ours (``expected an integer, got 'abc'``) and not the parser's of t
 
 from __future__ import annotations
 
+import contextlib
 import difflib
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -147,3 +149,26 @@ def _one_line(text: str) -> str:
     lines = [line.strip() for line in text.strip().splitlines() if line.strip()]
     message = " ".join(lines)
     return message[:1].lower() + message[1:] if message[:2].istitle() else message
+
+
+@contextlib.contextmanager
+def one_line_warnings() -> Iterator[None]:
+    """Print each :class:`~hisopt.errors.PlausibilityWarning` once, as one ``warning: FILE: KEY:
+    ...`` line on stderr, whatever the warning filters say (``-W error`` included); other
+    warnings as Python shows them. Filters and printer are restored on exit."""
+    from hisopt.errors import PlausibilityWarning
+
+    seen: set[str] = set()
+    with warnings.catch_warnings():
+        show = warnings.showwarning
+
+        def printer(message: Warning | str, category: type[Warning], *args: Any, **kwargs: Any) -> None:
+            if not issubclass(category, PlausibilityWarning):
+                show(message, category, *args, **kwargs)
+            elif str(message) not in seen:  # "always" below; a value read twice warns once
+                seen.add(str(message))
+                typer.echo(f"warning: {message}", err=True)
+
+        warnings.simplefilter("always", PlausibilityWarning)
+        warnings.showwarning = printer
+        yield

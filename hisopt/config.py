@@ -13,13 +13,25 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_problem, used_parameters
+from hisopt.hydraulics.layout import Accumulator, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.payload import Payload, laden_problem
+from hisopt.plausibility import given_warnings, rule_reason, speed_problem, warn
 from hisopt.problem_units import convert_problem_units
 from hisopt.quantities import si
 from hisopt.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
@@ -58,6 +70,14 @@ class Road(_Strict):
     coherence: Literal["independent", "isotropic"] = "independent"
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, allow_inf_nan=False)
+
+    @field_validator("speed")
+    @classmethod
+    def _road_vehicle(cls, v: float) -> float:
+        problem = speed_problem(v)  # hisopt.plausibility: the cap and its reason
+        if problem:
+            raise ValueError(problem)
+        return v
 
 
 class Band(_Strict):
@@ -125,6 +145,23 @@ class Robust(_Strict):
 
     aggregate: Literal["worst", "expected", "cvar", "per_scenario"] = "worst"
     alpha: float = Field(0.8, ge=0, lt=1, description="CVaR level: the mean of the worst 1 - alpha of the weight", json_schema_extra=si("-"))
+
+    @field_validator("alpha")
+    @classmethod
+    def _cvar_only(cls, v: float, info: ValidationInfo) -> float:
+        # runs only for an alpha written in the file: a default is never validated
+        how = info.data.get("aggregate", "worst")
+        if how != "cvar":
+            raise ValueError(f"alpha is the CVaR level, which only aggregate = \"cvar\" reads; expected no alpha with aggregate = \"{how}\", "
+                             f"or aggregate = \"cvar\"")
+        return v
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data = handler(self)
+        if self.aggregate != "cvar":  # a dump reads back: alpha only where the file may hold it
+            data.pop("alpha", None)
+        return data
 
 
 class Handling(_Strict):
@@ -212,9 +249,17 @@ class ProblemSpec(_Strict):
                     f"constraints: {c.name} is also an objective; in a scenario problem its column is then the objective's "
                     f"aggregate, so expected [robust] aggregate = \"worst\" and the limit in every scenario, or one role only"
                 )
-        if self.robust != Robust() and not self.scenarios:
-            raise ValueError("robust: aggregation needs [[scenarios]]; expected at least one [[scenarios]] table")
+        if "robust" in self.model_fields_set and not self.scenarios:  # a [robust] table at all, whatever it holds
+            raise ValueError("robust: [robust] combines the results of [[scenarios]] and this problem has none; "
+                             "expected at least one [[scenarios]] table, or no [robust] table")
         return self
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data = handler(self)
+        if not self.scenarios:  # a dump reads back: [robust] only where the file may hold it
+            data.pop("robust", None)
+        return data
 
     @model_validator(mode="after")
     def _variables_are_his_fields(self) -> ProblemSpec:
@@ -304,19 +349,24 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     elif err["type"] == "missing":
         return key, "missing; expected a value (see problems/roll_plane_his.toml)"
     msg = msg.replace("Input should be ", "expected ", 1)
+    if err["type"] in ("greater_than", "greater_than_equal", "less_than", "less_than_equal") and err["loc"]:
+        msg += rule_reason(str(err["loc"][-1]))  # a rule with a physical reason says it (hisopt.plausibility)
     if "input" in err and not isinstance(err["input"], dict):
         msg = f"{msg}, got {_short(err['input'])}"
     return key, msg
 
 
-def parse_problem(data: dict[str, Any], source: str = "<problem>") -> ProblemSpec:
+def parse_problem(data: dict[str, Any], source: str = "<problem>", *, warn_implausible: bool = True) -> ProblemSpec:
     """Validate a problem dictionary; raise :class:`ConfigError` naming the key on failure.
 
     Validation is strict: a number must be a TOML integer or float, or a string of a number
     and its unit (``"2.5 MPa"``, read in that unit: :mod:`hisopt.problem_units`; a boolean or
     other text is not a number; an integer field takes no float) and finite (no ``inf``, ``nan``, ``1e309``),
     and every number is zero or of a magnitude within
-    :data:`hisopt.validation.MAGNITUDE_RANGE` (1e-15 to 1e15).
+    :data:`hisopt.validation.MAGNITUDE_RANGE` (1e-15 to 1e15). Physically impossible values
+    are refused and, with ``warn_implausible``, each implausible value ``data`` gives issues a
+    :class:`~hisopt.errors.PlausibilityWarning` (:mod:`hisopt.plausibility`); problems derived
+    from a checked one (a dump with one change) pass False, so that nothing warns twice.
     """
     data = convert_problem_units(data, source, ProblemSpec)  # "2.5 MPa" -> 2.5e6: SI before the strict validation
     try:
@@ -327,15 +377,26 @@ def parse_problem(data: dict[str, Any], source: str = "<problem>") -> ProblemSpe
     found = implausible_number(data)
     if found:
         raise ConfigError(found[1], file=source, key=found[0])
+    if warn_implausible:
+        warn(implausible_values(spec, data), source)
     return spec
 
 
-def read_problem_file(path: str | Path) -> tuple[ProblemSpec, str]:
-    """Read and validate a TOML problem file; returns the spec and the file's SHA-256."""
+def implausible_values(spec: ProblemSpec, given: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """``(key, message)`` of each implausible value of ``spec`` that ``given`` (the raw data,
+    or the part given, e.g. ``{"his": {"p0": 5e4}}``) holds (:func:`hisopt.plausibility.given_warnings`)."""
+    uses = parameter_uses(his_layout(spec.his))
+    precharges = {name for name, fields in uses.items() if (Accumulator, "precharge") in fields}
+    return given_warnings(spec, given, precharges)
+
+
+def read_problem_file(path: str | Path, *, warn_implausible: bool = True) -> tuple[ProblemSpec, str]:
+    """Read and validate a TOML problem file; returns the spec and the file's SHA-256
+    (``warn_implausible``: as :func:`parse_problem`)."""
     path = Path(path)
     raw, text = read_file(path, "a TOML problem file", ProblemFileNotFoundError)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"invalid TOML: {exc}; expected a TOML problem file like problems/roll_plane_his.toml", file=str(path)) from None
-    return parse_problem(data, str(path)), hashlib.sha256(raw).hexdigest()
+    return parse_problem(data, str(path), warn_implausible=warn_implausible), hashlib.sha256(raw).hexdigest()

@@ -103,6 +103,7 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
     from rich.table import Table
     from rich.text import Text
 
+    from hisopt.plausibility import BOUND_TOLERANCE, bound_note
     from hisopt.units import display_for, hypervolume_unit
 
     totals = Table(title=f"{result.problem.name}: {result.settings.algorithm.upper()} run summary", show_header=False)
@@ -117,6 +118,9 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
         ("hypervolume (log10 objectives)", f"{result.hypervolume:.6g} {hypervolume_unit(len(result.problem.objective_names))}"),
         ("run directory", str(result.run_dir) if result.run_dir else "-"),
     ]
+    at_bound = bound_summary(result.front, result.problem)
+    if at_bound:
+        rows.insert(1, ("front at a bound", at_bound.split(" sit ")[0] + " (on_bound column of front.csv)"))
     for item, value in rows:
         totals.add_row(item, Text(value))
     tables: list[Any] = [totals]
@@ -127,9 +131,17 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
         picks.add_column("ASF pick", justify="right")
         knee, asf = result.knee, result.asf_pick()
         units = result.front.attrs.get("units", {})
+        problem = result.problem
+        bounds = dict(zip(problem.variable_names, zip(problem.lower, problem.upper, strict=True), strict=True))
+        marked = False
         for name in result.front.columns:
             shown = display_for(units.get(name, ""), [knee[name], asf[name]], trim=False)
-            picks.add_row(Text(shown.label(name)), shown.number(knee[name]), shown.number(asf[name]))
+            notes = [bound_note(float(d[name]), *bounds[name]) if name in bounds else "" for d in (knee, asf)]
+            marked = marked or any(notes)
+            picks.add_row(Text(shown.label(name)), *[Text(shown.number(d[name]) + n) for d, n in zip((knee, asf), notes, strict=True)])
+        if marked:
+            picks.caption = Text(f"at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
+                                 "that bound; the box, not the physics, chose that value")
         tables.append(picks)
     return tables
 
@@ -214,4 +226,24 @@ def refine_with_progress(run_dir: Path, max_points: int, workers: int | None, sc
         f"{result.hypervolume_after:.6g} decades^{len(result.reference_point)} ({100 * result.hypervolume_gain:+.2f} %), "
         f"{result.seconds_per_point:.2f} s per design"
     )
+    line = bound_summary(result.front, problem)
+    if line:
+        print(f"{line}; see the on_bound column of {FRONT_REFINED_CSV}")
     print(f"wrote {run_dir / FRONT_REFINED_CSV}")
+
+
+def bound_summary(front: Any, problem: Any) -> str | None:
+    """``"3 of 12 designs sit at a bound (p0 (lower): 3)"``, or None when none does
+    (:func:`hisopt.plausibility.bound_labels`)."""
+    from collections import Counter
+
+    from hisopt.plausibility import BOUND_TOLERANCE, bound_labels
+
+    names = tuple(problem.variable_names)
+    labels = bound_labels(front[list(names)].to_numpy(dtype=float), problem.lower, problem.upper, names) if len(front) else []
+    counts = Counter(part for label in labels for part in label.split("; ") if part)
+    if not counts:
+        return None
+    each = ", ".join(f"{part}: {counts[part]}" for part in (f"{n} ({side})" for n in names for side in ("lower", "upper")) if part in counts)
+    return (f"{sum(map(bool, labels))} of {len(labels)} designs sit at a bound of the [variables] box, within "
+            f"{100 * BOUND_TOLERANCE:g} % of its width ({each})")

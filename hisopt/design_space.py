@@ -15,15 +15,16 @@ from typing import TYPE_CHECKING, Any, Self
 
 import numpy as np
 
-from hisopt.config import ProblemSpec, parse_problem
+from hisopt.config import ProblemSpec, implausible_values, parse_problem
 from hisopt.errors import ConfigError
 from hisopt.hydraulics.catalogue import his_layout, his_parameter_values, layout_defaults
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import compile_network
 from hisopt.model import CoupledModel
 from hisopt.payload import laden_vehicle, static_pressure_rise
+from hisopt.plausibility import warn
 from hisopt.robust import scenario_column
-from hisopt.validation import Rule, design_matrix, parameter_rule, require_admissible
+from hisopt.validation import Rule, assignment_text, design_matrix, parameter_rule, require_admissible
 
 if TYPE_CHECKING:
     from hisopt.hydraulics.layout import Layout
@@ -133,19 +134,34 @@ class DesignSpace:
         """A copy with fixed ``[his]`` values replaced (``--set p0=3e6``), validated like the file.
 
         A name of the layout's extra parameters (``Rv_acc``, ...) sets ``[his.parameters]``.
+        An implausible value (a precharge under 0.1 MPa) issues a
+        :class:`~hisopt.errors.PlausibilityWarning` naming ``his.<name>``.
         """
+        return self.replace_values(values)
+
+    def replace_values(self, values: Mapping[str, Any], option: str | None = None) -> Self:
+        """:meth:`with_values` with ``values`` from the command-line ``option`` (``--set``),
+        which its warnings name (``--set p0=50000.0: ...``); None: they name ``his.<name>``."""
         data = self.spec.model_dump(by_alias=True)
         extra = layout_defaults(self.spec.his)
+        given: dict[str, dict[str, Any]] = {}
         for key, value in values.items():
             value = value.item() if isinstance(value, np.generic) else value
             if key in extra:
                 data["his"]["parameters"][key] = value
+                given[key] = {"his": {"parameters": {key: value}}}
                 continue
             if key not in data["his"] or key in ("parameters", "circuits"):
                 known = [k for k in data["his"] if k not in ("parameters", "circuits")] + list(extra)
                 raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(known)}", key=key)
             data["his"][key] = value
-        return type(self)(parse_problem(data, str(self.path or "<problem>")), self.path, self.sha256)
+            given[key] = {"his": {key: value}}
+        # the rest of the problem was checked when it was read: only the given values may warn
+        spec = parse_problem(data, str(self.path or "<problem>"), warn_implausible=False)
+        for key, part in given.items():
+            label = f"{option} {key}={assignment_text(values[key])}" if option else None
+            warn([(label or found, message) for found, message in implausible_values(spec, part)])
+        return type(self)(spec, self.path, self.sha256)
 
     # --- models ----------------------------------------------------------------------
     def his_parameters(self, designs: Any) -> dict[str, np.ndarray]:

@@ -31,3 +31,19 @@ class ModelError(HisoptError, ValueError):
 
 class RunError(HisoptError, ValueError):
     """A run directory is unusable (missing checkpoint, changed problem file, unwritable)."""
+
+
+class PlausibilityWarning(UserWarning):
+    """A value is physically possible but implausible (e.g. a precharge under 0.1 MPa): the
+    work goes on with it as given (:mod:`hisopt.plausibility`; the CLI prints one
+    ``warning: FILE: KEY: ...`` line).
+
+    The message names the file (when there is one), the key and the physical reason.
+    """
+
+    def __init__(self, message: str, *, file: str | None = None, key: str | None = None):
+        self.file = file
+        self.key = key
+        self.detail = message  # the message without the file and key
+        where = ": ".join(part for part in (file, key) if part)
+        super().__init__(f"{where}: {message}" if where else message)

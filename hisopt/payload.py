@@ -28,6 +28,7 @@ from hisopt.hydraulics import backend as bk
 from hisopt.hydraulics import laws
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Pipe
+from hisopt.plausibility import payload_problem
 from hisopt.quantities import si
 from hisopt.vehicle import VehicleParams, stiffness_matrix, stroke_matrix
 
@@ -72,10 +73,15 @@ def cg_shift(vehicle: VehicleParams, payload: Payload) -> tuple[float, float, fl
 
 
 def laden_problem(vehicle: VehicleParams, payload: Payload) -> str | None:
-    """Why the car cannot carry ``payload`` (its CG would leave the wheelbase or the track,
-    or sink below the roll axis), as ``"<key>: <reason>"``, or None."""
+    """Why the car cannot carry ``payload`` (it lies outside the body or under the road, its
+    weight would sag the body onto the road: :func:`hisopt.plausibility.payload_problem`; the
+    CG would leave the wheelbase or the track, or sink below the roll axis), as
+    ``"<key>: <reason>"``, or None."""
     if not payload.active:
         return None
+    impossible = payload_problem(vehicle, payload)
+    if impossible:
+        return impossible
     cx, cy, cz = cg_shift(vehicle, payload)
     if not -vehicle.l_r < cx < vehicle.l_f:
         return (
@@ -122,6 +128,7 @@ def laden_vehicle(vehicle: VehicleParams, payload: Payload) -> VehicleParams:
         "l_f": vehicle.l_f - cx,
         "l_r": vehicle.l_r + cx,
         "h_0s": vehicle.h_0s + cz,
+        "h_cg": vehicle.h_cg + cz,  # the body's extent moves with it; only the plausibility checks read it
         "y_cg": vehicle.y_cg + cy,
     }
     return VehicleParams(**(vehicle.model_dump() | update))

@@ -60,12 +60,17 @@ class Problem(DesignSpace):
         return df
 
 
-def load_problem(path: str | Path) -> Problem:
-    """Load and validate a problem file (``ConfigError`` names the file and key on failure)."""
-    spec, digest = read_problem_file(path)
+def load_problem(path: str | Path, *, warn_implausible: bool = True) -> Problem:
+    """Load and validate a problem file (``ConfigError`` names the file and key on failure).
+
+    An implausible value the file gives issues a :class:`~hisopt.errors.PlausibilityWarning`
+    (:mod:`hisopt.plausibility`) unless ``warn_implausible`` is False (a run's own copy).
+    """
+    spec, digest = read_problem_file(path, warn_implausible=warn_implausible)
     return Problem(spec, Path(path), digest)
 
 
-def problem_from_dict(data: dict[str, Any], source: str = "<problem>") -> Problem:
-    """Build a problem from a dictionary with the problem file's structure."""
-    return Problem(parse_problem(data, source))
+def problem_from_dict(data: dict[str, Any], source: str = "<problem>", *, warn_implausible: bool = True) -> Problem:
+    """Build a problem from a dictionary with the problem file's structure (``warn_implausible``:
+    as :func:`hisopt.config.parse_problem`; False for a dump of a checked problem with a change)."""
+    return Problem(parse_problem(data, source, warn_implausible=warn_implausible))

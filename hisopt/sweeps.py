@@ -436,7 +436,7 @@ def indicator_problem(problem: Problem) -> Problem:
         return problem
     data = problem.spec.model_dump(by_alias=True)
     data["objectives"] = list(INDICATORS)
-    derived = problem_from_dict(data, str(problem.path or "<problem>"))
+    derived = problem_from_dict(data, str(problem.path or "<problem>"), warn_implausible=False)  # checked when read
     return Problem(derived.spec, problem.path, None)
 
 

@@ -35,8 +35,9 @@ import pandas as pd
 from pydantic import BaseModel
 
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
-from hisopt.hydraulics.layout import FIELD_LOWER, Layout, parameter_uses
+from hisopt.hydraulics.layout import FIELD_LOWER, FIELD_UPPER, Layout, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
+from hisopt.plausibility import rule_reason
 from hisopt.quantities import unit_factor
 
 
@@ -56,6 +57,8 @@ class DesignSpace(Protocol):
     def baseline(self) -> np.ndarray: ...
 
     def with_values(self, **values: Any) -> Any: ...
+
+    def replace_values(self, values: Mapping[str, Any], option: str | None = None) -> Any: ...
 
     def parameter_rule(self, name: str) -> Rule: ...
 
@@ -140,6 +143,14 @@ class Rule:
             return replace(self, lower_closed=self.lower_closed and closed)
         return self
 
+    def capped(self, upper: float, closed: bool) -> Rule:
+        """This rule and ``value <= upper`` (``closed``) or ``value < upper``, together."""
+        if self.upper is None or upper < self.upper:
+            return replace(self, upper=upper, upper_closed=closed)
+        if upper == self.upper:
+            return replace(self, upper_closed=self.upper_closed and closed)
+        return self
+
 
 def plausible(values: Any, tiny: bool = True) -> np.ndarray:
     """[-] Finite values of a magnitude up to ``MAGNITUDE_RANGE[1]`` and, with ``tiny``, zero or
@@ -182,8 +193,8 @@ def implausible_number(data: Any, path: tuple[str, ...] = ()) -> tuple[str, str]
 def parameter_rule(name: str, model: type[BaseModel] = DESIGN_PARAMETER_MODEL, layout: Layout | None = None) -> Rule:
     """The rule of parameter ``name``: its field of ``model`` (``gt``/``ge``/``lt``/``le``
     metadata) and, with a ``layout``, the rule of every element field that reads it
-    (:data:`hisopt.hydraulics.layout.FIELD_LOWER`: a valve resistance ``>= 0``, a gas volume
-    ``> 0``, ...), all together.
+    (:data:`hisopt.hydraulics.layout.FIELD_LOWER` and ``FIELD_UPPER``: a valve resistance
+    ``>= 0``, a gas volume ``> 0``, a polytropic exponent ``<= 2``, ...), all together.
 
     Raises
     ------
@@ -202,6 +213,7 @@ def parameter_rule(name: str, model: type[BaseModel] = DESIGN_PARAMETER_MODEL, l
     out = Rule(name, **rule)
     for use in uses:
         out = out.tightened(*FIELD_LOWER[use])
+        out = out.capped(*FIELD_UPPER[use]) if use in FIELD_UPPER else out
     return out
 
 
@@ -225,7 +237,7 @@ def bounds_problem(name: str, lower: float, upper: float, layout: Layout | None 
     rule = parameter_rule(name, layout=layout)
     bad = [f"{which} bound {value:g}" for which, value in (("lower", lower), ("upper", upper)) if not rule.holds(value)]
     if bad:
-        return f"expected bounds inside the parameter's range {rule.text}, got {' and '.join(bad)}"
+        return f"expected bounds inside the parameter's range {rule.text}{rule_reason(name)}, got {' and '.join(bad)}"
     return None
 
 
@@ -522,21 +534,23 @@ def parse_assignments(items: Sequence[str] | None, option: str = "--set") -> dic
 
 def apply_assignments(problem: P, items: Sequence[str] | None, option: str = "--set") -> P:
     """``problem`` with ``--set KEY=VALUE`` overrides of ``[his]`` values; a bad value is
-    blamed on the option (``--set p0=abc: expected a number ...``), not on the file."""
+    blamed on the option (``--set p0=abc: expected a number ...``), not on the file, and so is
+    an implausible one (a :class:`~hisopt.errors.PlausibilityWarning` ``--set p0=50000.0: ...``)."""
     values = parse_assignments(items, option)
     if not values:
         return problem
     try:
-        return problem.with_values(**values)
+        return problem.replace_values(values, option)
     except ConfigError as exc:
         key = str(exc.key or "")
         name = key.removeprefix("his.").split(".")[0]
         if name in values:
-            raise ConfigError(exc.detail, key=f"{option} {name}={_text(values[name])}") from None
+            raise ConfigError(exc.detail, key=f"{option} {name}={assignment_text(values[name])}") from None
         raise ConfigError(f"{key + ': ' if key else ''}{exc.detail}", key=option + " " + " ".join(items or [])) from None
 
 
-def _text(value: Any) -> str:
+def assignment_text(value: Any) -> str:
+    """A ``--set`` value as messages write it back: ``50000.0``, ``true``, ``distributed``."""
     return value if isinstance(value, str) else str(value).lower() if isinstance(value, bool) else repr(value)
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import signal
 import sys
 from dataclasses import dataclass
 from unittest import mock
@@ -25,14 +26,23 @@ class Outcome:
 
 
 def run_cli(*args: str) -> Outcome:
-    """``hisopt ARGS`` through :func:`hisopt.cli.main`: exit code, stdout and stderr."""
-    from hisopt.cli import main
+    """``hisopt ARGS`` through :func:`hisopt.cli.main`: exit code, stdout and stderr.
 
+    The signal handlers the CLI installs (on import and in ``main``) are put back afterwards, so
+    that a later test in this process sees Python's own.
+    """
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
     out, err = io.StringIO(), io.StringIO()
     code = 0
-    with mock.patch.object(sys, "argv", ["hisopt", *map(str, args)]), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            main()
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    try:
+        from hisopt.cli import main
+
+        with mock.patch.object(sys, "argv", ["hisopt", *map(str, args)]), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                main()
+            except SystemExit as exc:
+                code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        for number, handler in handlers.items():
+            signal.signal(number, handler)
     return Outcome(code, out.getvalue(), err.getvalue())

@@ -143,6 +143,13 @@ def must_refuse(data) -> str | None:
         return "duplicate objective"
     if not data.get("variables"):
         return "no variables"
+    his, road = data.get("his"), data.get("road")
+    gamma = his.get("gamma") if isinstance(his, dict) else None
+    if isinstance(gamma, (int, float)) and not 1.0 <= gamma <= 2.0:  # no gas has a polytropic exponent outside [1, 2]
+        return "polytropic exponent"
+    speed = road.get("speed") if isinstance(road, dict) else None
+    if isinstance(speed, (int, float)) and speed > 150.0:  # faster than any road vehicle (540 km/h)
+        return "speed"
     return None
 
 

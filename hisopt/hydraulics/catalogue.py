@@ -29,7 +29,6 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from hisopt.errors import ModelError
 from hisopt.hydraulics.layout import (
     ELEMENT_KINDS,
-    FIELD_LOWER,
     FIELD_UNITS,
     ChamberCompliance,
     Circuit,
@@ -37,11 +36,13 @@ from hisopt.hydraulics.layout import (
     Layout,
     Pipe,
     Port,
+    field_rule_problem,
     parameter_uses,
 )
 from hisopt.hydraulics.layout_file import CircuitSpec, build_layout, check_circuits, element_label, parameter_fields
 from hisopt.hydraulics.network import FLUID_PARAMETERS, compile_network, element_values, total_compliance
 from hisopt.hydraulics.roll_plane import RollPlaneHIS, parameter_values, roll_plane_layout
+from hisopt.plausibility import rule_reason
 from hisopt.quantities import field_unit
 
 CATALOGUE_NAMES = (
@@ -265,10 +266,10 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
     values = his_parameter_values(his)
     for name, value in his.parameters.items():
         for cls, key in uses[name]:
-            lower, closed = FIELD_LOWER[(cls, key)]
-            if not (value >= lower if closed else value > lower):
-                rule = f"{name} {'>=' if closed else '>'} {lower:g}"
-                return f"his.parameters.{name}: expected {rule} (it is the {key} of a {ELEMENT_KINDS[cls]}), got {value:g}"
+            broken = field_rule_problem(cls, key, value)
+            if broken:
+                rule = name + broken.removeprefix(key)
+                return f"his.parameters.{name}: expected {rule} (it is the {key} of a {ELEMENT_KINDS[cls]}{rule_reason(key)}), got {value:g}"
     return _zero_compliance(layout, values)
 
 

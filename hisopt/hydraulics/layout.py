@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from dataclasses import field as dc_field
 from typing import Literal
 
+from hisopt.plausibility import GAMMA_RANGE
 from hisopt.quantities import field_unit, si
 
 Chamber = Literal["top", "bottom"]
@@ -120,7 +121,25 @@ FIELD_LOWER: dict[tuple[type, str], tuple[float, bool]] = {
 }
 """Physical rule of every element parameter field: ``(lower end, closed)``, e.g. a gas volume
 ``> 0`` is ``(0.0, False)`` and a precharge (gauge, as ``p0``) ``>= 0`` is ``(0.0, True)``.
-No field has an upper end."""
+Upper ends are in :data:`FIELD_UPPER`."""
+
+FIELD_UPPER: dict[tuple[type, str], tuple[float, bool]] = {
+    (Accumulator, "gamma"): (GAMMA_RANGE[1], True),
+}
+"""The fields whose rule has an upper end too: ``(upper end, closed)`` (a polytropic exponent
+``<= 2``, :data:`hisopt.plausibility.GAMMA_RANGE`)."""
+
+
+def field_rule_problem(cls: type, key: str, value: float) -> str | None:
+    """Which rule of element field ``key`` of ``cls`` ``value`` breaks: ``"gamma <= 2"``, or None."""
+    lower, closed = FIELD_LOWER[(cls, key)]
+    if not (value >= lower if closed else value > lower):
+        return f"{key} {'>=' if closed else '>'} {lower:g}"
+    if (cls, key) in FIELD_UPPER:
+        upper, closed = FIELD_UPPER[(cls, key)]
+        if not (value <= upper if closed else value < upper):
+            return f"{key} {'<=' if closed else '<'} {upper:g}"
+    return None
 
 ELEMENT_KINDS: dict[type, str] = {
     Accumulator: "accumulator",

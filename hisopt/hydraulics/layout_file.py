@@ -36,7 +36,6 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from hisopt.hydraulics.layout import (
     CHAMBER_LABELS,
     ELEMENT_KINDS,
-    FIELD_LOWER,
     PARAMETER_FIELDS,
     Accumulator,
     ChamberCompliance,
@@ -46,7 +45,9 @@ from hisopt.hydraulics.layout import (
     ParamRef,
     Port,
     chamber_of_label,
+    field_rule_problem,
 )
+from hisopt.plausibility import rule_reason
 
 ElementKind = Literal["accumulator", "compliance", "valve", "orifice", "pipe"]
 
@@ -109,10 +110,9 @@ class ElementSpec(BaseModel):
             raise ValueError(f"a {self.type} needs {', '.join(missing)} (it takes {', '.join(allowed)})")
         for key in PARAMETER_FIELDS[cls]:
             value = self.value(key)
-            if isinstance(value, float):
-                lower, closed = FIELD_LOWER[(cls, key)]
-                if not (value >= lower if closed else value > lower):
-                    raise ValueError(f"{key}: expected {key} {'>=' if closed else '>'} {lower:g} for a {self.type}, got {value!r}")
+            broken = field_rule_problem(cls, key, value) if isinstance(value, float) else None
+            if broken:
+                raise ValueError(f"{key}: expected {broken} for a {self.type}{rule_reason(key)}, got {value!r}")
         return self
 
     def value(self, key: str) -> Any:

@@ -19,6 +19,7 @@ from hisopt.hydraulics.fluid import Fluid
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
 from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
+from hisopt.plausibility import GAMMA_RANGE
 from hisopt.quantities import si
 
 CIRCUIT_CHAMBERS: dict[str, tuple[tuple[int, Literal["top", "bottom"]], ...]] = {
@@ -56,7 +57,7 @@ class RollPlaneHIS(BaseModel):
     lam_rear: float | None = Field(None, gt=0, lt=1, description="rear lam (None: = lam)", json_schema_extra=si("-"))
     Rv_rear: float | None = Field(None, ge=0, description="rear Rv (None: = Rv)", json_schema_extra=si("Pa s m^-3"))
     V0: float = Field(1.0e-3, gt=0, description="accumulator gas volume at precharge", json_schema_extra=si("m^3"))
-    gamma: float = Field(1.4, ge=1.0, description="polytropic exponent of the gas", json_schema_extra=si("-"))
+    gamma: float = Field(1.4, ge=GAMMA_RANGE[0], le=GAMMA_RANGE[1], description="polytropic exponent of the gas (1 to 2)", json_schema_extra=si("-"))
     chamber_volume: float = Field(0.0, ge=0, description="oil volume per chamber (0: off)", json_schema_extra=si("m^3"))
     fluid: Fluid = Field(default_factory=Fluid)
     pipes: PipeLayout | None = None

@@ -84,7 +84,7 @@ def _with_layout(problem: Problem, name: str, his_update: dict[str, Any], bounds
     his = RollPlaneHIS.model_validate(data["his"])
     read = used_parameters(his_layout(his)) | set(layout_defaults(his))
     data["variables"] = {k: v for k, v in variables.items() if k in read}
-    return problem_from_dict(data, f"{problem.name}, layout {name}")
+    return problem_from_dict(data, f"{problem.name}, layout {name}", warn_implausible=False)  # checked when read
 
 
 def catalogue_case(problem: Problem, name: str) -> LayoutCase:

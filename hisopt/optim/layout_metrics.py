@@ -82,7 +82,7 @@ def quantity_problem(problem: Problem, names: tuple[str, ...]) -> Problem:
     data = problem.spec.model_dump(by_alias=True)
     data["objectives"] = list(dict.fromkeys((COMFORT, *names)))  # a frequency quantity always: see the report
     data["constraints"] = []
-    return problem_from_dict(data, f"{problem.name} (quantities)")
+    return problem_from_dict(data, f"{problem.name} (quantities)", warn_implausible=False)  # checked when read
 
 
 def evaluate_quantities(problem: Problem, x: np.ndarray, names: tuple[str, ...]) -> dict[str, np.ndarray]:

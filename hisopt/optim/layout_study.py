@@ -58,6 +58,7 @@ from hisopt.optim.layout_metrics import (
     evaluate_quantities,
     shared_normalisation,
 )
+from hisopt.plausibility import seed_count_problem
 
 if TYPE_CHECKING:
     from hisopt.parallel import Backend
@@ -88,6 +89,9 @@ def parse_seed_list(text: str | Sequence[int]) -> list[int]:
     seeds = sorted({int(s) for s in text})
     if not seeds or seeds[0] < 0:
         raise ConfigError(f"expected non-negative seeds, got {list(text)!r}", key="--seeds")
+    too_many = seed_count_problem(len(seeds))
+    if too_many:
+        raise ConfigError(too_many, key="--seeds")
     return seeds
 
 

@@ -287,7 +287,7 @@ def constrained_problem(problem: Problem, objective: str, limits: dict[str, floa
     data["constraints"] = list(constraints.values())
     if data["scenarios"] and data["robust"]["aggregate"] == "per_scenario":  # one objective: its worst case
         data["robust"]["aggregate"] = "worst"
-    return problem_from_dict(data, f"{problem.name} ({objective} under limits)")
+    return problem_from_dict(data, f"{problem.name} ({objective} under limits)", warn_implausible=False)  # checked when read
 
 
 def refine_constrained(
@@ -321,7 +321,7 @@ def _limits_one(problem: Problem) -> Problem:
 
     data = problem.spec.model_dump(by_alias=True)
     data["constraints"] = [c | {"limit": 1.0} for c in data["constraints"]]
-    return problem_from_dict(data, problem.name)
+    return problem_from_dict(data, problem.name, warn_implausible=False)  # a cache key, not a problem to warn about
 
 
 # --- many start designs, in parallel --------------------------------------------------------
@@ -510,6 +510,7 @@ def refine_run(
     """
     from hisopt.io import ensure_writable_dir, write_csv
     from hisopt.optim import rundir
+    from hisopt.plausibility import with_bound_column
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
@@ -522,7 +523,7 @@ def refine_run(
         problem, front, max_points, settings=settings, backend=backend, reference_log=reference, progress=progress,
         source=str(run_dir / rundir.FRONT_CSV),
     )
-    write_csv(result.front, run_dir / FRONT_REFINED_CSV)
+    write_csv(with_bound_column(result.front, problem), run_dir / FRONT_REFINED_CSV)
     summary = result.summary() | {"max_points": max_points, "settings": asdict(settings)}
     summary["per_point"] = json.loads(result.points.to_json(orient="records"))
     rundir.atomic_write_json(run_dir / REFINE_JSON, summary)

@@ -57,6 +57,7 @@ import pandas as pd
 from hisopt import interrupt
 from hisopt.errors import ConfigError, RunError
 from hisopt.io import atomic_write_bytes, atomic_write_json, read_csv, sha256_bytes, write_csv
+from hisopt.plausibility import with_bound_column, without_bound_column
 
 if TYPE_CHECKING:
     from hisopt.optim.results import OptimizationResult
@@ -196,14 +197,16 @@ def read_run_json(run_dir: Path) -> dict[str, Any]:
 
 
 def read_front(path: str | Path) -> pd.DataFrame:
-    """A ``front.csv`` (full precision; the values round-trip)."""
+    """A ``front.csv`` (full precision; the values round-trip), without its ``on_bound`` marks
+    (derived from the values and the box: written again with every front)."""
     path = Path(path)
     if not path.is_file():
         raise RunError(f"{path}: front not found; expected a run directory with {path.name}")
     try:
-        return read_csv(path)
+        front = read_csv(path)
     except (OSError, ValueError, pd.errors.ParserError) as exc:
         raise RunError(f"{path}: unreadable front ({exc})") from None
+    return without_bound_column(front)
 
 
 def run_problem(run_dir: Path) -> tuple[Problem, np.ndarray | None]:
@@ -217,7 +220,7 @@ def run_problem(run_dir: Path) -> tuple[Problem, np.ndarray | None]:
     if not (run_dir / RUN_JSON).is_file() and (run_dir / PROBLEM_TOML).is_file():
         from hisopt.problem import load_problem
 
-        return load_problem(run_dir / PROBLEM_TOML), None
+        return load_problem(run_dir / PROBLEM_TOML, warn_implausible=False), None  # a run's copy
     info = read_run_json(run_dir)
     if "problem" not in info:
         raise RunError(f"{run_dir / RUN_JSON}: lacks 'problem'; the run never started")
@@ -266,7 +269,7 @@ def problem_copy(problem: Problem) -> tuple[str, bytes, dict[str, Any]]:
             import tomllib
 
             try:
-                same = parse_problem(tomllib.loads(raw.decode("utf-8")), str(path)) == problem.spec
+                same = parse_problem(tomllib.loads(raw.decode("utf-8")), str(path), warn_implausible=False) == problem.spec
             except (ConfigError, tomllib.TOMLDecodeError, UnicodeDecodeError):
                 same = False
             if same:
@@ -319,9 +322,10 @@ def load_run_problem(run_dir: Path, record: dict[str, Any], check_original: bool
                 f"{original} changed since the run started (sha256 {record['sha256'][:12]} -> {now[:12]}); "
                 "resuming would mix two problems: restore the file or start a new run with `hisopt optimize`"
             )
+    # the run's problem warned when the run started; its copy does not warn again
     if copy.suffix == ".toml":
-        return load_problem(copy)
-    return problem_from_dict(json.loads(copy.read_text(encoding="utf-8")), str(copy))
+        return load_problem(copy, warn_implausible=False)
+    return problem_from_dict(json.loads(copy.read_text(encoding="utf-8")), str(copy), warn_implausible=False)
 
 
 def _summary(result: OptimizationResult) -> dict[str, Any]:
@@ -339,8 +343,9 @@ def _summary(result: OptimizationResult) -> dict[str, Any]:
 
 
 def write_outputs(run_dir: Path, result: OptimizationResult) -> None:
-    """``front.csv``, the evaluations and ``generations.csv`` (each atomically)."""
-    write_csv(result.front, run_dir / FRONT_CSV)
+    """``front.csv`` (with its ``on_bound`` marks), the evaluations and ``generations.csv``
+    (each atomically)."""
+    write_csv(with_bound_column(result.front, result.problem), run_dir / FRONT_CSV)
     interrupt.hook_point("final-write")
     write_csv(result.generations, run_dir / GENERATIONS_CSV)
     buffer = io.BytesIO()

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.errors import ConfigError
+from hisopt.plausibility import seed_count_problem, with_bound_column
 
 if TYPE_CHECKING:
     from hisopt.parallel import Backend
@@ -36,17 +37,21 @@ class StudyResult:
 
 
 def parse_seeds(text: str) -> list[int]:
-    """``"1-8"`` or ``"1,3,5"`` (or a mix, ``"1-3,7"``) -> sorted unique seeds."""
+    """``"1-8"`` or ``"1,3,5"`` (or a mix, ``"1-3,7"``) -> sorted unique seeds, at most
+    :data:`hisopt.plausibility.MAX_SEEDS` of them (a larger range is refused before it is built)."""
     seeds: set[int] = set()
     for part in text.split(","):
         part = part.strip()
         lo, sep, hi = part.partition("-")
         try:
-            values = range(int(lo), int(hi) + 1) if sep else [int(part)]
+            values = range(int(lo), int(hi) + 1) if sep else range(int(part), int(part) + 1)
         except ValueError:
             raise ConfigError(f"expected seeds like 1-8 or 1,3,5, got {text!r}", key="--seeds") from None
         if sep and int(hi) < int(lo):
             raise ConfigError(f"expected an increasing seed range, got {part!r}", key="--seeds")
+        too_many = seed_count_problem(len(seeds) + len(values))  # an upper bound of the count: nothing built yet
+        if too_many:
+            raise ConfigError(too_many, key="--seeds")
         seeds.update(values)
     if not seeds or min(seeds) < 0:
         raise ConfigError(f"expected non-negative seeds, got {text!r}", key="--seeds")
@@ -105,6 +110,9 @@ def study(
     from hisopt.parallel import Backend
     from hisopt.units import attach_units
 
+    too_many = seed_count_problem(len(seeds))
+    if too_many:
+        raise ConfigError(too_many, key="--seeds")
     backend = backend or Backend()
     if out is not None:
         ensure_writable_dir(out)
@@ -124,7 +132,7 @@ def study(
     attach_units(merged, problem)
     attach_units(summary, problem)
     if out is not None:
-        write_csv(merged, Path(out) / "front.csv")
+        write_csv(with_bound_column(merged, problem), Path(out) / "front.csv")
         write_csv(summary, Path(out) / "runs.csv")
     return StudyResult(merged, summary, hv, None if out is None else Path(out))
 

@@ -21,6 +21,7 @@ from hisopt.errors import RunError
 if TYPE_CHECKING:
     from hisopt.problem import Problem
 from hisopt.io import read_csv
+from hisopt.plausibility import BOUND_TOLERANCE, bound_note, without_bound_column
 from hisopt.units import (
     column_units,
     display_for,
@@ -57,10 +58,10 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
     if not front_path.is_file():
         raise RunError(f"{front_path}: missing; the run has not finished a generation yet")
     problem = rundir.load_run_problem(run_dir, record["problem"], check_original=False)
-    out: dict[str, Any] = {"record": record, "problem": problem, "front": read_csv(front_path)}
+    out: dict[str, Any] = {"record": record, "problem": problem, "front": without_bound_column(read_csv(front_path))}
     for key, name in (("refined", rundir.FRONT_REFINED_CSV), ("generations", rundir.GENERATIONS_CSV)):
         path = run_dir / name
-        out[key] = read_csv(path) if path.is_file() else None
+        out[key] = without_bound_column(read_csv(path)) if path.is_file() else None  # marks: recomputed where shown
     return out
 
 
@@ -116,14 +117,20 @@ def modes_table(modes_ref: pd.DataFrame, modes_his: pd.DataFrame) -> pd.DataFram
     return shown
 
 
-def designs_table(designs: Mapping[str, pd.Series], units: Mapping[str, str]) -> pd.DataFrame:
-    """One row per quantity (``name [unit]``), one column per design, engineering units."""
+def designs_table(
+    designs: Mapping[str, pd.Series], units: Mapping[str, str], bounds: Mapping[str, tuple[float, float]] | None = None
+) -> pd.DataFrame:
+    """One row per quantity (``name [unit]``), one column per design, engineering units; a
+    variable of ``bounds`` (``{name: (lower, upper)}``) at a bound is marked ``(at lower
+    bound)`` (:func:`hisopt.plausibility.bound_note`)."""
     names = list(next(iter(designs.values())).index)
+    bounds = bounds or {}
     rows = []
     for name in names:
         values = [float(d[name]) for d in designs.values()]
         shown = display_for(units.get(name, ""), values, trim=False)
-        rows.append([shown.label(name), *[shown.number(v) for v in values]])
+        notes = [bound_note(v, *bounds[name]) if name in bounds else "" for v in values]
+        rows.append([shown.label(name), *[shown.number(v) + note for v, note in zip(values, notes, strict=True)]])
     return pd.DataFrame(rows, columns=["quantity [unit]", *designs])
 
 
@@ -220,6 +227,10 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     if chosen_label not in highlighted:
         highlighted[chosen_label] = chosen
         designs_caption += f", and {chosen_label}: the design of the spectra and modes"
+    picks = designs_table(highlighted, units, dict(zip(variables, zip(problem.lower, problem.upper, strict=True), strict=True)))
+    if any(" bound)" in cell for col in picks.columns[1:] for cell in picks[col]):
+        designs_caption += (f"; at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
+                            "that bound, where the box rather than the physics chose the value")
     sections: list[tuple[str, Any]] = [
         ("Pareto front", figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)),
         ("Designs and objectives", figures.parallel_coordinates(front, variables, objectives, color_by, units)),
@@ -230,7 +241,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
          html_table(modes, "Modes without and with HIS (paper Table 1): undamped natural frequency f, damping ratio zeta",
                     text_columns=("mode", "motion"))),
         ("Highlighted designs",
-         html_table(designs_table(highlighted, units), designs_caption, text_columns=("quantity [unit]",))),
+         html_table(picks, designs_caption, text_columns=("quantity [unit]",))),
     ]
     if problem.spec.scenarios:
         sections.append(("Load cases", html_table(scenario_table(problem, highlighted, variables),

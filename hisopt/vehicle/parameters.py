@@ -38,6 +38,12 @@ class VehicleParams(BaseModel):
     y_cg: float = Field(
         0.0, description="lateral offset of the CG to the left of the track centre line (a laden car, hisopt.payload)", json_schema_extra=si("m")
     )
+    # The body's extent: read only by the plausibility checks of a payload (hisopt.plausibility),
+    # never by the model, which needs no CG height above the road (h_0s is above the roll axis).
+    h_cg: float = Field(0.65, gt=0, description="CG height above the road (the body's extent, payload checks only)", json_schema_extra=si("m"))
+    body_half_width: float = Field(0.93, gt=0, description="half the body's width (the body's extent, payload checks only)", json_schema_extra=si("m"))
+    overhang_f: float = Field(0.90, ge=0, description="body ahead of the front axle (the body's extent, payload checks only)", json_schema_extra=si("m"))
+    overhang_r: float = Field(1.00, ge=0, description="body behind the rear axle (the body's extent, payload checks only)", json_schema_extra=si("m"))
 
     @model_validator(mode="after")
     def _cg_inside_track(self) -> VehicleParams:
