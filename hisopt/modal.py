@@ -295,6 +295,25 @@ def modal_table(model: CoupledModel, tol: float = 1e-8) -> pd.DataFrame:
     return table.iloc[np.lexsort((table["frequency_hz"].to_numpy(), order))].reset_index(drop=True)
 
 
+def mechanical_mode_shapes(model: CoupledModel, tol: float = 1e-8) -> tuple[np.ndarray, np.ndarray]:
+    """Roots and complex shapes of the seven mechanical modes of a single-design model.
+
+    The names are :func:`modal_table`'s (the same rule); the shapes are for comparing with
+    measured motion (:func:`mac`), e.g. drop-test pairing (:mod:`hisopt.droptest`).
+
+    Returns
+    -------
+    roots : [rad/s] ``(7,)`` in :data:`MODE_NAMES` order (of the lumped realisation; NaN where
+        a mode is overdamped)
+    shapes : [sqrt(kg) m/s] mass-weighted velocity shapes in motion coordinates
+        (:func:`motion_coordinates`), ``(7, 7)``, column ``j`` mode ``MODE_NAMES[j]`` (NaN if absent)
+    """
+    a, weights = _state(model)
+    if a.shape[0] != 1:
+        raise ValueError("mechanical_mode_shapes expects a single design; pass one design at a time")
+    return _modes_from(a[0], weights[0], np.diag(model.mass), tol).named()
+
+
 def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -> np.ndarray:
     """Newton refinement of roots of ``det K_dyn(s)`` (batched over the roots).
 
