@@ -190,16 +190,7 @@ def droptest(
     from rich.console import Console
     from rich.table import Table
 
-    from hisopt.droptest import (
-        DROP_CASES,
-        MAC_MIN,
-        PAIRING_WINDOW,
-        drop_table,
-        measured_drop_test,
-        read_measured,
-        run_drop_tests,
-        spectra_figure,
-    )
+    from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure, unpaired_notes
     from hisopt.errors import ConfigError
     from hisopt.io import write_csv
     from hisopt.units import display_for, format_number
@@ -259,15 +250,8 @@ def droptest(
             format_number(row.damping, trim=False),
         )
     Console(width=130).print(table)
-    for row in frame.itertuples():
-        if not math.isfinite(row.frequency_model_hz):  # no error against a mode the signal is not
-            near = f"{row.frequency_time_hz:.3f} Hz"
-            why = (
-                f"no model mode within {PAIRING_WINDOW:.0%} of {near}"
-                if row.mode == "none"
-                else f"{row.mode}: the signal's shape matches no single mode near {near} (best MAC {row.mac:.2f}, pairing needs {MAC_MIN:g})"
-            )
-            typer.echo(f"{row.case} at {pressure(row.p0)} ({sources[(row.case, row.p0)]}): {why}; no model error reported")
+    for line in unpaired_notes(tests):
+        typer.echo(line)
     typer.echo(f"wrote {out / 'droptest.csv'} and {out / 'droptest.html'}")
 
 

@@ -41,6 +41,7 @@ Control, and Dynamics 8(5), 620-627, 1985.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,7 +67,7 @@ from hisopt.modal import MODE_NAMES, mac, mechanical_mode_shapes, modal_analysis
 from hisopt.model import CoupledModel
 from hisopt.road.profiles import step_profile
 from hisopt.timedomain import SimulationMode, TimeResponse, simulate
-from hisopt.units import attach_units
+from hisopt.units import attach_units, display_for
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
@@ -477,6 +478,25 @@ def drop_table(tests: Sequence[DropTest]) -> pd.DataFrame:
     return attach_units(frame, extra={"p0": "Pa", "mac": "-"})
 
 
+def unpaired_notes(tests: Sequence[DropTest]) -> list[str]:
+    """One line for each row of :func:`drop_table` whose signal is no single mode (mixed or
+    none), saying why it has no model error."""
+    sources = {(t.case, t.p0_pa): t.source for t in sorted(tests, key=lambda d: d.source == "measured")}
+    notes = []
+    for row in drop_table(tests).itertuples():
+        if math.isfinite(row.frequency_model_hz):
+            continue
+        near = f"{row.frequency_time_hz:.3f} Hz"
+        why = (
+            f"no model mode within {PAIRING_WINDOW:.0%} of {near}"
+            if row.mode == "none"
+            else f"{row.mode}: the signal's shape matches no single mode near {near} (best MAC {row.mac:.2f}, pairing needs {MAC_MIN:g})"
+        )
+        p0 = display_for("Pa", np.array([row.p0]))(row.p0)
+        notes.append(f"{row.case} at {p0} ({sources[(row.case, row.p0)]}): {why}; no model error reported")
+    return notes
+
+
 # --- measured records ----------------------------------------------------------------------
 
 
@@ -602,4 +622,5 @@ __all__ = [
     "run_drop_tests",
     "simulate_drop",
     "spectra_figure",
+    "unpaired_notes",
 ]
