@@ -314,6 +314,22 @@ def mechanical_mode_shapes(model: CoupledModel, tol: float = 1e-8) -> tuple[np.n
     return _modes_from(a[0], weights[0], np.diag(model.mass), tol).named()
 
 
+def _log_det_slope(k: np.ndarray, dk: np.ndarray) -> np.ndarray:
+    """``tr(K^-1 dK/ds)`` of a batch ``(..., 7, 7)``; ``inf`` (a Newton step of 0) where ``K``
+    is singular to working precision: there ``s`` is a root already (Newton lands on one
+    exactly now and then), and one such root must not fail the whole batch."""
+    try:
+        return np.trace(np.linalg.solve(k, dk), axis1=-2, axis2=-1)
+    except np.linalg.LinAlgError:
+        out = np.empty(k.shape[:-2], dtype=complex)
+        for i in np.ndindex(out.shape):  # rare: only a batch with an exactly singular K
+            try:
+                out[i] = np.trace(np.linalg.solve(k[i], dk[i]))
+            except np.linalg.LinAlgError:
+                out[i] = np.inf
+        return out
+
+
 def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -> np.ndarray:
     """Newton refinement of roots of ``det K_dyn(s)`` (batched over the roots).
 
@@ -328,8 +344,7 @@ def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -
         h = 1e-6 * np.abs(s)
         k = model.dynamic_stiffness(s)
         dk = (model.dynamic_stiffness(s + h) - model.dynamic_stiffness(s - h)) / (2 * h)[..., None, None]
-        logdet_prime = np.trace(np.linalg.solve(k, dk), axis1=-2, axis2=-1).reshape(s.shape)
-        step = -1.0 / logdet_prime
+        step = -1.0 / _log_det_slope(k, dk).reshape(s.shape)
         s = s + step
         if np.all(np.abs(step) < 1e-12 * np.abs(s)):
             break
