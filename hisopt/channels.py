@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from hisopt.pole_residue import PoleResidue
+from hisopt.pole_residue import PoleResidue, balance
 from hisopt.psd import channel_power
 from hisopt.symmetry import channel_inputs, split, state_mirror
 
@@ -74,6 +74,15 @@ def frf_power(channels: dict[str, Pair], f_hz: np.ndarray, tau: float, coherence
 CONDITION_LIMIT = 1e8
 """[-] Eigenvalue condition number (balanced) beyond which poles and residues are not trusted:
 such a design's responses come from the direct solve, its poles from :func:`repair_poles`."""
+
+
+def eigen_conditioning(a: np.ndarray) -> np.ndarray:
+    """[-] Largest eigenvalue condition number ``||v_k|| ||w_k||`` of each balanced state
+    matrix ``(n, k, k)``, ``(n,)``: as :attr:`hisopt.pole_residue.PoleResidue.conditioning`
+    computes it, for a path that needs the poles but not the residues (distributed pipes)."""
+    d = balance(a)
+    vec = np.linalg.eig(a * (d[:, None, :] / d[:, :, None]))[1]
+    return np.max(np.linalg.norm(np.linalg.inv(vec), axis=-1), axis=-1)
 
 
 def repair_poles(model: CoupledModel, lam: np.ndarray, f_hi_hz: float) -> tuple[np.ndarray, np.ndarray]:

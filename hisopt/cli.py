@@ -6,6 +6,7 @@ shows tracebacks.
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import sys
@@ -186,14 +187,16 @@ def droptest(
     """Drop tests, simulated and measured (paper Table 3).
 
     Repeats the paper's drop tests (Section VI, Table 3, Fig. 13) on the model. Writes
-    OUT/droptest.csv (case, p0, mode, frequency_time_hz, frequency_model_hz,
+    OUT/droptest.csv (case, p0, mode, mac, frequency_time_hz, frequency_model_hz,
     error_pct, damping; damped frequencies in Hz) and OUT/droptest.html (response spectra).
-    A measured record replaces the simulated row of the same case and p0.
+    Each signal is paired with the model mode it is by frequency and shape (MAC); one that
+    matches no single mode is "mixed" and has no error. A measured record replaces the
+    simulated row of the same case and p0.
     """
     from rich.console import Console
     from rich.table import Table
 
-    from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure
+    from hisopt.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure, unpaired_notes
     from hisopt.errors import ConfigError
     from hisopt.io import write_csv
     from hisopt.quantities import to_si
@@ -235,20 +238,24 @@ def droptest(
 
     table = Table(title=f"Drop tests of {prob.name}, {height * 1000:g} mm (paper Table 3; damped frequencies)")
     pressure = display_for("Pa", frame["p0"].to_numpy())
-    for col in ("case", pressure.label("p0"), "mode", "source", "f time [Hz]", "f model [Hz]", "error [%]", "damping [-]"):
+    for col in ("case", pressure.label("p0"), "mode", "MAC [-]", "source", "f time [Hz]", "f model [Hz]", "error [%]", "damping [-]"):
         table.add_column(Text(col), justify="left" if col in ("case", "mode", "source") else "right")
     for row in frame.itertuples():
+        paired = math.isfinite(row.frequency_model_hz)
         table.add_row(
             row.case,
             pressure.number(row.p0),
             row.mode,
+            f"{row.mac:.3f}" if math.isfinite(row.mac) else "-",
             sources[(row.case, row.p0)],
             format_number(row.frequency_time_hz, trim=False),
-            format_number(row.frequency_model_hz, trim=False),
-            f"{row.error_pct:+.2f}",
+            format_number(row.frequency_model_hz, trim=False) if paired else "-",
+            f"{row.error_pct:+.2f}" if paired else "-",
             format_number(row.damping, trim=False),
         )
-    Console(width=120).print(table)
+    Console(width=130).print(table)
+    for line in unpaired_notes(tests):
+        typer.echo(line)
     typer.echo(f"wrote {out / 'droptest.csv'} and {out / 'droptest.html'}")
 
 

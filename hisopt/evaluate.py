@@ -4,8 +4,9 @@ Fast path (lumped circuits): one eigendecomposition of the state-space matrix pe
 the poles and residues, so the FRF at any frequency is a small matrix product
 ``H(s) = sum_k R_k / (s - lambda_k)``; the poles also place the quadrature panels
 (:mod:`hisopt.quadrature`) and bracket each PSD peak, which is then refined off the grid by
-repeated zooming. Distributed pipes use the same nodes (from the lumped poles) with a direct
-batched solve of the transfer-matrix model. Each design's pole-residue form is checked
+repeated zooming. Distributed pipes use the same nodes (from the lumped poles, repaired like
+the lumped path's where their eigenvectors are ill-conditioned) with a direct batched solve of
+the transfer-matrix model. Each design's pole-residue form is checked
 against a direct solve; designs that are unstable or singular give NaN, never an exception.
 """
 
@@ -27,6 +28,7 @@ from hisopt.channels import (
     Pair,
     RoadCase,
     channel_feedthrough,
+    eigen_conditioning,
     frf_power,
     repair_poles,
 )
@@ -223,6 +225,10 @@ class Evaluator:
         if model.pipe_model == "distributed":
             lam = np.linalg.eigvals(ss.a)  # the lumped twin's poles place the nodes
             channels = DirectOutputs(model, self.bases)
+            flagged = eigen_conditioning(ss.a) > CONDITION_LIMIT
+            if np.any(flagged):  # the twin's eigenvalues are off (pipes of 1e-10 m): nodes there would miss the peaks
+                lam = lam.copy()
+                lam[flagged], repaired[flagged] = repair_poles(model.subset(flagged), lam[flagged], self.f_hi)
         else:
             modal = ModalChannels(model, ss, self.bases, self._feed)
             lam = modal.lam

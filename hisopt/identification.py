@@ -7,7 +7,9 @@ The signal-processing kit of the drop tests (:mod:`hisopt.droptest`), usable on 
 2. the four body corners projected on body coordinates with the pseudo-inverse of ``T_z`` and
    weighted by ``sqrt(m_s), sqrt(I_x), sqrt(I_y)`` (squared amplitudes are kinetic energies);
 3. the free decay fitted by the Eigensystem Realization Algorithm (ERA, Juang and Pappa
-   1985) at several model orders; the dominant body mode of each fit, medians over the orders.
+   1985) at several model orders; the dominant body mode of each fit, medians over the orders;
+4. the dominant mode's motion shape: its complex amplitude in every channel (body and
+   wheels) by least squares on the fit's poles (:func:`mode_amplitudes`).
 
 References
 ----------
@@ -18,7 +20,7 @@ identification and model reduction", J. Guidance, Control, and Dynamics 8(5), 62
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -183,7 +185,12 @@ class IdentifiedMode:
     """The dominant mode of a free decay (median over ERA orders).
 
     ``frequency_hz`` [Hz] damped; ``damping_ratio`` [-]; ``spread_hz`` [Hz] range of the
-    frequency over the orders; ``t_start_s`` [s] start of the analysed decay.
+    frequency over the orders; ``t_start_s`` [s] start of the analysed decay; ``orders``
+    [-] ERA orders that found a mode in the band; ``shape`` [m/s^2, rad/s^2] the mode's
+    complex acceleration amplitudes at ``t_start_s`` over ``DOF_NAMES`` (body ``z_s, phi,
+    theta``, then wheels FL, FR, RL, RR; NaN for wheels without a sensor), from the ERA order
+    whose frequency is nearest the median: relative amplitudes and phases, the motion shape
+    a drop test is paired with a model mode by (:mod:`hisopt.droptest`).
     """
 
     frequency_hz: float
@@ -191,6 +198,41 @@ class IdentifiedMode:
     spread_hz: float
     t_start_s: float
     orders: int
+    shape: NDArray[np.complex128] = field(repr=False)
+
+
+def mode_amplitudes(y: ArrayLike, dt_s: float, poles: ArrayLike) -> NDArray[np.complex128]:
+    """Complex amplitudes of given modes in each channel of a free decay, by least squares.
+
+    The second stage of the two-stage identification methods: with the poles ``s_k`` known
+    (from :func:`era`), channel ``c`` is ``sum_k a[k, c] exp(s_k t)`` and the ``a`` are
+    linear. Poles that would grow by more than ``e^20`` over the record are numerical
+    (a free decay has none) and are left out (their amplitudes are 0).
+
+    Parameters
+    ----------
+    y
+        Free-decay samples, ``(n_t, m)``, uniformly spaced from ``t = 0``.
+    dt_s
+        [s] Sample spacing.
+    poles
+        [rad/s] ``(n,)``, conjugate pairs both present (real records).
+
+    Returns
+    -------
+    ndarray, ``(n, m)`` complex
+        [unit of y] Amplitude of mode ``k`` in channel ``c`` at ``t = 0``.
+    """
+    y = np.asarray(y, dtype=float)
+    s = np.asarray(poles, dtype=complex)
+    tau = np.arange(y.shape[0]) * dt_s
+    keep = np.isfinite(s) & (s.real * tau[-1] < 20.0)
+    basis = np.exp(tau[:, None] * s[keep])
+    norm = np.linalg.norm(basis, axis=0)  # unit columns: fast and slow decays alike conditioned
+    coef = np.linalg.lstsq(basis / norm, y.astype(complex), rcond=None)[0] / norm[:, None]
+    out = np.zeros((s.size, y.shape[1]), dtype=complex)
+    out[keep] = coef
+    return out
 
 
 def identify_mode(
@@ -201,8 +243,13 @@ def identify_mode(
     window_s: float = 4.0,
     orders: Sequence[int] = ERA_ORDERS,
     band_hz: tuple[float, float] = BODY_BAND_HZ,
+    wheel_acc: ArrayLike | None = None,
 ) -> IdentifiedMode:
-    """Frequency and damping of the dominant body mode of a drop-test record.
+    """Frequency, damping and motion shape of the dominant body mode of a drop-test record.
+
+    The dominant mode is, at each ERA order, the mode in ``band_hz`` that contributes most to
+    the body coordinate of ``mode`` (the one the test is meant to excite); which model mode
+    it *is* is decided later from its shape (:func:`hisopt.droptest.pair_mode`).
 
     Parameters
     ----------
@@ -221,6 +268,9 @@ def identify_mode(
         ERA model orders to fit (the median over them is reported).
     band_hz
         [Hz] Frequencies a body mode may have.
+    wheel_acc
+        [m/s^2] Filtered wheel accelerations FL, FR, RL, RR, ``(n_t, 4)``, or ``None``: they
+        only add the wheels to the identified shape.
 
     Returns
     -------
@@ -228,27 +278,37 @@ def identify_mode(
     """
     t = np.asarray(t_s, dtype=float)
     coord = BODY_COORDINATES.index({"bounce": "z_s", "roll": "phi", "pitch": "theta"}[mode])
-    y = np.asarray(body_acc, dtype=float) * modal_weights(vehicle)
+    body = np.asarray(body_acc, dtype=float)
+    y = body * modal_weights(vehicle)
     dt = float(t[1] - t[0])
     step = max(1, int(np.floor(1.0 / (dt * _ERA_RATE_HZ))))
     start = int(np.argmax(np.abs(y[:, coord])))
-    seg = y[start : start + int(round(window_s / dt)) + 1 : step]
-    found: list[tuple[float, float]] = []
-    for fit in era(seg, dt * step, orders):
+    window = slice(start, start + int(round(window_s / dt)) + 1, step)
+    found: list[tuple[float, float, ModalFit, int]] = []
+    for fit in era(y[window], dt * step, orders):
         f, zeta = fit.frequency_hz, fit.damping_ratio
         ok = np.isfinite(f) & (f >= band_hz[0]) & (f <= band_hz[1]) & (zeta > 0.0) & (zeta < 1.0)
         if ok.any():
-            k = np.flatnonzero(ok)[np.argmax(fit.contribution(coord)[ok])]
-            found.append((float(f[k]), float(zeta[k])))
+            k = int(np.flatnonzero(ok)[np.argmax(fit.contribution(coord)[ok])])
+            found.append((float(f[k]), float(zeta[k]), fit, k))
     if not found:
         raise ModelError(f"no {mode} mode found in {band_hz[0]:g}-{band_hz[1]:g} Hz; is the record a free decay?")
-    freqs, zetas = np.array(found).T
+    freqs, zetas = np.array([(f, z) for f, z, _, _ in found]).T
+    median = float(np.median(freqs))
+    # The shape of one order's pole: a median of shapes would mix poles of different orders.
+    _, _, fit, k = found[int(np.argmin(np.abs(freqs - median)))]
+    wheels = np.full((t.size, 4), np.nan) if wheel_acc is None else np.asarray(wheel_acc, dtype=float)
+    channels = np.concatenate([body, wheels], axis=1)[window]
+    measured = np.all(np.isfinite(channels), axis=0)
+    shape = np.full(channels.shape[1], np.nan, dtype=complex)
+    shape[measured] = mode_amplitudes(channels[:, measured], dt * step, fit.poles)[k]
     return IdentifiedMode(
-        frequency_hz=float(np.median(freqs)),
+        frequency_hz=median,
         damping_ratio=float(np.median(zetas)),
         spread_hz=float(freqs.max() - freqs.min()),
         t_start_s=float(t[start]),
         orders=len(found),
+        shape=shape,
     )
 
 

@@ -295,6 +295,41 @@ def modal_table(model: CoupledModel, tol: float = 1e-8) -> pd.DataFrame:
     return table.iloc[np.lexsort((table["frequency_hz"].to_numpy(), order))].reset_index(drop=True)
 
 
+def mechanical_mode_shapes(model: CoupledModel, tol: float = 1e-8) -> tuple[np.ndarray, np.ndarray]:
+    """Roots and complex shapes of the seven mechanical modes of a single-design model.
+
+    The names are :func:`modal_table`'s (the same rule); the shapes are for comparing with
+    measured motion (:func:`mac`), e.g. drop-test pairing (:mod:`hisopt.droptest`).
+
+    Returns
+    -------
+    roots : [rad/s] ``(7,)`` in :data:`MODE_NAMES` order (of the lumped realisation; NaN where
+        a mode is overdamped)
+    shapes : [sqrt(kg) m/s] mass-weighted velocity shapes in motion coordinates
+        (:func:`motion_coordinates`), ``(7, 7)``, column ``j`` mode ``MODE_NAMES[j]`` (NaN if absent)
+    """
+    a, weights = _state(model)
+    if a.shape[0] != 1:
+        raise ValueError("mechanical_mode_shapes expects a single design; pass one design at a time")
+    return _modes_from(a[0], weights[0], np.diag(model.mass), tol).named()
+
+
+def _log_det_slope(k: np.ndarray, dk: np.ndarray) -> np.ndarray:
+    """``tr(K^-1 dK/ds)`` of a batch ``(..., 7, 7)``; ``inf`` (a Newton step of 0) where ``K``
+    is singular to working precision: there ``s`` is a root already (Newton lands on one
+    exactly now and then), and one such root must not fail the whole batch."""
+    try:
+        return np.trace(np.linalg.solve(k, dk), axis1=-2, axis2=-1)
+    except np.linalg.LinAlgError:
+        out = np.empty(k.shape[:-2], dtype=complex)
+        for i in np.ndindex(out.shape):  # rare: only a batch with an exactly singular K
+            try:
+                out[i] = np.trace(np.linalg.solve(k[i], dk[i]))
+            except np.linalg.LinAlgError:
+                out[i] = np.inf
+        return out
+
+
 def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -> np.ndarray:
     """Newton refinement of roots of ``det K_dyn(s)`` (batched over the roots).
 
@@ -309,8 +344,7 @@ def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -
         h = 1e-6 * np.abs(s)
         k = model.dynamic_stiffness(s)
         dk = (model.dynamic_stiffness(s + h) - model.dynamic_stiffness(s - h)) / (2 * h)[..., None, None]
-        logdet_prime = np.trace(np.linalg.solve(k, dk), axis1=-2, axis2=-1).reshape(s.shape)
-        step = -1.0 / logdet_prime
+        step = -1.0 / _log_det_slope(k, dk).reshape(s.shape)
         s = s + step
         if np.all(np.abs(step) < 1e-12 * np.abs(s)):
             break

@@ -91,6 +91,29 @@ def test_pipes_of_1e10_m_are_repaired_never_reported_wrong(problem, rng):
         assert np.all(~fast["valid"][~ok])  # anything not repaired is flagged, never valid
 
 
+def test_distributed_pipes_of_1e10_m_are_right_or_flagged(problem, rng):
+    """Issue 22: distributed pipes take the direct solve at nodes placed by the lumped twin's
+    poles, and with pipes of 1e-10 m those poles are as wrong as the lumped path's were, so
+    the nodes missed the peaks: sigma_aw 5.77 instead of 17.58 at the lightly damped corner,
+    status ok. The twin's conditioning now flags such designs and their poles come from
+    Newton's method on the distributed model's det K_dyn (as the lumped path's repair); every
+    quantity is within the evaluator's 1e-3 of the converged reference (a direct solve on a
+    grid about the distributed model's own roots), or the design is not valid, never wrong."""
+    p = variant(problem, 10.0, {"pipes": {"diameter": 0.01, "length_front": 1e-10, "length_rear": 1e-10}, "pipe_model": "distributed"})
+    corner = [4e6, 25e-4, 0.8, 1.6e6]  # p0, dA, lam, Rv: the issue's design
+    x = np.vstack([corner, random_designs(p, 3, rng, corners=False)])
+    model = p.model(x)
+    assert (channels.eigen_conditioning(model.state_space().a) > evaluate.CONDITION_LIMIT).all()  # the repair is tested
+    fast, ref = p.evaluator()(x), reference(p, x)
+    assert ref["sigma_aw"][0] == pytest.approx(17.58, abs=0.005) and fast["valid"][0]  # right, not merely flagged
+    for name in p.evaluator().names:
+        ok = np.isfinite(fast[name])
+        assert np.all(np.abs(fast[name][ok] / ref[name][ok] - 1) < 1e-3), (name, fast[name], ref[name])
+        assert np.all(~fast["valid"][~ok])  # anything not repaired is flagged, never valid
+    table = p.evaluate(x)
+    assert set(table.loc[~fast["valid"], "status"]) <= {"failed"}
+
+
 @pytest.mark.parametrize("case", ["no_pipes", "pipes", "twin_accumulator"])
 def test_symmetric_split_equals_full_path_within_1e10(problem, rng, case, monkeypatch):
     if case == "twin_accumulator":  # hydraulic states in both halves

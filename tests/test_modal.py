@@ -165,3 +165,21 @@ def test_distributed_pipes_refine_lumped_body_modes(problem):
     dist = hisopt.modal_analysis(problem.with_values(pipes=pipes, pipe_model="distributed")).set_index("mode")
     for mode in ("bounce", "roll", "pitch"):
         assert dist.loc[mode, "frequency_hz"] == pytest.approx(lumped.loc[mode, "frequency_hz"], rel=0.01)
+
+
+def test_a_root_newton_lands_on_exactly_does_not_fail_the_batch():
+    """refine_roots' step needs tr(K^-1 dK/ds); where K is singular to working precision
+    (Newton landed on a root exactly: seen with pipes of 1e-10 m) the step is 0 for that
+    root only, not a LinAlgError that made the repair flag a whole batch of 256 designs."""
+    from hisopt.modal import _log_det_slope
+
+    rng = np.random.default_rng(3)
+    k = rng.standard_normal((3, 7, 7)) + 1j * rng.standard_normal((3, 7, 7))
+    dk = rng.standard_normal((3, 7, 7)) + 0j
+    k[1, :, 0] = 0.0  # exactly singular
+    with pytest.raises(np.linalg.LinAlgError):
+        np.linalg.solve(k, dk)
+    slope = _log_det_slope(k, dk)
+    assert np.isinf(slope[1]) and -1.0 / slope[1] == 0.0
+    for i in (0, 2):
+        assert slope[i] == pytest.approx(np.trace(np.linalg.inv(k[i]) @ dk[i]), rel=1e-12)
