@@ -99,6 +99,18 @@ def test_payloads_at_the_edge_of_the_body_are_accepted(tmp_path):
     warned(out, "payload.mass", "more than the car's own sprung mass")
 
 
+def test_the_sag_check_uses_springs_and_tyres_in_series_and_leaves_a_springless_axle_to_the_model():
+    from hisopt.payload import Payload
+    from hisopt.plausibility import payload_problem, sprung_vertical_stiffness
+    from hisopt.vehicle import VehicleParams
+
+    car = VehicleParams(k_sf=30_000.0, k_tf=150_000.0)  # front corners 25 kN/m, rear 18e3 * 2e5 / 2.18e5
+    assert sprung_vertical_stiffness(car) == pytest.approx(2 * 25_000.0 + 2 * 18_000.0 * 200_000.0 / 218_000.0, rel=1e-12)
+    assert "payload.mass" in payload_problem(car, Payload(mass=1e9))
+    springless = VehicleParams(k_sf=0.0)  # carried at the front by its HIS alone: the sag depends on the design
+    assert sprung_vertical_stiffness(springless) == 0.0 and payload_problem(springless, Payload(mass=1e9)) is None
+
+
 def test_a_scenario_payload_outside_the_body_is_refused(tmp_path):
     text = ROBUST.read_text(encoding="utf-8")
     path = edited(tmp_path, "payload = { mass = 350.0, x = -0.35, z = 0.05 }", "payload = { mass = 350.0, y = 3.0 }", text)
