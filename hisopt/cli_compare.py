@@ -84,6 +84,8 @@ def compare_layouts_command(
         return interrupt.exit_code(exc)
     report = write_layout_report(result)
     Console(width=200).print(_table(result))
+    for note in result.limit_notes():
+        typer.echo(note)
     typer.echo(f"wrote {out / 'layouts.csv'} and {report}")
     return 0
 
@@ -97,7 +99,7 @@ def _table(result: Any) -> Any:
 
     columns = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "vorobev_deviation", "sigma_aw_at_limit",
                "handling_at_best", "gain_vs_roll_plane_pct", "k_roll", "k_warp"]
-    shown = display_frame(result.table[columns])
+    shown = display_frame(result.table[columns]).replace("nan", "–")  # e.g. a layout without a design at the limit
     limit = display_frame(result.table[["handling_limit"]].head(1)).iloc[0, 0]
     table = Table(title=Text(f"Layouts at equal handling: {result.handling} <= {limit} "
                              f"(normalised hypervolume across seeds; gain in comfort over roll_plane)"))

@@ -206,7 +206,9 @@ class Evaluator:
         order = np.argsort(f_all, axis=1, kind="stable")  # the peak search's sorted samples, for all roads
         bases = self._peak_bases()
         flat = (order + f_all.shape[1] * np.arange(len(order))[:, None]).ravel()  # one gather for all roads
-        values = np.take(both[:, bases].reshape(len(roads) * len(bases), -1), flat, axis=1).reshape(len(roads), len(bases), *order.shape)
+        # the row length spelled out: a problem without PSD maxima has no bases (reshape cannot infer -1 from 0 rows)
+        rows = both[:, bases].reshape(len(roads) * len(bases), order.size)
+        values = np.take(rows, flat, axis=1).reshape(len(roads), len(bases), *order.shape)
         peaks = (np.take_along_axis(f_all, order, 1), values)
         return [Prior(edges, f, w, f_peak, both[r], (peaks[0], peaks[1][r])) for r in range(len(evaluators))]
 

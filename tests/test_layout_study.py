@@ -225,3 +225,88 @@ def test_layout_cases_take_variables_from_the_catalogue_and_custom_files(problem
     a, b = paper.evaluate(x), custom.evaluate(x)
     for name in problem.objective_names:
         np.testing.assert_allclose(b[name], a[name], rtol=1e-9, err_msg=name)
+
+
+# --- a problem with load cases ------------------------------------------------------------------
+def _scenario_problem(folder: Path) -> Path:
+    """The shipped robust problem cut down: two roads sharing one model (the evaluator shares
+    their samples) and two objectives, so that the equal-handling NLP (objective sigma_aw
+    alone) evaluates load cases without any PSD maximum. The handling quantity is the static
+    roll gradient (the step steer's would make each NLP ten times slower), constrained so
+    that the runs' logs hold it."""
+    text = (ROOT / "problems" / "roll_plane_his_robust.toml").read_text()
+    text = text[: text.index("[[scenarios]]")].replace(
+        'objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "max_roll_psd"]')
+    text += """
+[[scenarios]]
+name = "city"
+road = { class = "C", speed = 10.0 }
+
+[[scenarios]]
+name = "motorway"
+road = { class = "A", speed = 33.0 }
+
+[[constraints]]
+name = "rms_tire_load"
+limit = 1265.0
+
+[[constraints]]
+name = "roll_gradient"
+limit = 0.08
+"""
+    path = folder / "two_roads.toml"
+    path.write_text(text)
+    return path
+
+
+def _least_feasible(run_dir: Path, quantity: str) -> float:
+    """[SI] The least ``quantity`` of a run's feasible designs, from its evaluation log."""
+    log = pd.read_parquet(run_dir / "evaluations.parquet")
+    return float(log.loc[log["feasible"], quantity].min())
+
+
+def test_cli_study_of_a_scenario_problem_including_a_limit_no_design_meets(tmp_path):
+    """Regression (issue 22): the study of a problem with load cases crashed after its runs
+    (the NLP's problem has no PSD maximum); and a layout with no design at the limit must say
+    so in layouts.csv, on the terminal and in the report."""
+    problem = _scenario_problem(tmp_path)
+    out = tmp_path / "study"
+    args = ("compare-layouts", problem, "--layouts", "axle_roll", "--seeds", "1", "--pop", "10", "--gens", "3", "--out", out,
+            "--handling", "roll_gradient")
+    first = run_cli(*args)
+    assert first.code == 0, first.stderr
+    table = read_csv(out / "layouts.csv").set_index("layout")
+    assert (out / "report.html").is_file() and table.loc["roll_plane", "handling"] == "roll_gradient"
+    least = {name: _least_feasible(out / name / "seed-1", "roll_gradient") for name in ("roll_plane", "axle_roll")}
+    for name, row in table.iterrows():
+        assert row["handling_least"] == least[name]  # the same numbers, read back from the runs' own logs
+        met = least[name] <= row["handling_limit"]
+        assert row["at_limit"] == ("met" if met else row["at_limit"]) and (row["at_limit"] == "met") == met
+        assert np.isfinite(row["sigma_aw_at_limit"]) == met
+        if met:
+            assert row["handling_at_best"] <= row["handling_limit"]
+
+    # a limit below every feasible design of both layouts: the study says so, it does not crash
+    limit = 0.5 * min(least.values())
+    second = run_cli(*args, "--handling-limit", repr(limit))
+    assert second.code == 0, second.stderr
+    table = read_csv(out / "layouts.csv").set_index("layout")
+    assert table["handling_limit"].tolist() == [limit, limit]
+    assert table["sigma_aw_at_limit"].isna().all() and table["gain_vs_roll_plane_pct"].isna().all()
+    for name in ("roll_plane", "axle_roll"):
+        status = table.loc[name, "at_limit"]
+        assert status.startswith("none of ") and "feasible designs meets roll_gradient <= " in status, status
+        assert f"{name}: {status}, so it has no sigma_aw_at_limit" in second.stdout
+    assert "without the reference, no layout has a gain_vs_roll_plane_pct" in second.stdout
+    page = (out / "report.html").read_text()
+    assert page.count("No design at the limit.") == 2
+
+    # between the two layouts' least values: one layout compared, the other said to have no design
+    low, high = sorted(least.values())
+    if low < high:
+        third = run_cli(*args, "--handling-limit", repr(0.5 * (low + high)))
+        assert third.code == 0, third.stderr
+        table = read_csv(out / "layouts.csv").set_index("layout")
+        assert sorted(table["at_limit"] == "met") == [False, True]
+        assert (read_csv(out / "layouts.csv").set_index("layout")["sigma_aw_at_limit"].notna() == (table["at_limit"] == "met")).all()
+        assert third.stdout.count("so it has no sigma_aw_at_limit") == 1
