@@ -54,7 +54,10 @@ class Evaluator:
 
     Parameters
     ----------
-    problem : the problem (vehicle, HIS, road, band, comfort, objectives, constraints)
+    problem : the problem (vehicle, HIS, road, band, comfort, objectives, constraints); of a
+        problem with ``[[scenarios]]``, its ``[road]`` without a scenario's payload, each
+        objective and constrained quantity under its plain name
+        (:class:`~hisopt.scenario_evaluator.ScenarioEvaluator` evaluates the load cases)
     chunk_size : designs per vectorised batch (bounds memory for any number of designs)
     order : Gauss-Legendre nodes per panel
     peak_steps : new samples of each PSD maximum (:func:`hisopt.peaks.refine_maximum`)
@@ -79,7 +82,10 @@ class Evaluator:
         self.chunk_size = chunk_size
         self.order = order
         self.peak_steps = peak_steps
-        self.names = tuple(dict.fromkeys(problem.objective_names + problem.constraint_names))
+        # The plain quantities, not problem.objective_names: on a problem with [[scenarios]] this
+        # evaluator is its default load case (its [road], no scenario payload; as modes and
+        # sweeps), whose quantities are never "<quantity>@<scenario>" columns (per_scenario).
+        self.names = tuple(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
         self.metrics = [METRICS[n] for n in self.names]
         self.all_outputs = standard_outputs(problem.vehicle)
         wanted: list[str] = []
