@@ -90,6 +90,18 @@ def compare_layouts_command(
     return 0
 
 
+def study_report(out: Path, color_by: str | None, design: str) -> Path:
+    """``hisopt report`` on a layout study's directory: its report written again from its files."""
+    from hisopt.errors import ConfigError
+    from hisopt.optim.layout_folder import read_layout_study
+    from hisopt.report.layout_report import write_layout_report
+
+    for given, name in ((color_by, "--color-by"), (None if design == "knee" else design, "--design")):
+        if given is not None:
+            raise ConfigError(f"a layout study's report takes no {name}; expected the study directory alone", key=name)
+    return write_layout_report(read_layout_study(out))
+
+
 def _table(result: Any) -> Any:
     """The headline columns of ``layouts.csv`` as a rich table (engineering units)."""
     from rich.table import Table

@@ -310,3 +310,49 @@ def test_cli_study_of_a_scenario_problem_including_a_limit_no_design_meets(tmp_p
         assert sorted(table["at_limit"] == "met") == [False, True]
         assert (read_csv(out / "layouts.csv").set_index("layout")["sigma_aw_at_limit"].notna() == (table["at_limit"] == "met")).all()
         assert third.stdout.count("so it has no sigma_aw_at_limit") == 1
+
+
+# --- hisopt status and hisopt report on a study directory -----------------------------------------
+def _backticked(line: str) -> list[str]:
+    return line.split("`")[1].split()
+
+
+def test_status_and_report_recognise_a_study_directory(serial, tmp_path):
+    """Issue 22: both said "start a run with hisopt optimize". Now status summarises the
+    study (layouts, seeds, each run, its files, what to do next, from the runs' own state)
+    and report writes the study report from its files, byte for byte the one the study's own
+    result gives; an unfinished study says how to finish it, and that command finishes it."""
+    from hisopt.report.layout_report import write_layout_report
+
+    out = tmp_path / "study"
+    shutil.copytree(serial.out, out)
+    status = run_cli("status", out)
+    assert status.code == 0, status.stderr
+    lines = status.stdout.splitlines()
+    assert lines[0] == f"{out}: layout study of roll_plane_his: layouts roll_plane, axle_roll; seeds 1-2; runs of population {POP} for {GENS} generations"
+    assert lines[1:5] == [f"  {n} seed {s}: finished, {GENS} of {GENS} generations" for n in ("roll_plane", "axle_roll") for s in (1, 2)]
+    assert lines[5] == "  layouts.csv written, no report.html yet" and lines[6] == f"next: `hisopt report {out}` writes {out / 'report.html'}"
+
+    report = run_cli("report", out)
+    assert report.code == 0 and report.stdout.strip() == f"wrote {out / 'report.html'}", report.stderr
+    direct = write_layout_report(serial, tmp_path / "direct.html")
+    assert (out / "report.html").read_bytes() == direct.read_bytes()
+    assert run_cli("status", out).stdout.splitlines()[-1].startswith(f"finished: open {out / 'report.html'}")
+    wrong = run_cli("report", out, "--color-by", "sigma_aw")
+    assert wrong.code == 2 and len(wrong.error_lines) == 1 and "takes no --color-by" in wrong.stderr
+
+    # unfinished: a run missing, the table gone
+    shutil.rmtree(out / "axle_roll" / "seed-2")
+    (out / "layouts.csv").unlink()
+    lines = run_cli("status", out).stdout.splitlines()
+    assert "  axle_roll seed 2: not started" in lines and "  report.html written, layouts.csv missing" in lines
+    assert lines[-1].startswith("next: finish the study (finished runs are reused) with `hisopt compare-layouts ")
+    command = _backticked(lines[-1])
+    assert command[3:] == ["--layouts", "roll_plane,axle_roll", "--seeds", "1-2", "--pop", str(POP), "--gens", str(GENS), "--out", str(out)]
+    refused = run_cli("report", out)
+    assert refused.code == 2 and len(refused.error_lines) == 1 and "has no layouts.csv yet (it has not finished)" in refused.stderr
+    assert _backticked(refused.error_lines[0]) == command
+    finished = run_cli(*command[1:])
+    assert finished.code == 0, finished.stderr
+    assert run_cli("status", out).stdout.splitlines()[-1].startswith("finished: open")
+    _numeric_equal(read_csv(serial.out / "layouts.csv"), read_csv(out / "layouts.csv"))  # the same study

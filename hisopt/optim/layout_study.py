@@ -58,12 +58,13 @@ from hisopt.optim.layout_metrics import (
     evaluate_quantities,
     shared_normalisation,
 )
+from hisopt.optim.rundir import LAYOUT_STUDY_JSON
 
 if TYPE_CHECKING:
     from hisopt.parallel import Backend
     from hisopt.problem import Problem
 
-STUDY_JSON = "study.json"
+STUDY_JSON = LAYOUT_STUDY_JSON
 STUDY_FORMAT = "hisopt-layout-study/1"
 LAYOUTS_CSV, RUNS_CSV, FRONTS_CSV, CURVE_CSV, ATTAINMENT_CSV = (
     "layouts.csv", "runs.csv", "fronts.csv", "handling_curve.csv", "attainment.csv")
@@ -240,6 +241,8 @@ class LayoutStudyResult:
         from hisopt.optim.layout_cases import REFERENCE_LAYOUT
         from hisopt.units import format_quantity
 
+        if "at_limit" not in self.table:  # a table written before hisopt said why
+            return []
         unit = self.table.attrs["units"]["handling_limit"]
         notes = []
         for row in self.table.itertuples(index=False):

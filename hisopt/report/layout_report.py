@@ -121,6 +121,7 @@ def table_html(result: LayoutStudyResult) -> str:
     first = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "hv_merged", "vorobev_threshold_pct", "vorobev_deviation",
              "sigma_aw_at_limit", "handling_at_best", "refined", "gain_vs_roll_plane_pct", "handling_least", "at_limit"]
     second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c == "stiffness_coupling"]
+    first = [c for c in first if c in t]  # a table of an older hisopt lacks handling_least and at_limit
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
     shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
     labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]")
