@@ -91,8 +91,8 @@ def load(problem: Path, sets: list[str] | None, scenario: str | None = None):
     if scenario is None:
         return p
     if scenario not in p.scenario_names:
-        known = ", ".join(p.scenario_names) or "none: the problem has no [[scenarios]]"
-        raise ConfigError(f"unknown scenario {scenario!r}; expected one of {known}", key="--scenario")
+        known = f"one of {', '.join(p.scenario_names)}" if p.scenario_names else "a problem with [[scenarios]] (this one has none), or no --scenario"
+        raise ConfigError(f"unknown scenario {scenario!r}; expected {known}", key="--scenario")
     return p.scenario_space(scenario)
 
 

@@ -201,8 +201,8 @@ class ProblemSpec(_Strict):
         for c in self.constraints:
             unknown = [n for n in c.scenarios or [] if n not in names]
             if unknown:
-                known = ", ".join(names) or "none: the problem has no [[scenarios]]"
-                raise ValueError(f"constraints: {c.name} names scenario {unknown[0]!r}; expected one of {known}")
+                known = f"one of {', '.join(names)}" if names else "[[scenarios]] tables for it to name, or no scenarios on the constraint"
+                raise ValueError(f"constraints: {c.name} names scenario {unknown[0]!r}; expected {known}")
         for c in self.constraints if self.scenarios else []:
             worst_everywhere = self.robust.aggregate in ("worst", "per_scenario") and c.scenarios is None
             if c.name in self.objectives and not worst_everywhere:
@@ -236,7 +236,8 @@ class ProblemSpec(_Strict):
             problem = bounds_problem(name, var.lower, var.upper, layout) or switched_off(name, self.his)
             if not problem and name not in used:
                 read = ", ".join(n for n in allowed if n in used)
-                problem = f"not read by layout {self.his.layout!r}, so it would do nothing; expected one of {read}"
+                problem = f"not read by layout {self.his.layout!r}, so it would do nothing; " + (
+                    f"expected one of {read}" if read else "its elements read only numbers, so it has no design variable")
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
         return self
@@ -302,7 +303,7 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     elif err["type"] == "missing":
         return key, "missing; expected a value (see problems/roll_plane_his.toml)"
     msg = msg.replace("Input should be ", "expected ", 1)
-    if "input" in err and not isinstance(err["input"], dict):
+    if "input" in err and not isinstance(err["input"], dict) and not any(g in msg for g in (", got ", "; got ")):  # a validator may name it
         msg = f"{msg}, got {_short(err['input'])}"
     return key, msg
 

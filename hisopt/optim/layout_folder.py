@@ -76,14 +76,17 @@ def _command(out: Path, record: dict[str, Any], seeds: list[int]) -> str:
     layouts = ",".join(source if source != "catalogue" else name for name, source in record["layouts"].items())
     budget = record["budget"]
     problem = path if path and Path(path).is_file() else "PROBLEM"
-    text = (f"hisopt compare-layouts {problem} --layouts {layouts} --seeds {seed_text(seeds)} --pop {budget['pop_size']} "
+    text = (f"hisopt compare-layouts {problem} --layouts {layouts} --seeds {seed_text(seeds) or 'SEEDS'} --pop {budget['pop_size']} "
             f"--gens {budget['generations']} --out {out}")
-    if not (out / LAYOUTS_CSV).is_file():
-        return f"`{text}` (add the --handling and --handling-limit you gave, if any)"
-    from hisopt.io import read_csv
+    unknown = [] if seeds else ["SEEDS: the seeds you gave (no run has begun)"]
+    if (out / LAYOUTS_CSV).is_file():
+        from hisopt.io import read_csv
 
-    table = read_csv(out / LAYOUTS_CSV)
-    return f"`{text} --handling {table['handling'].iloc[0]} --handling-limit {float(table['handling_limit'].iloc[0])!r}`"
+        table = read_csv(out / LAYOUTS_CSV)
+        text += f" --handling {table['handling'].iloc[0]} --handling-limit {float(table['handling_limit'].iloc[0])!r}"
+    else:
+        unknown.append("add the --handling and --handling-limit you gave, if any")
+    return f"`{text}`" + (f" ({'; '.join(unknown)})" if unknown else "")
 
 
 def _problem_note(record: dict[str, Any]) -> str:
@@ -94,7 +97,8 @@ def _problem_note(record: dict[str, Any]) -> str:
     path = record["problem"].get("path")
     digest = record["problem"]["sha256"]
     if not path or not Path(path).is_file():
-        return f"PROBLEM: the study's problem file {record['problem']['name']!r} (sha256 {digest[:12]}), not found at {path}"
+        where = f", not found at {path}" if path else ""
+        return f"PROBLEM: the study's problem file {record['problem']['name']!r} (sha256 {digest[:12]}){where}"
     try:
         now = problem_digest(load_problem(path))
     except ConfigError as exc:
