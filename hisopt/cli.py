@@ -92,8 +92,8 @@ def load(problem: Path, sets: list[str] | None, scenario: str | None = None):
     if scenario is None:
         return p
     if scenario not in p.scenario_names:
-        known = ", ".join(p.scenario_names) or "none: the problem has no [[scenarios]]"
-        raise ConfigError(f"unknown scenario {scenario!r}; expected one of {known}", key="--scenario")
+        known = f"one of {', '.join(p.scenario_names)}" if p.scenario_names else "a problem with [[scenarios]] (this one has none), or no --scenario"
+        raise ConfigError(f"unknown scenario {scenario!r}; expected {known}", key="--scenario")
     return p.scenario_space(scenario)
 
 
@@ -454,15 +454,21 @@ def resume_cmd(
 
 @app.command("status")
 def status_cmd(
-    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of `hisopt optimize` (or a compare-layouts study)")],
 ) -> None:
     """Say in one line what state a run directory is in.
 
     The state is running, interrupted, killed, failed or finished, and the line says what
-    to do next: resume the run, wait for it, or start over with another --out.
+    to do next: resume the run, wait for it, or start over with another --out. On a
+    `hisopt compare-layouts` study: its layouts, seeds, each run's state, its tables and
+    report, and what to do next.
     """
+    from hisopt.optim.layout_folder import is_layout_study, study_status
     from hisopt.optim.runstate import read_state
 
+    if is_layout_study(run_dir):
+        typer.echo("\n".join(study_status(run_dir)))
+        return
     typer.echo(read_state(run_dir).line())
 
 
@@ -518,18 +524,21 @@ def study(
 
 @app.command()
 def report(
-    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of `hisopt optimize` (or a compare-layouts study)")],
     color_by: Annotated[str | None, typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
     design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
 ) -> None:
     """Write RUN_DIR/report.html, the run's offline report.
 
     Front, parallel coordinates, convergence, spectra and modes of one design; plotly.js
-    is embedded, so the file opens offline.
+    is embedded, so the file opens offline. On a finished `hisopt compare-layouts` study,
+    its study report from its files.
     """
+    from hisopt.cli_compare import study_report
+    from hisopt.optim.layout_folder import is_layout_study
     from hisopt.report.html import build_report
 
-    path = build_report(run_dir, color_by=color_by, design=design)
+    path = study_report(run_dir, color_by, design) if is_layout_study(run_dir) else build_report(run_dir, color_by=color_by, design=design)
     typer.echo(f"wrote {path}")
 
 

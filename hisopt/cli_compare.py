@@ -86,6 +86,8 @@ def compare_layouts_command(
         return interrupt.exit_code(exc)
     report = write_layout_report(result)
     Console(width=200).print(_table(result))
+    for note in result.limit_notes():
+        typer.echo(note)
     typer.echo(f"wrote {out / 'layouts.csv'} and {report}")
     return 0
 
@@ -102,6 +104,18 @@ def _handling_limit(problem: Any, handling: str | None, text: str | float | None
     return to_si(text, column_unit(name) or "-", key="--handling-limit")
 
 
+def study_report(out: Path, color_by: str | None, design: str) -> Path:
+    """``hisopt report`` on a layout study's directory: its report written again from its files."""
+    from hisopt.errors import ConfigError
+    from hisopt.optim.layout_folder import read_layout_study
+    from hisopt.report.layout_report import write_layout_report
+
+    for given, name in ((color_by, "--color-by"), (None if design == "knee" else design, "--design")):
+        if given is not None:
+            raise ConfigError(f"a layout study's report takes no {name}; expected the study directory alone", key=name)
+    return write_layout_report(read_layout_study(out))
+
+
 def _table(result: Any) -> Any:
     """The headline columns of ``layouts.csv`` as a rich table (engineering units)."""
     from rich.table import Table
@@ -111,7 +125,7 @@ def _table(result: Any) -> Any:
 
     columns = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "vorobev_deviation", "sigma_aw_at_limit",
                "handling_at_best", "gain_vs_roll_plane_pct", "k_roll", "k_warp"]
-    shown = display_frame(result.table[columns])
+    shown = display_frame(result.table[columns]).replace("nan", "–")  # e.g. a layout without a design at the limit
     limit = format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"])  # with its unit: pasted back as is
     table = Table(title=Text(f"Layouts at equal handling: {result.handling} <= {limit} "
                              f"(normalised hypervolume across seeds; gain in comfort over roll_plane)"))

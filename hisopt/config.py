@@ -240,8 +240,8 @@ class ProblemSpec(_Strict):
         for c in self.constraints:
             unknown = [n for n in c.scenarios or [] if n not in names]
             if unknown:
-                known = ", ".join(names) or "none: the problem has no [[scenarios]]"
-                raise ValueError(f"constraints: {c.name} names scenario {unknown[0]!r}; expected one of {known}")
+                known = f"one of {', '.join(names)}" if names else "[[scenarios]] tables for it to name, or no scenarios on the constraint"
+                raise ValueError(f"constraints: {c.name} names scenario {unknown[0]!r}; expected {known}")
         for c in self.constraints if self.scenarios else []:
             worst_everywhere = self.robust.aggregate in ("worst", "per_scenario") and c.scenarios is None
             if c.name in self.objectives and not worst_everywhere:
@@ -283,7 +283,8 @@ class ProblemSpec(_Strict):
             problem = bounds_problem(name, var.lower, var.upper, layout) or switched_off(name, self.his)
             if not problem and name not in used:
                 read = ", ".join(n for n in allowed if n in used)
-                problem = f"not read by layout {self.his.layout!r}, so it would do nothing; expected one of {read}"
+                problem = f"not read by layout {self.his.layout!r}, so it would do nothing; " + (
+                    f"expected one of {read}" if read else "its elements read only numbers, so it has no design variable")
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
         return self
@@ -351,7 +352,7 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     msg = msg.replace("Input should be ", "expected ", 1)
     if err["type"] in ("greater_than", "greater_than_equal", "less_than", "less_than_equal") and err["loc"]:
         msg += rule_reason(str(err["loc"][-1]))  # a rule with a physical reason says it (hisopt.plausibility)
-    if "input" in err and not isinstance(err["input"], dict):
+    if "input" in err and not isinstance(err["input"], dict) and not any(g in msg for g in (", got ", "; got ")):  # a validator may name it
         msg = f"{msg}, got {_short(err['input'])}"
     return key, msg
 
@@ -368,6 +369,7 @@ def parse_problem(data: dict[str, Any], source: str = "<problem>", *, warn_impla
     :class:`~hisopt.errors.PlausibilityWarning` (:mod:`hisopt.plausibility`); problems derived
     from a checked one (a dump with one change) pass False, so that nothing warns twice.
     """
+    written = data  # as the user wrote it: a roll limit warns only when written as a bare number
     data = convert_problem_units(data, source, ProblemSpec)  # "2.5 MPa" -> 2.5e6: SI before the strict validation
     try:
         spec = ProblemSpec.model_validate(data, strict=True)
@@ -378,7 +380,7 @@ def parse_problem(data: dict[str, Any], source: str = "<problem>", *, warn_impla
     if found:
         raise ConfigError(found[1], file=source, key=found[0])
     if warn_implausible:
-        warn(implausible_values(spec, data), source)
+        warn(implausible_values(spec, written), source)
     return spec
 
 

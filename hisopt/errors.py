@@ -47,3 +47,16 @@ class PlausibilityWarning(UserWarning):
         self.detail = message  # the message without the file and key
         where = ": ".join(part for part in (file, key) if part)
         super().__init__(f"{where}: {message}" if where else message)
+
+
+def with_article(word: str | int) -> str:
+    """``"an accumulator"``, ``"a valve"``, ``"an 8-design"`` for messages built from names
+    and numbers (by sound: a vowel letter, or a number read aloud from eight, eleven or eighteen)."""
+    text = str(word)
+    digits = text.split("-")[0].split(" ")[0]
+    if digits.isdigit():
+        lead = digits[: len(digits) % 3 or 3].lstrip("0") or "0"  # the group read first: 8, 11, 18, 80-89, 800-899
+        vowel = lead.startswith("8") or lead in ("11", "18")
+    else:
+        vowel = text[:1].lower() in tuple("aeio") or (text[:1].lower() == "u" and not text.lower().startswith(("uni", "use", "usu", "uti")))
+    return f"{'an' if vowel else 'a'} {text}"

@@ -56,7 +56,10 @@ class Evaluator:
 
     Parameters
     ----------
-    problem : the problem (vehicle, HIS, road, band, comfort, objectives, constraints)
+    problem : the problem (vehicle, HIS, road, band, comfort, objectives, constraints); of a
+        problem with ``[[scenarios]]``, its ``[road]`` without a scenario's payload, each
+        objective and constrained quantity under its plain name
+        (:class:`~hisopt.scenario_evaluator.ScenarioEvaluator` evaluates the load cases)
     chunk_size : designs per vectorised batch (bounds memory for any number of designs)
     order : Gauss-Legendre nodes per panel
     peak_steps : new samples of each PSD maximum (:func:`hisopt.peaks.refine_maximum`)
@@ -81,7 +84,10 @@ class Evaluator:
         self.chunk_size = chunk_size
         self.order = order
         self.peak_steps = peak_steps
-        self.names = tuple(dict.fromkeys(problem.objective_names + problem.constraint_names))
+        # The plain quantities, not problem.objective_names: on a problem with [[scenarios]] this
+        # evaluator is its default load case (its [road], no scenario payload; as modes and
+        # sweeps), whose quantities are never "<quantity>@<scenario>" columns (per_scenario).
+        self.names = tuple(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
         self.metrics = [METRICS[n] for n in self.names]
         self.all_outputs = standard_outputs(problem.vehicle)
         wanted: list[str] = []
@@ -208,7 +214,9 @@ class Evaluator:
         order = np.argsort(f_all, axis=1, kind="stable")  # the peak search's sorted samples, for all roads
         bases = self._peak_bases()
         flat = (order + f_all.shape[1] * np.arange(len(order))[:, None]).ravel()  # one gather for all roads
-        values = np.take(both[:, bases].reshape(len(roads) * len(bases), -1), flat, axis=1).reshape(len(roads), len(bases), *order.shape)
+        # the row length spelled out: a problem without PSD maxima has no bases (reshape cannot infer -1 from 0 rows)
+        rows = both[:, bases].reshape(len(roads) * len(bases), order.size)
+        values = np.take(rows, flat, axis=1).reshape(len(roads), len(bases), *order.shape)
         peaks = (np.take_along_axis(f_all, order, 1), values)
         return [Prior(edges, f, w, f_peak, both[r], (peaks[0], peaks[1][r])) for r in range(len(evaluators))]
 

@@ -225,3 +225,134 @@ def test_layout_cases_take_variables_from_the_catalogue_and_custom_files(problem
     a, b = paper.evaluate(x), custom.evaluate(x)
     for name in problem.objective_names:
         np.testing.assert_allclose(b[name], a[name], rtol=1e-9, err_msg=name)
+
+
+# --- a problem with load cases ------------------------------------------------------------------
+def _scenario_problem(folder: Path) -> Path:
+    """The shipped robust problem cut down: two roads sharing one model (the evaluator shares
+    their samples) and two objectives, so that the equal-handling NLP (objective sigma_aw
+    alone) evaluates load cases without any PSD maximum. The handling quantity is the static
+    roll gradient (the step steer's would make each NLP ten times slower), constrained so
+    that the runs' logs hold it."""
+    text = (ROOT / "problems" / "roll_plane_his_robust.toml").read_text()
+    text = text[: text.index("[[scenarios]]")].replace(
+        'objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "max_roll_psd"]')
+    text += """
+[[scenarios]]
+name = "city"
+road = { class = "C", speed = 10.0 }
+
+[[scenarios]]
+name = "motorway"
+road = { class = "A", speed = 33.0 }
+
+[[constraints]]
+name = "rms_tire_load"
+limit = 1265.0
+
+[[constraints]]
+name = "roll_gradient"
+limit = 0.08
+"""
+    path = folder / "two_roads.toml"
+    path.write_text(text)
+    return path
+
+
+def _least_feasible(run_dir: Path, quantity: str) -> float:
+    """[SI] The least ``quantity`` of a run's feasible designs, from its evaluation log."""
+    log = pd.read_parquet(run_dir / "evaluations.parquet")
+    return float(log.loc[log["feasible"], quantity].min())
+
+
+def test_cli_study_of_a_scenario_problem_including_a_limit_no_design_meets(tmp_path):
+    """Regression (issue 22): the study of a problem with load cases crashed after its runs
+    (the NLP's problem has no PSD maximum); and a layout with no design at the limit must say
+    so in layouts.csv, on the terminal and in the report."""
+    problem = _scenario_problem(tmp_path)
+    out = tmp_path / "study"
+    args = ("compare-layouts", problem, "--layouts", "axle_roll", "--seeds", "1", "--pop", "10", "--gens", "3", "--out", out,
+            "--handling", "roll_gradient")
+    first = run_cli(*args)
+    assert first.code == 0, first.stderr
+    table = read_csv(out / "layouts.csv").set_index("layout")
+    assert (out / "report.html").is_file() and table.loc["roll_plane", "handling"] == "roll_gradient"
+    least = {name: _least_feasible(out / name / "seed-1", "roll_gradient") for name in ("roll_plane", "axle_roll")}
+    for name, row in table.iterrows():
+        assert row["handling_least"] == least[name]  # the same numbers, read back from the runs' own logs
+        met = least[name] <= row["handling_limit"]
+        assert row["at_limit"] == ("met" if met else row["at_limit"]) and (row["at_limit"] == "met") == met
+        assert np.isfinite(row["sigma_aw_at_limit"]) == met
+        if met:
+            assert row["handling_at_best"] <= row["handling_limit"]
+
+    # a limit below every feasible design of both layouts: the study says so, it does not crash
+    limit = 0.5 * min(least.values())
+    second = run_cli(*args, "--handling-limit", repr(limit))
+    assert second.code == 0, second.stderr
+    table = read_csv(out / "layouts.csv").set_index("layout")
+    assert table["handling_limit"].tolist() == [limit, limit]
+    assert table["sigma_aw_at_limit"].isna().all() and table["gain_vs_roll_plane_pct"].isna().all()
+    for name in ("roll_plane", "axle_roll"):
+        status = table.loc[name, "at_limit"]
+        assert status.startswith("none of ") and "feasible designs meets roll_gradient <= " in status, status
+        assert f"{name}: {status}, so it has no sigma_aw_at_limit" in second.stdout
+    assert "without the reference, no layout has a gain_vs_roll_plane_pct" in second.stdout
+    page = (out / "report.html").read_text()
+    assert page.count("No design at the limit.") == 2
+
+    # between the two layouts' least values: one layout compared, the other said to have no design
+    low, high = sorted(least.values())
+    if low < high:
+        third = run_cli(*args, "--handling-limit", repr(0.5 * (low + high)))
+        assert third.code == 0, third.stderr
+        table = read_csv(out / "layouts.csv").set_index("layout")
+        assert sorted(table["at_limit"] == "met") == [False, True]
+        assert (read_csv(out / "layouts.csv").set_index("layout")["sigma_aw_at_limit"].notna() == (table["at_limit"] == "met")).all()
+        assert third.stdout.count("so it has no sigma_aw_at_limit") == 1
+
+
+# --- hisopt status and hisopt report on a study directory -----------------------------------------
+def _backticked(line: str) -> list[str]:
+    return line.split("`")[1].split()
+
+
+def test_status_and_report_recognise_a_study_directory(serial, tmp_path):
+    """Issue 22: both said "start a run with hisopt optimize". Now status summarises the
+    study (layouts, seeds, each run, its files, what to do next, from the runs' own state)
+    and report writes the study report from its files, byte for byte the one the study's own
+    result gives; an unfinished study says how to finish it, and that command finishes it."""
+    from hisopt.report.layout_report import write_layout_report
+
+    out = tmp_path / "study"
+    shutil.copytree(serial.out, out)
+    status = run_cli("status", out)
+    assert status.code == 0, status.stderr
+    lines = status.stdout.splitlines()
+    assert lines[0] == f"{out}: layout study of roll_plane_his: layouts roll_plane, axle_roll; seeds 1-2; runs of population {POP} for {GENS} generations"
+    assert lines[1:5] == [f"  {n} seed {s}: finished, {GENS} of {GENS} generations" for n in ("roll_plane", "axle_roll") for s in (1, 2)]
+    assert lines[5] == "  layouts.csv written, no report.html yet" and lines[6] == f"next: `hisopt report {out}` writes {out / 'report.html'}"
+
+    report = run_cli("report", out)
+    assert report.code == 0 and report.stdout.strip() == f"wrote {out / 'report.html'}", report.stderr
+    direct = write_layout_report(serial, tmp_path / "direct.html")
+    assert (out / "report.html").read_bytes() == direct.read_bytes()
+    assert run_cli("status", out).stdout.splitlines()[-1].startswith(f"finished: open {out / 'report.html'}")
+    wrong = run_cli("report", out, "--color-by", "sigma_aw")
+    assert wrong.code == 2 and len(wrong.error_lines) == 1 and "takes no --color-by" in wrong.stderr
+
+    # unfinished: a run missing, the table gone
+    shutil.rmtree(out / "axle_roll" / "seed-2")
+    (out / "layouts.csv").unlink()
+    lines = run_cli("status", out).stdout.splitlines()
+    assert "  axle_roll seed 2: not started" in lines and "  report.html written, layouts.csv missing" in lines
+    assert lines[-1].startswith("next: finish the study (finished runs are reused) with `hisopt compare-layouts ")
+    command = _backticked(lines[-1])
+    assert command[3:] == ["--layouts", "roll_plane,axle_roll", "--seeds", "1-2", "--pop", str(POP), "--gens", str(GENS), "--out", str(out)]
+    refused = run_cli("report", out)
+    assert refused.code == 2 and len(refused.error_lines) == 1 and "has no layouts.csv yet (it has not finished)" in refused.stderr
+    assert _backticked(refused.error_lines[0]) == command
+    finished = run_cli(*command[1:])
+    assert finished.code == 0, finished.stderr
+    assert run_cli("status", out).stdout.splitlines()[-1].startswith("finished: open")
+    _numeric_equal(read_csv(serial.out / "layouts.csv"), read_csv(out / "layouts.csv"))  # the same study

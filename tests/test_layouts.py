@@ -21,6 +21,7 @@ import pytest
 import hisopt
 from hisopt.hydraulics.catalogue import CATALOGUE_NAMES, catalogue, his_parameter_values
 from hisopt.hydraulics.coupling import HydraulicSystem
+from hisopt.hydraulics.layout import Accumulator
 from hisopt.hydraulics.network import compile_network
 from hisopt.hydraulics.roll_plane import roll_plane_layout
 from hisopt.layouts import STROKE_PATTERNS, mode_stiffness, pattern_matrix
@@ -151,6 +152,36 @@ def test_pipes_and_chamber_volumes_join_each_circuit_compliance():
     k = np.diag(u @ his.static_stiffness() @ u.T)
     np.testing.assert_allclose(k[2], 2 * (2 * (at + ab)) ** 2 / c_c, rtol=1e-12)  # pitch
     np.testing.assert_allclose(k[0], 2 * (2 * p["dA"]) ** 2 / c_c, rtol=1e-12)  # bounce
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_accumulator_valve_is_a_damper_in_parallel_with_the_gas_spring(seed):
+    """docs/model.md §12.3: with incompressible oil the accumulator valve and the gas spring
+    carry the same flow, so their pressures add: per unit stroke pattern the dynamic stiffness
+    is the closed form's ``k + j omega c`` at every frequency (Kelvin-Voigt; the valve never
+    cuts the gas spring off). The network's D(j omega) comes from solving a few nodes per
+    frequency, conditioned at most ~omega Rv_acc C_acc <= 1e3 here: ~1e-13 relative, so 1e-10."""
+    p = random_parameters(np.random.default_rng(40 + seed))
+    his = system("roll_plane_accumulator_valves", p)
+    k, c = closed_form("roll_plane_accumulator_valves", p)
+    omega = 2 * np.pi * np.geomspace(0.01, 1000.0, 25)
+    u = pattern_matrix()
+    d = np.einsum("pi,fij,pj->fp", u, his.stroke_impedance(1j * omega), u)
+    want = k[None, :] + 1j * omega[:, None] * c[None, :]
+    np.testing.assert_allclose(d, want, rtol=1e-10, atol=1e-10 * np.abs(want).max())
+
+
+def test_gas_volume_of_each_catalogue_layout():
+    """docs/model.md §15.1: two accumulators of V0 in roll_plane, its accumulator-valve
+    variant and pitch_plane; the twin layout's four halves add up to the same (V0_front +
+    V0_rear per circuit); axle_roll and side_front_rear carry four accumulators of V0, twice the
+    gas, each as its description says."""
+    p = random_parameters(np.random.default_rng(9))
+    want = {"roll_plane": 2 * p["V0"], "roll_plane_accumulator_valves": 2 * p["V0"], "pitch_plane": 2 * p["V0"],
+            "roll_plane_twin_accumulator": 2 * (p["V0_front"] + p["V0_rear"]), "axle_roll": 4 * p["V0"], "side_front_rear": 4 * p["V0"]}
+    for name in CATALOGUE_NAMES:
+        volumes = [e.volume for c in catalogue()[name].layout().circuits for e in c.elements if isinstance(e, Accumulator)]
+        assert sum(p[v] if isinstance(v, str) else v for v in volumes) == pytest.approx(want[name], rel=1e-15), name
 
 
 # --- the car: modes --------------------------------------------------------------------------------

@@ -233,6 +233,9 @@ def test_a_bare_roll_limit_above_20_deg_warns_with_its_value_in_degrees(tmp_path
     warned(run_cli("evaluate", gradient), "constraints.0.limit", "deg/g")  # 28.6 deg/g
     plausible = written(tmp_path, TEXT + '\n[[constraints]]\nname = "roll_step_peak"\nlimit = 0.3\n', "plausible.toml")
     assert run_cli("evaluate", plausible).error_lines == []  # 17 deg: a (loose) roll limit
+    # written with its unit, the limit is what the user meant, however large: no warning
+    in_degrees = written(tmp_path, TEXT + '\n[[constraints]]\nname = "roll_step_peak"\nlimit = "30 deg"\n', "degrees.toml")
+    assert run_cli("evaluate", in_degrees).error_lines == []
 
 
 def test_shipped_problems_and_the_paper_box_are_warning_free(tmp_path):

@@ -261,3 +261,77 @@ def test_log_axes_tick_decades_or_round_values_labelled_in_full(small_figures, n
             assert len(re.sub(r"[^0-9]", "", mantissa)) <= 3  # round values: 2, 0.0375, 5e-5
         low, high = 10 ** np.array(axis.range)  # every tick is inside the shown range
         assert low <= values[0] and values[-1] <= high
+
+
+# --- a run whose objectives are per scenario ------------------------------------------------------
+def _figure_data(page: str, div_id: str) -> list[dict]:
+    """The traces plotly draws in ``div_id`` (typed arrays decoded)."""
+    import base64
+
+    start = re.search(r'Plotly\.newPlot\(\s*"' + re.escape(div_id) + '"', page).end()
+    data, _ = json.JSONDecoder().raw_decode(page, page.index("[", start))
+
+    def decode(obj):
+        if isinstance(obj, dict) and set(obj) == {"dtype", "bdata"}:
+            return np.frombuffer(base64.b64decode(obj["bdata"]), dtype=np.dtype(obj["dtype"])).astype(float)
+        if isinstance(obj, dict):
+            return {k: decode(v) for k, v in obj.items()}
+        if isinstance(obj, list):
+            return [decode(v) for v in obj]
+        return obj
+
+    return decode(data)
+
+
+def test_report_of_a_per_scenario_run(tmp_path):
+    """Regression (issue 22): `hisopt report` on a ``[robust] aggregate = "per_scenario"`` run
+    crashed (KeyError 'sigma_aw@city'). Through the CLI: optimise small, then report. The
+    front is drawn per load case (quantity axes, a trace per scenario holding exactly the
+    front's "<quantity>@<scenario>" values), the spectra are those of the problem's [road]
+    (the problem without its scenarios gives the same numbers), and nothing overlaps."""
+    from hisopt.io import read_csv
+    from hisopt.spectra import response_spectra
+    from tests.cli_inprocess import run_cli
+
+    text = (DEFAULT_PROBLEM.parent / "roll_plane_his_robust.toml").read_text()
+    text = text.replace('aggregate = "expected"', 'aggregate = "per_scenario"').replace(
+        'objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]',
+        'objectives = ["sigma_aw", "max_roll_psd", "max_tire_load_psd"]')
+    text = text.replace('[[scenarios]]\nname = "rural"\nroad = { class = "B", speed = 20.0 }\nweight = 0.3\n', "")
+    path = tmp_path / "per_scenario.toml"
+    path.write_text(text)
+    problem = load_problem(path)
+    assert problem.scenario_names == ("city", "motorway", "laden") and len(problem.objective_names) == 9
+    run = tmp_path / "run"
+    out = run_cli("optimize", path, "--pop", "16", "--gens", "2", "--seed", "2", "--out", run)
+    assert out.code == 0, out.stderr
+    out = run_cli("report", run)
+    assert out.code == 0, out.stderr
+    page = (run / "report.html").read_text()
+    front = read_csv(run / "front.csv")
+
+    traces = _figure_data(page, "fig0")
+    by_name = {t["name"]: t for t in traces}
+    for s in problem.scenario_names:
+        dims = by_name[s]["dimensions"]
+        assert [d["label"] for d in dims] == ["sigma_aw [m/s^2]", "max_roll_psd [rad^2/Hz]", "max_tire_load_psd [N^2/Hz]"]
+        for d, q in zip(dims, ("sigma_aw", "max_roll_psd", "max_tire_load_psd"), strict=True):
+            np.testing.assert_array_equal(d["values"], front[f"{q}@{s}"].to_numpy())  # m/s^2 and PSDs shown in SI
+    assert {t["name"] for t in traces} == {*problem.scenario_names, "knee", "ASF pick"}
+    assert "Response spectra of the knee design against the car without HIS ([road]: class C at 10 m/s)" in page
+    assert "every objective minimised in each scenario (per_scenario)" in page
+
+    design = front.loc[0, list(problem.variable_names)].to_numpy(dtype=float)
+    plain = tmp_path / "plain.toml"  # the same file without [robust], [[scenarios]] and [[constraints]]
+    plain.write_text(text[: text.index("\n[robust]")])
+    a, b = response_spectra(problem, design).frame, response_spectra(load_problem(plain), design).frame
+    np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
+    # `hisopt sweep` read the per-scenario objective names the same way (KeyError too): now the [road]'s sweep
+    for source, folder in ((path, "sweep"), (plain, "sweep-plain")):
+        out = run_cli("sweep", source, "--vary", "p0", "--points", "3", "--out", tmp_path / folder)
+        assert out.code == 0, out.stderr
+    pd_equal = read_csv(tmp_path / "sweep" / "sweep_p0.csv").equals(read_csv(tmp_path / "sweep-plain" / "sweep_p0.csv"))
+    assert pd_equal
+
+    result = render(page, tmp_path / "chromium", width=900)[0]
+    assert_clean_layout(result, figures=5)

@@ -207,3 +207,33 @@ def test_robust_problem_columns_equal_each_load_case_alone(designs):
         single = problem_from_dict(alone).evaluator()(designs)
         for col in [c for c in q if c.endswith("@" + sc["name"])]:
             np.testing.assert_allclose(q[col], single[col.split("@")[0]], rtol=1e-9, atol=0)
+
+
+def test_cli_evaluates_load_cases_sharing_a_model_without_any_psd_maximum(tmp_path, designs):
+    """Regression (issue 22): roads sharing one model and no PSD maximum among the quantities
+    (as the layout study's NLP poses it: sigma_aw alone) crashed in ``hisopt evaluate``
+    gathering the shared samples of maxima there are none of. Every scenario column equals
+    its road's single-case problem, which samples on its own: the same nodes and kernels, so
+    equal to rounding (bit-equal on this machine); 1e-9 leaves a BLAS kernel that batches the
+    FRF products differently its reordered sums (~1e-13 relative over ~1e3 nodes)."""
+    from tests.cli_inprocess import run_cli
+
+    text = (ROOT / "problems" / "roll_plane_his.toml").read_text()
+    text = text.replace('objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "rms_roll"]')
+    text += "".join(f'\n[[scenarios]]\nname = "{name}"\nroad = {{ class = "{r["class"]}", speed = {r["speed"]} }}\n'
+                    for name, r in ROADS.items() if name != "motorway")  # independent tracks both: one model, two roads
+    path = tmp_path / "two_roads.toml"
+    path.write_text(text)
+    rows = tmp_path / "designs.csv"
+    rows.write_text("p0,dA,lam,Rv\n" + "".join(",".join(repr(float(v)) for v in x) + "\n" for x in designs))
+    out = run_cli("evaluate", path, "--designs", rows, "--out", tmp_path / "out.csv")
+    assert out.code == 0, out.stderr
+    from hisopt.io import read_csv
+
+    got = read_csv(tmp_path / "out.csv")
+    assert hisopt.load_problem(path).evaluator().groups == [[0, 1]]  # the shared path
+    for name in ("city", "rural"):
+        data = copy.deepcopy(BASE) | {"objectives": ["sigma_aw", "rms_roll"], "road": ROADS[name]}
+        alone = problem_from_dict(data).evaluate(designs)
+        for q in ("sigma_aw", "rms_roll"):
+            np.testing.assert_allclose(got[f"{q}@{name}"], alone[q], rtol=1e-9, atol=0)

@@ -26,7 +26,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from hisopt.errors import ModelError
+from hisopt.errors import ModelError, with_article
 from hisopt.hydraulics.layout import (
     ELEMENT_KINDS,
     FIELD_UNITS,
@@ -253,8 +253,9 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
     uses = parameter_uses(layout)
     for name in his.parameters:
         if name not in uses:
-            read = ", ".join(n for n in uses if n not in reserved) or "none"
-            return f"his.parameters.{name}: not read by layout {his.layout!r}; expected one of the names its elements read ({read})"
+            read = ", ".join(n for n in uses if n not in reserved)
+            want = f"expected one of the names its elements read ({read})" if read else "its elements read no such name; expected no [his.parameters]"
+            return f"his.parameters.{name}: not read by layout {his.layout!r}; {want}"
     known = set(known_parameters(his))
     for c, circuit in enumerate(layout.circuits):
         for element in circuit.elements:
@@ -269,7 +270,7 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
             broken = field_rule_problem(cls, key, value)
             if broken:
                 rule = name + broken.removeprefix(key)
-                return f"his.parameters.{name}: expected {rule} (it is the {key} of a {ELEMENT_KINDS[cls]}{rule_reason(key)}), got {value:g}"
+                return f"his.parameters.{name}: expected {rule} (it is the {key} of {with_article(ELEMENT_KINDS[cls])}{rule_reason(key)}), got {value:g}"
     return _zero_compliance(layout, values)
 
 

@@ -33,6 +33,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from hisopt.errors import with_article
 from hisopt.hydraulics.layout import (
     CHAMBER_LABELS,
     ELEMENT_KINDS,
@@ -104,15 +105,15 @@ class ElementSpec(BaseModel):
         given = [k for k in ("node", "from", "to", *_PARAM_KEYS) if self.value(k) is not None]
         extra = [k for k in given if k not in allowed]
         if extra:
-            raise ValueError(f"a {self.type} takes {', '.join(allowed)}; got {extra[0]!r}")
+            raise ValueError(f"{with_article(self.type)} takes {', '.join(allowed)}; got {extra[0]!r}")
         missing = [k for k in _REQUIRED[self.type] if self.value(k) is None]
         if missing:
-            raise ValueError(f"a {self.type} needs {', '.join(missing)} (it takes {', '.join(allowed)})")
+            raise ValueError(f"{with_article(self.type)} needs {', '.join(missing)} (it takes {', '.join(allowed)})")
         for key in PARAMETER_FIELDS[cls]:
             value = self.value(key)
             broken = field_rule_problem(cls, key, value) if isinstance(value, float) else None
             if broken:
-                raise ValueError(f"{key}: expected {broken} for a {self.type}{rule_reason(key)}, got {value!r}")
+                raise ValueError(f"{key}: expected {broken} for {with_article(self.type)}{rule_reason(key)}, got {value!r}")
         return self
 
     def value(self, key: str) -> Any:
@@ -206,7 +207,7 @@ def circuit_problem(circuit: CircuitSpec) -> str | None:
     for e in circuit.elements:
         ends = [n for n in e.nodes if touches[n] == 1] if e.node is None else []
         if ends:
-            return f"{e.describe()} dangles: nothing else connects to node {ends[0]!r}; expected both ends of a {e.type} connected"
+            return f"{e.describe()} dangles: nothing else connects to node {ends[0]!r}; expected both ends of {with_article(e.type)} connected"
     groups = _connected_groups(declared, [e.nodes for e in circuit.elements if e.node is None])
     if len(groups) > 1:
         parts = " and ".join("{" + ", ".join(g) + "}" for g in groups)

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from hisopt.errors import ConfigError, RunError
+from hisopt.errors import ConfigError, RunError, with_article
 from hisopt.optim.archive import non_dominated_mask
 
 if TYPE_CHECKING:
@@ -117,7 +117,7 @@ def grid_sample_rows(problem: Problem, q: Mapping[str, np.ndarray]) -> np.ndarra
         feasible &= q[c.name] <= c.limit
     chosen = feasible if feasible.any() else valid
     if not chosen.any():
-        raise RunError(f"no design of a {len(valid)}-design grid over the box of {problem.name} can be evaluated")
+        raise RunError(f"no design of {with_article(f'{len(valid)}-design')} grid over the box of {problem.name} can be evaluated")
     return chosen
 
 

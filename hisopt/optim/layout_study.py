@@ -58,13 +58,14 @@ from hisopt.optim.layout_metrics import (
     evaluate_quantities,
     shared_normalisation,
 )
+from hisopt.optim.rundir import LAYOUT_STUDY_JSON
 from hisopt.plausibility import seed_count_problem
 
 if TYPE_CHECKING:
     from hisopt.parallel import Backend
     from hisopt.problem import Problem
 
-STUDY_JSON = "study.json"
+STUDY_JSON = LAYOUT_STUDY_JSON
 STUDY_FORMAT = "hisopt-layout-study/1"
 LAYOUTS_CSV, RUNS_CSV, FRONTS_CSV, CURVE_CSV, ATTAINMENT_CSV = (
     "layouts.csv", "runs.csv", "fronts.csv", "handling_curve.csv", "attainment.csv")
@@ -75,7 +76,9 @@ TABLE_DOC = """layout, source (catalogue or file), variables; hv_mean, hv_std, h
 (normalised hypervolume of the seeds' fronts), hv_merged (of their merged front),
 vorobev_threshold_pct, vorobev_deviation (comfort-handling plane); handling (the quantity's
 name), handling_limit, sigma_aw_at_limit (best comfort meeting it), handling_at_best,
-refined (the NLP improved the best sampled design), gain_vs_roll_plane_pct; k_bounce ...
+refined (the NLP improved the best sampled design), gain_vs_roll_plane_pct; handling_least
+(the least handling of the layout's feasible designs), at_limit ("met", or why the layout has
+no design at the limit: its sigma_aw_at_limit and gain are then empty); k_bounce ...
 c_warp, stiffness_coupling (hisopt layouts, at the layout's baseline); best_<variable>: the
 design of sigma_aw_at_limit (empty where a layout lacks the variable)."""
 
@@ -234,6 +237,28 @@ class LayoutStudyResult:
     handling: str
     handling_limit: float
     out: Path | None
+
+    def limit_notes(self) -> list[str]:
+        """One sentence per layout without a design at the handling limit (``at_limit`` not
+        ``met``): why, and the least limit that would compare it; the gains' absence when the
+        reference is one of them."""
+        from hisopt.optim.layout_cases import REFERENCE_LAYOUT
+        from hisopt.units import format_quantity
+
+        if "at_limit" not in self.table:  # a table written before hisopt said why
+            return []
+        unit = self.table.attrs["units"]["handling_limit"]
+        notes = []
+        for row in self.table.itertuples(index=False):
+            if row.at_limit == "met":
+                continue
+            text = f"{row.layout}: {row.at_limit}, so it has no sigma_aw_at_limit"
+            if np.isfinite(row.handling_least):
+                text += f"; a handling limit of at least {format_quantity(row.handling_least, unit)} (--handling-limit) compares it"
+            if row.layout == REFERENCE_LAYOUT:
+                text += "; without the reference, no layout has a gain_vs_roll_plane_pct"
+            notes.append(text)
+        return notes
 
 
 def check_arguments(problem: Problem, layouts: str | Sequence[str] | None, seeds: str | Sequence[int], handling: str | None,

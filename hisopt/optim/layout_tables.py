@@ -15,7 +15,7 @@ import pandas as pd
 from hisopt.metrics import METRICS
 from hisopt.optim.layout_cases import REFERENCE_LAYOUT, LayoutCase
 from hisopt.optim.layout_metrics import COMFORT, Normalisation, attainment, best_at_limit, normalised_hypervolume, plane_front
-from hisopt.units import NO_UNIT, column_unit, variable_units, with_units
+from hisopt.units import NO_UNIT, column_unit, format_quantity, variable_units, with_units
 
 if TYPE_CHECKING:
     from hisopt.parallel import Backend
@@ -144,7 +144,7 @@ def assemble(
                                "handling": handling, "handling_limit": limit}
         choice = _equal_handling(c, pool, best_row[c.name], equal.get(c.name, []), handling)
         designs[c.name] = choice.pop("x")
-        row |= choice
+        row |= choice | _limit_status(pool, handling, limit, h_unit)
         rows.append(row)
     table = pd.DataFrame(rows)
     reference = table.loc[table["layout"] == REFERENCE_LAYOUT, "sigma_aw_at_limit"].to_numpy()
@@ -159,6 +159,7 @@ def assemble(
     units |= {"hypervolume": NO_UNIT, "front_size": NO_UNIT, "evaluations": NO_UNIT, "feasible_designs": NO_UNIT}
     units |= {"percentile_pct": "%", "vorobev_threshold_pct": "%", "vorobev_deviation": NO_UNIT, "handling_limit": h_unit,
               "sigma_aw_at_limit": METRICS[COMFORT].unit, "handling_at_best": h_unit, "refined": NO_UNIT,
+              "handling_least": h_unit, "at_limit": NO_UNIT,
               "gain_vs_roll_plane_pct": "%"} | {f"hv_{k}": NO_UNIT for k in ("mean", "std", "min", "max", "merged")}
     units |= table.attrs.get("units", {})
     return {name: with_units(frame, units) for name, frame in
@@ -177,6 +178,20 @@ def _equal_handling(case: LayoutCase, pool: pd.DataFrame, best: int | None, refi
         if r["accepted"] and r[COMFORT] < out["sigma_aw_at_limit"]:
             out = {"sigma_aw_at_limit": r[COMFORT], "handling_at_best": r[handling], "refined": True, "x": r["x"]}
     return out
+
+
+def _limit_status(pool: pd.DataFrame, handling: str, limit: float, unit: str) -> dict[str, Any]:
+    """``handling_least`` (the least handling of any feasible design of the layout's runs, NaN
+    with none) and ``at_limit``: ``met``, or in words why the layout has no value at the limit."""
+    least = float(pool[handling].min()) if len(pool) else np.nan
+    if not len(pool):
+        status = "no feasible design"
+    elif least <= limit:
+        status = "met"
+    else:
+        status = (f"none of {len(pool)} feasible designs meets {handling} <= {format_quantity(limit, unit)} "
+                  f"(least {format_quantity(least, unit)})")
+    return {"handling_least": least, "at_limit": status}
 
 
 def _with_stiffness_and_designs(table: pd.DataFrame, cases: list[LayoutCase], designs: dict[str, np.ndarray | None]) -> pd.DataFrame:

@@ -74,6 +74,9 @@ FRONT_REFINED_CSV = "front_refined.csv"
 """Refined front (``hisopt refine``): ``front.csv``'s columns plus ``source_index``."""
 REFINE_JSON = "refine.json"
 """Summary of the refinement (settings, hypervolumes, timing, per point)."""
+LAYOUT_STUDY_JSON = "study.json"
+"""The record of a layout study directory (:mod:`hisopt.optim.layout_study`, whose runs are
+run directories one level down): named here so that a run command given such a folder says so."""
 CHECKPOINT_FORMAT = 1
 
 
@@ -181,8 +184,13 @@ def read_run_json(run_dir: Path) -> dict[str, Any]:
     """``run_dir/run.json``; :class:`RunError` saying what to do when it is missing or unreadable."""
     run_dir = Path(run_dir)
     path = run_dir / RUN_JSON
+    if run_dir.is_file():
+        raise RunError(f"{run_dir}: a file, not a run directory; expected the --out directory of `hisopt optimize`")
     if not run_dir.is_dir():
         raise RunError(f"{run_dir}: not a run directory (not found); expected the --out directory of `hisopt optimize`")
+    if not path.is_file() and (run_dir / LAYOUT_STUDY_JSON).is_file():
+        raise RunError(f"{run_dir}: a layout study (`hisopt compare-layouts`), not a run; `hisopt status {run_dir}` summarises "
+                       f"it, `hisopt report {run_dir}` writes its report, and its runs are {run_dir}/<layout>/seed-<n>")
     if not path.is_file():
         if any((run_dir / name).is_file() for name in (PROBLEM_TOML, PROBLEM_JSON)):
             raise RunError(f"{run_dir}: the run never started (no {RUN_JSON}); start it again with `hisopt optimize PROBLEM --out {run_dir}`")

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pandas as pd
 
 from hisopt.report.theme import COLORS, template
@@ -75,6 +76,66 @@ def front_scatter_matrix(
     return fig
 
 
+def scenario_scatter_matrix(
+    front: pd.DataFrame,
+    quantities: Sequence[str],
+    scenarios: Sequence[str],
+    variables: Sequence[str],
+    highlights: Mapping[str, pd.Series] | None = None,
+    refined: pd.DataFrame | None = None,
+    units: Mapping[str, str] | None = None,
+) -> go.Figure:
+    """The front of a ``per_scenario`` problem (objectives ``"<quantity>@<scenario>"``): one
+    scatter matrix of the quantities, a colour per load case, each design once per scenario.
+
+    The matrix of every column would be ``(Q S)^2 / 2`` panels (120 for four quantities in four
+    scenarios); this one is ``Q^2 / 2`` and shows how each load case trades the quantities
+    off. Each quantity's axis has one unit across its scenarios; hovering a point shows its
+    design and that scenario's values.
+    """
+    import plotly.graph_objects as go
+
+    from hisopt.robust import scenario_column
+
+    units = dict(front.attrs.get("units", {}) if units is None else units)
+    columns = {q: [scenario_column(q, s) for s in scenarios] for q in quantities}
+    tables = [front] + ([refined] if refined is not None and len(refined) else []) + [r.to_frame().T for r in (highlights or {}).values()]
+    shown = {q: display_for(units.get(cols[0], ""), np.concatenate([t[cols].to_numpy(dtype=float).ravel() for t in tables]))
+             for q, cols in columns.items()}
+    design = displays(front, variables, units)
+
+    def dims(df: pd.DataFrame, s: str) -> list[dict]:
+        return [{"label": shown[q].label(q), "values": shown[q].values(df[scenario_column(q, s)])} for q in quantities]
+
+    def hover(df: pd.DataFrame, s: str) -> list[str]:
+        both = {v: design[v] for v in variables} | {scenario_column(q, s): shown[q] for q in quantities}
+        return [f"load case {s}<br>{text}" for text in _hover(df, both)]
+
+    fig = go.Figure()
+    for k, s in enumerate(scenarios):
+        colour = COLORS[k % len(COLORS)]
+        fig.add_trace(go.Splom(dimensions=dims(front, s), text=hover(front, s), hoverinfo="text", name=s, legendgroup=s,
+                               marker={"size": 5, "color": colour, "opacity": 0.6}, diagonal_visible=False, showupperhalf=False))
+        if refined is not None and len(refined):
+            fig.add_trace(go.Splom(dimensions=dims(refined, s), text=hover(refined, s), hoverinfo="text", name=f"{s}: refined",
+                                   legendgroup=s, marker={"size": 6, "color": colour, "symbol": "triangle-up"},
+                                   diagonal_visible=False, showupperhalf=False))
+    for label, row in (highlights or {}).items():
+        one = row.to_frame().T
+        style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
+        for k, s in enumerate(scenarios):  # the same design in every load case: one legend entry
+            fig.add_trace(go.Splom(dimensions=dims(one, s), text=hover(one, s), hoverinfo="text", name=label, legendgroup=label,
+                                   showlegend=k == 0, marker={**style, "line": {"width": 1, "color": "black"}},
+                                   diagonal_visible=False, showupperhalf=False))
+    n = max(len(quantities) - 1, 1)
+    fig.update_layout(
+        template=template(), title="Pareto front in each load case (colour; hover for the design)", height=170 + 230 * n,
+        dragmode="select", margin={"t": 60, "b": 110},
+    )
+    fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, len(quantities) + 1)})
+    return fig
+
+
 def parallel_coordinates(
     front: pd.DataFrame,
     variables: Sequence[str],
@@ -107,9 +168,15 @@ def parallel_coordinates(
         )
     )
     colour_name = colour.label(color_by)
+    top = 140
+    if len(columns) > 10:  # e.g. per-scenario objectives: slanted labels would cross the next axes' ranges
+        top = 80 + 7 * max(len(d["label"]) for d in fig.data[0].dimensions)  # ~7 px per character at 12 px
+        fig.update_traces(labelangle=-90)
+        # ticks of neighbouring axes meet below ~75 px apart: a fixed width (the report's figures scroll sideways)
+        fig.update_layout(width=75 * len(columns) + 190, autosize=False)
     fig.update_layout(
-        template=template(), title=f"Designs and objectives of the front (colour: {colour_name})", height=560,
-        margin={"t": 140, "l": 70, "r": 120, "b": 40},
+        template=template(), title=f"Designs and objectives of the front (colour: {colour_name})", height=420 + top,
+        margin={"t": top, "l": 70, "r": 120, "b": 40},
     )
     return fig
 

@@ -35,7 +35,7 @@ _CSS = """
 body{font-family:Inter,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1280px;padding:0 16px;color:#1d2330}
 h1{margin-bottom:4px} h2{margin-top:40px;margin-bottom:12px;border-bottom:1px solid #e3e6ea;padding-bottom:4px}
 .meta{color:#556;line-height:1.5}
-.figure{margin:0 0 8px 0}
+.figure{margin:0 0 8px 0;overflow-x:auto}
 table.data{border-collapse:collapse;font-size:14px;margin:8px 0 4px 0;font-variant-numeric:tabular-nums}
 table.data caption{caption-side:top;text-align:left;font-weight:600;padding:0 0 6px 0;color:#1d2330}
 table.data th,table.data td{padding:5px 12px;border-bottom:1px solid #e3e6ea;text-align:right;white-space:nowrap}
@@ -231,10 +231,18 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     if any(" bound)" in cell for col in picks.columns[1:] for cell in picks[col]):
         designs_caption += (f"; at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
                             "that bound, where the box rather than the physics chose the value")
+    spec = problem.spec
+    if spec.scenarios and spec.robust.aggregate == "per_scenario" and len(spec.objectives) > 1:
+        pareto = figures.scenario_scatter_matrix(front, spec.objectives, problem.scenario_names, variables,
+                                                 {"knee": knee, "ASF pick": asf}, run["refined"], units)
+    else:
+        pareto = figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)
+    # a problem with load cases: the spectra of its [road] without payload, as `hisopt response` gives them
+    road = f" ([road]: class {spec.road.road_class} at {format_quantity(spec.road.speed, 'm/s')})" if spec.scenarios else ""
     sections: list[tuple[str, Any]] = [
-        ("Pareto front", figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)),
+        ("Pareto front", pareto),
         ("Designs and objectives", figures.parallel_coordinates(front, variables, objectives, color_by, units)),
-        (f"Response spectra of the {chosen_label} design against the car without HIS", response_spectra(problem, x).plot()),
+        (f"Response spectra of the {chosen_label} design against the car without HIS{road}", response_spectra(problem, x).plot()),
         (f"HIS layout (values of the {chosen_label} design on hover)",
          schematic.layout_schematic(problem.layout(), his_parameter_values(problem.spec.his, dict(zip(variables, map(float, x), strict=True))))),
         (f"Modes of the {chosen_label} design",
@@ -246,7 +254,9 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     if problem.spec.scenarios:
         sections.append(("Load cases", html_table(scenario_table(problem, highlighted, variables),
                                                   "Each quantity in each scenario (\"quantity@scenario\") for the highlighted designs; "
-                                                  f"objectives aggregated as {problem.spec.robust.aggregate}",
+                                                  + ("every objective minimised in each scenario (per_scenario)"
+                                                     if spec.robust.aggregate == "per_scenario"
+                                                     else f"objectives aggregated as {spec.robust.aggregate}"),
                                                   text_columns=("quantity [unit]",))))
     if run["generations"] is not None:
         sections.insert(2, ("Convergence", figures.convergence(run["generations"], len(objectives))))

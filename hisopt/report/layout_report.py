@@ -119,11 +119,12 @@ def table_html(result: LayoutStudyResult) -> str:
     """``layouts.csv`` in engineering units, split into the comparison and the layouts' data."""
     t = result.table
     first = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "hv_merged", "vorobev_threshold_pct", "vorobev_deviation",
-             "sigma_aw_at_limit", "handling_at_best", "refined", "gain_vs_roll_plane_pct"]
+             "sigma_aw_at_limit", "handling_at_best", "refined", "gain_vs_roll_plane_pct", "handling_least", "at_limit"]
     second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c == "stiffness_coupling"]
+    first = [c for c in first if c in t]  # a table of an older hisopt lacks handling_least and at_limit
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
     shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
-    labels = ("layout [-]", "refined [-]", "variables [-]")
+    labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]")
     return ('<div style="overflow-x:auto">'
             + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
             + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit",
@@ -161,6 +162,7 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
     seeds = sorted(set(runs["seed"]))
     budget = runs["evaluations"].iloc[0] if len(runs) else 0
     name = result.cases[0].problem.name.removesuffix(f"-{result.cases[0].name}")
+    notes = "".join(f'<p class="meta"><b>No design at the limit.</b> {html.escape(n)}.</p>' for n in result.limit_notes())
     page = f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>hisopt layout study: {html.escape(name)}</title>
 <style>{_CSS}{_GRID_CSS}</style>
@@ -171,7 +173,7 @@ objectives {html.escape(", ".join(result.normalisation.objectives))}. Equal hand
 &le; {html.escape(format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"]))}.
 gain_vs_roll_plane_pct &gt; 0: better comfort than the paper's roll-plane layout at that limit. Hypervolumes in
 the shared normalisation (docs/model.md §15). Values in engineering units (SI in the CSV files).</p>
-{''.join(parts)}
+{notes}{''.join(parts)}
 </body></html>"""
     atomic_write_text(path, page)
     return Path(path)
