@@ -40,7 +40,7 @@ response, a PSD's error twice that, a quantity's the largest over its nodes.
 
 **Safety.** :data:`SAFETY` covers what the first-order bounds leave out (the constants, the
 residues, the quadrature's sums) and nothing else: on this machine's kernels (OpenBLAS
-Haswell, Zen and Prescott, numba's generic CPU) the paths differ by at most a fifth of their
+Haswell, Zen and Prescott, numba's generic CPU) the paths differ by at most a quarter of their
 budgets. The budgets stay below a real error: :func:`assert_discriminating` checks that a
 path wrong by :data:`BUG` relative would fail on nearly every design of a test.
 """
@@ -172,10 +172,10 @@ def solve_budget(model, f_hz: np.ndarray, power: int = 2, backward: tuple[str, .
 
 def equilibrated_solve(m: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``m^-1 b`` by LU with partial pivoting on ``m`` with its rows, then its columns, scaled by
-    powers of two (exact) to a largest entry near 1: the solve whose relative error
-    ``eps cond_eq(m)`` bounds (:func:`equilibrated_condition`), whatever the unknowns' units.
-    Unscaled, partial pivoting on a state matrix with displacements in m next to pressures in Pa
-    picks other pivots and loses up to 1e-12 where ``cond_eq`` is 30."""
+    powers of two (exact) to a largest entry near 1, so that the pivots do not depend on the
+    unknowns' units. Unscaled, partial pivoting on a state matrix with displacements in m next
+    to pressures in Pa picks pivots by unit and loses up to 1e-12 (a twin-accumulator design at
+    140 Hz: the realised matrix exact to 6e-19, its scaled solve to 1e-16)."""
     rows = 2.0 ** -np.floor(np.log2(np.abs(m).max(axis=-1, keepdims=True)))
     scaled = m * rows
     cols = 2.0 ** -np.floor(np.log2(np.abs(scaled).max(axis=-2, keepdims=True)))
