@@ -17,7 +17,22 @@ from hisopt.channels import DirectOutputs
 from hisopt.metrics import COMFORT_OUTPUTS
 from hisopt.optim.casadi_model import CasadiModel, FrequencySet, SpectraCallback, compiled
 from hisopt.standards import iso_2631_1_1997 as iso2631
+from hisopt.symmetry import split, state_mirror
 from tests.conftest import ROOT, random_designs
+from tests.error_budget import EPS, SAFETY, assert_discriminating, network_condition, pole_budget, solve_budget
+
+BOTH = ("componentwise", "normwise")
+"""The network solves' backward errors: numpy's, then CasADi's (tests/error_budget.py). At the
+box's corners with ``Rv = 0`` the valve shorts two chambers and the port impedance is as
+sensitive as 1e-6 to a normwise error in the network matrix: the budget there is that wide
+(CasADi's solve is in fact far better), every other design's far below 1e-6."""
+
+
+def assert_discriminating_unless_shorted(problem: hisopt.Problem, x: np.ndarray, budget: np.ndarray) -> None:
+    """:func:`tests.error_budget.assert_discriminating` on the designs without a shorted valve."""
+    open_valve = x[:, problem.variable_names.index("Rv")] > 0
+    assert open_valve.sum() >= 5
+    assert_discriminating(np.asarray(budget)[open_valve])
 
 HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"
 
@@ -85,39 +100,56 @@ def test_his_matrices_equal_the_circuit_model(problem, rng):
     d = model.stroke_stiffness(x_sym, w_sym)
     fn = ca.Function("d", [x_sym, w_sym], [d.re, d.im])
     s = 2j * np.pi * np.array([0.7, 3.0, 25.0])
-    for x in random_designs(problem, 6, rng):
-        ref = problem.model(x[None]).his.stroke_impedance(s)[0]
+    x_all = random_designs(problem, 6, rng)
+    budgets = []
+    for x in x_all:
+        m = problem.model(x[None])
+        ref = m.his.stroke_impedance(s)[0]
         mine = np.array([np.array(fn(x, si.imag)[0]) + 1j * np.array(fn(x, si.imag)[1]) for si in s])
-        np.testing.assert_allclose(mine, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+        # both network solves' rounding, relative to D's largest entry (tests/error_budget.py)
+        budgets.append(SAFETY * EPS * sum(network_condition(m, s, kind) for kind in BOTH).max())
+        np.testing.assert_allclose(mine, ref, rtol=0, atol=budgets[-1] * np.abs(ref).max())
+    assert_discriminating_unless_shorted(problem, x_all, budgets)
 
 
 def test_spectra_equal_the_numpy_model(setup, rng):
     problem, model = setup
     ev = problem.evaluator()
-    for x in random_designs(problem, 5, rng):
+    x_all = random_designs(problem, 5, rng)
+    budgets = []
+    for x in x_all:
         f, w = evaluator_nodes(problem, x)
         fs = model.frequency_set(f, w)
         mine = np.array(model.spectra(x, fs.params)).T
         ref = ev.spectra(f[None], DirectOutputs(problem.model(x[None]), ev.outputs)(2 * np.pi * f[None]))[0]
-        np.testing.assert_allclose(mine, ref, rtol=1e-8, atol=0)
+        budgets.append(solve_budget(problem.model(x[None]), f, backward=BOTH)[0])  # tests/error_budget.py
+        np.testing.assert_allclose(mine, ref, rtol=budgets[-1], atol=0)
+    assert_discriminating_unless_shorted(problem, x_all, budgets)
 
 
 def test_quantities_equal_the_evaluator_on_its_nodes(setup, rng):
     problem, model = setup
     x_all = random_designs(problem, 5, rng)
     full = problem.evaluator()(x_all)
+    ss = problem.model(x_all).state_space()
+    halves = [h.a for h in split(ss, state_mirror(problem.model(x_all), ss)).values()]
+    poles = pole_budget(halves, problem.spec.band.f_min_hz, problem.spec.band.f_max_hz)  # the evaluator's FRFs
+    budgets = []
     for k, x in enumerate(x_all):
         f, w = evaluator_nodes(problem, x)
         q = np.array(model.function(model.frequency_set(f, w))(x)[0]).ravel()
         ref = numpy_quantities(problem, x, f, w)
+        budget = solve_budget(problem.model(x[None]), f, backward=BOTH)[0]  # tests/error_budget.py
+        budgets.append(budget + poles[k])
         for i, name in enumerate(model.names):
-            assert q[i] == pytest.approx(ref[name], rel=1e-9), name
+            assert q[i] == pytest.approx(ref[name], rel=budget), name
             if name in ("sigma_aw", "rms_roll", "rms_stroke", "rms_tire_load", "roll_gradient"):
-                # same nodes, same weights: the evaluator's own value
-                assert q[i] == pytest.approx(full[name][k], rel=1e-9), name
+                # same nodes, same weights: the evaluator's own value, from poles and residues
+                assert q[i] == pytest.approx(full[name][k], rel=budget + poles[k]), name
             else:
                 # a maximum over nodes lies below the evaluator's continuous maximum
-                assert q[i] <= full[name][k] * (1 + 1e-12)
+                assert q[i] <= full[name][k] * (1 + budget + poles[k])
+    assert_discriminating_unless_shorted(problem, x_all, budgets)
 
 
 def test_gradients_match_central_differences(setup, rng):

@@ -3,8 +3,10 @@
 On a matrix of problems (no pipes, lumped pipes, distributed pipes, chamber compliance, band
 and filter comfort, and every catalogue layout of docs/model.md §12.3, with and without pipes):
 
-- numpy evaluator against the CasADi model within 1e-9 on every objective (same nodes);
-- state space against the direct solve of the network within 1e-9;
+- numpy evaluator against the CasADi model on every objective (same nodes), within the rounding
+  budget of their solves (tests/error_budget.py);
+- state space against the direct solve of the network, within the rounding budget of the
+  realisation and both solves;
 - time-domain sine steady state against the FRF within 1e-6;
 - the reference evaluator honours the comfort method;
 - zero-resistance valves between oil volumes (chamber compliance with ``Rv = 0``) work, in
@@ -34,6 +36,7 @@ from hisopt.psd import comfort_gain_squared, reduce_metrics
 from hisopt.reference import grid_quantities
 from hisopt.timedomain import simulate
 from tests.conftest import DEFAULT_PROBLEM, ROOT, random_designs
+from tests.error_budget import assert_discriminating, assert_frf_within, assert_within, solve_budget, state_space_budget, state_space_frf
 
 PIPES = {"diameter": 0.012, "length_front": 1.5, "length_rear": 3.0}
 VARIANTS = {
@@ -109,7 +112,10 @@ def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.
 
 
 @pytest.mark.slow
-def test_numpy_and_casadi_engines_agree_within_1e9(problem_variant):
+def test_numpy_and_casadi_engines_agree_within_their_rounding(problem_variant):
+    """Both engines solve the network and the car at the same nodes: every quantity within the
+    budget of those solves (tests/error_budget.py: the equilibrated network's and the dynamic
+    stiffness's condition numbers), which a 1e-6 error would exceed."""
     problem = problem_variant
     model = CasadiModel(problem, compile=False)
     evaluated = problem.evaluator()(designs(problem))
@@ -120,8 +126,10 @@ def test_numpy_and_casadi_engines_agree_within_1e9(problem_variant):
         w_all[np.searchsorted(f_all, f)] = w
         q = np.array(model.function(model.frequency_set(f_all, w_all))(x)[0]).ravel()
         ref = numpy_on_nodes(problem, x, f_all, w_all)
+        budget = solve_budget(problem.model(x[None]), f_all, backward=("componentwise", "normwise"))  # numpy, CasADi
+        assert_discriminating(budget)
         for i, name in enumerate(model.names):
-            assert q[i] == pytest.approx(ref[name], rel=1e-9), (name, q[i], ref[name])
+            assert_within(q[i : i + 1], np.array([ref[name]]), budget, name)
             # and the evaluator's own value: integrals on its nodes (its frequency responses come
             # from poles and residues, good to ~1e-7 with stiff chambers), maxima at its peaks
             # (its search, on those responses, stops within ~1e-5 of where this one does)
@@ -130,7 +138,9 @@ def test_numpy_and_casadi_engines_agree_within_1e9(problem_variant):
 
 
 @pytest.mark.parametrize("name", [n for n, v in VARIANTS.items() if v.get("his", {}).get("pipe_model") != "distributed"])
-def test_state_space_equals_direct_solve_within_1e9(name):
+def test_state_space_equals_direct_solve_within_their_rounding(name):
+    """The realised state space's FRF against the network's direct solve, within the budget of
+    the realisation and both solves (tests/error_budget.py)."""
     problem = variant(name)
     x = designs(problem)
     x[0, problem.variable_names.index("Rv")] = 0.0  # a short (between oil volumes with chambers)
@@ -138,9 +148,9 @@ def test_state_space_equals_direct_solve_within_1e9(name):
     f = np.geomspace(0.3, 150.0, 90)
     direct = model.frequency_response(2j * np.pi * f)
     for rows, group in model.groups():
-        ss = group.state_space().frequency_response(2j * np.pi * f)
-        scale = np.abs(direct[rows]).max(axis=(1, 2), keepdims=True)
-        np.testing.assert_allclose(ss, direct[rows], rtol=1e-9, atol=1e-9 * np.broadcast_to(scale, ss.shape).max())
+        budget = solve_budget(group, f, power=1) + state_space_budget(group, f)
+        assert_discriminating(budget)
+        assert_frf_within(state_space_frf(group.state_space(), f), direct[rows], budget, name)
 
 
 def steady_amplitude(t: np.ndarray, y: np.ndarray, w: float, poles: np.ndarray) -> complex:

@@ -14,6 +14,7 @@ from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
 from hisopt.reference import converged_grid, grid_quantities
 from tests.conftest import every_quantity, random_designs
+from tests.error_budget import assert_discriminating, pole_budget, solve_budget
 
 REFERENCE = {  # docs/model.md §7.1 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
     (2.0e6, 10e-4, 0.5, 8e5): (0.5534, 8.4675e-05, 4.3444e-05, 4.7222e04),
@@ -60,6 +61,8 @@ def test_pole_residue_path_equals_direct_solve(problem, rng, split, monkeypatch)
     """The channels' FRFs from poles and residues, split into symmetric halves or not."""
     import hisopt.channels as channels
     import hisopt.evaluate as evaluate
+    from hisopt.symmetry import split as halves_of
+    from hisopt.symmetry import state_mirror
 
     if not split:
         monkeypatch.setattr(channels, "split", lambda ss, mirror: None)
@@ -69,13 +72,20 @@ def test_pole_residue_path_equals_direct_solve(problem, rng, split, monkeypatch)
     fast = evaluate.ModalChannels(model, model.state_space(), ev.all_outputs)
     assert ("sym" in fast.forms) == split
     direct = DirectOutputs(model, ev.all_outputs)
-    omega = 2 * np.pi * np.broadcast_to(np.geomspace(0.3, 120, 50), (len(x), 50))
+    f_hz = np.geomspace(0.3, 120, 50)
+    omega = 2 * np.pi * np.broadcast_to(f_hz, (len(x), 50))
     h_fast, h_direct = fast(omega), direct(omega)
     exact = {name: join(*h_direct[name]) for name in ("sym", "anti")}
+    # the rounding of the eigendecompositions and of the direct solve (tests/error_budget.py)
+    ss = model.state_space()
+    forms = [h.a for h in halves_of(ss, state_mirror(model, ss)).values()] if split else [ss.a]
+    budget = pole_budget(forms, f_hz[0], f_hz[-1], power=1) + solve_budget(model, f_hz, power=1)
+    assert_discriminating(budget)
     # per design and output, over both channels (roll has no symmetric part, bounce no antisymmetric)
     scale = np.maximum(*(np.abs(b).max(axis=(1, 2), keepdims=True) for b in exact.values()))
     for name, b in exact.items():
-        assert np.max(np.abs(join(*h_fast[name]) - b) / scale) < 1e-9, name
+        error = np.max(np.abs(join(*h_fast[name]) - b) / scale, axis=(1, 2, 3))
+        assert np.all(error <= budget), (name, float(np.max(error / budget)))
 
 
 def test_nan_free_over_whole_box_without_warnings(all_metrics_problem, rng):

@@ -16,6 +16,7 @@ from hisopt.psd import roll_gradient
 from hisopt.timedomain import simulate
 from hisopt.transient import NAMES, direct_response, modal_form, roll_moment_input, transient_quantities
 from tests.conftest import ROOT
+from tests.error_budget import EPS, SAFETY, assert_discriminating, assert_within, pole_budget, solve_budget, state_space_budget
 
 STEP_G = 0.4
 DESIGNS = np.array([[2.0e6, 10e-4, 0.5, 8e5], [0.0, 1e-4, 0.1, 0.0]])
@@ -39,22 +40,34 @@ def test_moment_input_matches_the_dynamic_stiffness(problem, axle_roll):
         model = p.model(p.baseline[None]).groups()[0][1]
         ss = model.state_space()
         s = 2j * np.pi * np.array([0.3, 1.7, 9.0])
-        via_states = direct_response(s / (2j * np.pi) * np.ones((1, 3)), ss.a, roll_moment_input(model.vehicle, ss.a.shape[-1])[None], None, model.vehicle)
+        moment = roll_moment_input(model.vehicle, ss.a.shape[-1])[None]
+        via_states = direct_response(s / (2j * np.pi) * np.ones((1, 3)), ss.a, moment, None, model.vehicle)
         via_stiffness = model.vehicle.m_s * model.vehicle.h_0s * np.linalg.inv(model.dynamic_stiffness(s))[..., 1, 1]
-        np.testing.assert_allclose(via_states, via_stiffness, rtol=1e-9)
+        f_hz = s.imag / (2 * np.pi)  # the two solves' rounding (tests/error_budget.py)
+        budget = solve_budget(model, f_hz, power=1) + state_space_budget(model, f_hz, inputs=moment[..., None])
+        assert_discriminating(budget)
+        assert_within(via_states, via_stiffness, budget[:, None], "roll per moment")
 
 
 def test_steady_state_and_zero_frequency_gain_equal_the_roll_gradient(problem, axle_roll):
     for p in (problem, axle_roll):
         model = p.model(DESIGNS if p is problem else p.baseline[None])
         gradient = roll_gradient(model.stiffness(), model.vehicle)  # [rad/g]
-        form, trusted = _form(model.groups()[0][1])
+        group = model.groups()[0][1]
+        form, trusted = _form(group)
         assert trusted.all()
+        # the budgets (tests/error_budget.py): the static solve of the state matrix against the
+        # 7 x 7 stiffness's, and the poles' rounding at 0 Hz for the pole-residue form's H(0)
+        ss = group.state_space()
+        moment = np.broadcast_to(roll_moment_input(group.vehicle, ss.a.shape[-1]), ss.a.shape[:-1])[..., None]
+        static = state_space_budget(group, np.zeros(1), inputs=moment) + SAFETY * EPS * np.linalg.cond(model.stiffness())
+        modal = static + pole_budget([ss.a], 0.0, 0.0, power=1)
+        assert_discriminating(modal)
         # the step response settles at the roll gradient times the step, H(0) per m/s^2
-        np.testing.assert_allclose(form.static * STEP_G * G_MPS2, gradient * STEP_G, rtol=1e-10)
+        assert_within(form.static * STEP_G * G_MPS2, gradient * STEP_G, static, "static")
         late = form(np.full((len(form.lam), 1), 200.0), 0)[:, 0]
-        np.testing.assert_allclose(late, gradient / G_MPS2, rtol=1e-9)
-        np.testing.assert_allclose(form.frequency_response(np.zeros((len(form.lam), 1)))[:, 0], gradient / G_MPS2, rtol=1e-9)
+        assert_within(late, gradient / G_MPS2, static, "late")
+        assert_within(form.frequency_response(np.zeros((len(form.lam), 1)))[:, 0], gradient / G_MPS2, modal, "H(0)")
 
 
 @pytest.mark.parametrize("which", ["default", "axle_roll"])

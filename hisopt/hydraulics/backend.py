@@ -215,12 +215,30 @@ def solve(a: Any, b: Any) -> Any:
 
 def _casadi_solve(a: Any, b: Any) -> Any:
     """``SX``: a symbolic solve (expanded); ``MX``: LU with partial pivoting at run time, as
-    numpy solves. A network's matrix mixes compliances near 1e-13 with resistances near 1e9;
-    unpivoted QR loses digits on it (0.2 % on a pipe network's ``D(s)``), pivoted LU does not."""
+    numpy solves, on the matrix with its rows and then its columns scaled by powers of two to
+    sums of magnitudes near 1. A network's matrix mixes compliances near 1e-13 with
+    resistances near 1e9: unpivoted QR loses digits on it (0.2 % on a pipe network's ``D(s)``),
+    and so does pivoted LU on the real block form of the complex system unless the rows and
+    columns are scaled (1e-8 on a twin-accumulator circuit's distributed-pipe ``D(s)`` against
+    3e-16 scaled; CasADi's ``lapacklu`` option ``equilibration`` changes nothing here). The
+    scales are exact and piecewise constant, so the solution and its AD derivative are those of
+    the unscaled system."""
     ca = _ca()
-    if isinstance(a, ca.MX) or isinstance(b, ca.MX):
-        return ca.solve(a, b, "lapacklu")
-    return ca.solve(a, b)
+    if not (isinstance(a, ca.MX) or isinstance(b, ca.MX)):
+        return ca.solve(a, b)
+    a, b = ca.MX(a), ca.MX(b)
+    n, m = a.shape[0], b.shape[1]
+    r = _power_of_two(ca.sum2(ca.fabs(a)))  # (n, 1) row scales
+    scaled = a * ca.repmat(r, 1, n)
+    c = _power_of_two(ca.sum1(ca.fabs(scaled)).T)  # (n, 1) column scales
+    y = ca.solve(scaled * ca.repmat(c.T, n, 1), b * ca.repmat(r, 1, m), "lapacklu")
+    return y * ca.repmat(c, 1, m)
+
+
+def _power_of_two(size: Any) -> Any:
+    """``2^-floor(log2 size)`` elementwise: a scale that is exact in floating point."""
+    ca = _ca()
+    return 2.0 ** (-ca.floor(ca.log(size) / np.log(2.0)))
 
 
 def real_part(x: Any) -> Any:
