@@ -59,16 +59,27 @@ def mutated(draw):
 @settings(max_examples=int(os.environ.get("HISOPT_HYPOTHESIS_EXAMPLES", 300)), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated())
 def test_mutated_problem_files_load_or_fail_with_one_clear_line(data):
-    try:
-        problem = problem_from_dict(data, "edited.toml")
-    except hisopt.ConfigError as exc:
-        msg = str(exc)
-        assert msg.startswith("edited.toml"), msg
-        assert "\n" not in msg and len(msg) < 400, msg
-        assert isinstance(exc, ValueError)
-    else:
-        assert len(problem.variable_names) == len(problem.lower)
-        assert np.all(problem.lower < problem.upper)
+    """A mutated file loads (perhaps with plausibility warnings, each one line naming the file
+    and key: hisopt.plausibility) or fails with one clear line."""
+    from hisopt.errors import PlausibilityWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("error")
+        warnings.simplefilter("always", PlausibilityWarning)
+        try:
+            problem = problem_from_dict(data, "edited.toml")
+        except hisopt.ConfigError as exc:
+            msg = str(exc)
+            assert msg.startswith("edited.toml"), msg
+            assert "\n" not in msg and len(msg) < 400, msg
+            assert isinstance(exc, ValueError)
+        else:
+            assert len(problem.variable_names) == len(problem.lower)
+            assert np.all(problem.lower < problem.upper)
+    for w in caught:
+        assert issubclass(w.category, PlausibilityWarning), w
+        msg = str(w.message)
+        assert msg.startswith("edited.toml: ") and "\n" not in msg and len(msg) < 400, msg
 
 
 @st.composite
