@@ -40,7 +40,7 @@ response, a PSD's error twice that, a quantity's the largest over its nodes.
 
 **Safety.** :data:`SAFETY` covers what the first-order bounds leave out (the constants, the
 residues, the quadrature's sums) and nothing else: on this machine's kernels (OpenBLAS
-Haswell, Zen and Prescott, numba's generic CPU) the paths differ by at most a quarter of their
+Haswell, Zen and Prescott, numba's generic CPU) the paths differ by at most 0.26 of their
 budgets. The budgets stay below a real error: :func:`assert_discriminating` checks that a
 path wrong by :data:`BUG` relative would fail on nearly every design of a test.
 """
