@@ -34,6 +34,7 @@ import numpy as np
 from hisopt.constants import G_MPS2
 from hisopt.peaks import refine_maximum
 from hisopt.pole_residue import balance
+from hisopt.psd import roll_gradient
 
 if TYPE_CHECKING:
     from hisopt.model import CoupledModel, StateSpace
@@ -364,7 +365,7 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
     b = np.broadcast_to(roll_moment_input(vehicle, size), (n, size))
     out = {name: np.full(n, np.nan) for name in names}
     with np.errstate(all="ignore"):
-        static = _static_gain(a, b)
+        static = _static_gain(a, b) if coupled is None else static_roll_gain(coupled)
         form, trusted = modal_form(a, b, static)
         ok = stable(form.lam) & np.isfinite(static) & (static != 0)
         static = np.where(ok, static, 1.0)  # placeholders: those rows stay NaN
@@ -389,6 +390,14 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
         if "roll_gain_peak_hz" in out:
             out["roll_gain_peak_hz"][rows] = f_peak
     return out
+
+
+def static_roll_gain(model: CoupledModel) -> np.ndarray:
+    """[rad per m/s^2] ``H(0)`` per design from the static stiffness (the law of
+    ``roll_gradient``): well conditioned where the state matrix is not (pipes of 1e-10 m
+    make ``A`` numerically singular, and which designs' solves fail then depends on the
+    BLAS kernel)."""
+    return np.asarray(roll_gradient(model.stiffness(), model.vehicle), dtype=float) / G_MPS2
 
 
 def _static_gain(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -107,7 +107,11 @@ def test_distributed_pipes_of_1e10_m_are_right_or_flagged(problem, rng):
     model = p.model(x)
     assert (channels.eigen_conditioning(model.state_space().a) > evaluate.CONDITION_LIMIT).all()  # the repair is tested
     fast, ref = p.evaluator()(x), reference(p, x)
-    assert ref["sigma_aw"][0] == pytest.approx(17.58, abs=0.005) and fast["valid"][0]  # right, not merely flagged
+    assert ref["sigma_aw"][0] == pytest.approx(17.58, abs=0.005)
+    # right, not merely flagged: the state matrix of such pipes is numerically singular (which
+    # designs' solves fail depends on the BLAS kernel), so the transient roll quantities take
+    # H(0) from the 7 x 7 static stiffness (transient.static_roll_gain), and every design is valid
+    assert fast["valid"].all(), fast["valid"]
     for name in p.evaluator().names:
         ok = np.isfinite(fast[name])
         assert np.all(np.abs(fast[name][ok] / ref[name][ok] - 1) < 1e-3), (name, fast[name], ref[name])
