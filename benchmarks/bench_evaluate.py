@@ -3,16 +3,16 @@
 Three ways to the same quantities, timed in one run on the same designs, each in a fresh
 process of its own as a user would run it (one BLAS thread, best of ``--repeats``), with each
 one's largest relative error against a converged reference (a direct solve on a fine
-pole-clustered grid, :mod:`hisopt.reference`) on random designs and box corners:
+pole-clustered grid, :mod:`hisopt.evaluation.reference`) on random designs and box corners:
 
-- **new**: :class:`hisopt.evaluate.Evaluator` (symmetric halves, compiled pole-residue
+- **new**: :class:`hisopt.evaluation.evaluate.Evaluator` (symmetric halves, compiled pole-residue
   kernel, error-controlled panels, parabolic peak search);
 - **today's**: ``benchmarks/legacy_evaluate.py``, the evaluator before this work, kept as the
   reference path; also shown with the memory allocator primed as the new evaluator primes it
-  (one 16 MB block freed at start, :func:`hisopt.evaluate._prime_allocator`), to show how much
+  (one 16 MB block freed at start, :func:`hisopt.evaluation.evaluate._prime_allocator`), to show how much
   of the difference that alone makes;
 - **plain baseline**: the batched direct solve on a 1000-point log grid with trapezoid
-  integrals and sample maxima (:func:`hisopt.reference.grid_quantities`).
+  integrals and sample maxima (:func:`hisopt.evaluation.reference.grid_quantities`).
 
 Then the distributed-pipe problem (no exact state space: the direct solve on the nodes the
 lumped twin's poles place), new against today's.
@@ -48,7 +48,7 @@ def problem_for(path: str, distributed: bool):  # -> hisopt.Problem
 def method(name: str, problem) -> Method:  # noqa: ANN001
     """The method ``name`` on ``problem``, ready to evaluate design matrices."""
     if name == "new":
-        from hisopt.evaluate import Evaluator
+        from hisopt.evaluation.evaluate import Evaluator
 
         return Evaluator(problem)
     if name.startswith("today's"):
@@ -56,12 +56,12 @@ def method(name: str, problem) -> Method:  # noqa: ANN001
         import legacy_evaluate
 
         if name.endswith("primed"):
-            from hisopt.evaluate import _prime_allocator
+            from hisopt.evaluation.evaluate import _prime_allocator
 
             _prime_allocator()
         return legacy_evaluate.Evaluator(problem)
+    from hisopt.evaluation.reference import grid_quantities
     from hisopt.linalg import one_blas_thread
-    from hisopt.reference import grid_quantities
 
     band = problem.spec.band
     grid = np.geomspace(band.f_min_hz, band.f_max_hz, 1000)
@@ -102,7 +102,7 @@ def rate(name: str, args: argparse.Namespace, n: int, distributed: bool = False)
 
 def errors(problem, names: list[str], check: np.ndarray) -> dict[str, float]:  # noqa: ANN001
     """Largest relative error of any quantity against the converged reference, per method."""
-    from hisopt.reference import converged_grid, grid_quantities
+    from hisopt.evaluation.reference import converged_grid, grid_quantities
 
     quantities = list(dict.fromkeys(problem.objective_names + problem.constraint_names))
     parts = [grid_quantities(problem, c[None], converged_grid(problem, c), chunk_size=1) for c in check]

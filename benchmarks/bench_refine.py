@@ -5,7 +5,7 @@ then 40 designs spread over its front refined with CasADi/IPOPT on the available
 Prints the hypervolume (log10 objectives, the run's reference point) before and after, the
 refinement's wall time per design (target: at most 2 s) and the IPOPT work per design. The
 first run on a machine also compiles the CasADi model (a few seconds, then cached; see
-``hisopt.optim.casadi_model.compiled``): it is timed separately, before the refinement.
+``hisopt.optim.gradient.casadi_model.compiled``): it is timed separately, before the refinement.
 
     python benchmarks/bench_refine.py [--pop 40] [--gens 40] [--points 40] [--workers 2] [--seed 1]
 """
@@ -18,8 +18,8 @@ import time
 from pathlib import Path
 
 import hisopt
-from hisopt.optim.casadi_model import CasadiModel
-from hisopt.optim.refine import refine_front
+from hisopt.optim.gradient.casadi_model import CasadiModel
+from hisopt.optim.gradient.refine import refine_front
 from hisopt.optim.run import optimize
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,7 +45,7 @@ def main() -> None:
     model.fast_node_function(), model.fast_node_function(jacobian=True)
     print(f"CasADi model built and compiled (or loaded from the cache) in {time.perf_counter() - started:.1f} s")
 
-    from hisopt.parallel import open_backend
+    from hisopt.evaluation.parallel import open_backend
 
     with open_backend(args.workers if args.workers > 1 else None) as backend:
         result = refine_front(problem, run.front, args.points, backend=backend, reference_log=run.reference_point)

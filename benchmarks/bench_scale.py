@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import hisopt
-from hisopt.parallel import Backend, evaluate_designs, open_backend
+from hisopt.evaluation.parallel import Backend, evaluate_designs, open_backend
 
 ROOT = Path(__file__).resolve().parents[1]
 

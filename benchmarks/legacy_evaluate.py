@@ -5,7 +5,7 @@ Algorithm: one eigendecomposition of the full 14-state matrix per design, pole-r
 FRFs by batched real matrix products, PSDs by numpy over arrays of designs x nodes x
 outputs, fixed panels (8 log + 8 linear over the band) plus geometric clusters around every
 pole, 4 Gauss-Legendre nodes per panel, peaks by five 7-point zoom steps. Copied from
-hisopt/evaluate.py and hisopt/quadrature.py at commit 5653c0c (with the two helpers that
+hisopt/evaluation/evaluate.py and hisopt/evaluation/quadrature.py at commit 5653c0c (with the two helpers that
 moved since, ``track_power`` and ``zoom_maximum``, inlined); it runs on today's models.
 Not part of the package.
 """
@@ -17,20 +17,20 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hisopt import psd as psd_kernels
+from hisopt.coupled.response import Output, standard_outputs
 from hisopt.errors import ModelError
+from hisopt.evaluation import psd as psd_kernels
+from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
 from hisopt.linalg import bmm, cbmm, cmul, one_blas_thread, split
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
-from hisopt.psd import comfort_gain_squared, reduce_metrics
-from hisopt.response import Output, standard_outputs
 from hisopt.road.spectra import isotropic_coherence
+from hisopt.specification.validation import admissible
 from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
-from hisopt.validation import admissible
 
 if TYPE_CHECKING:
-    from hisopt.design_space import DesignSpace
-    from hisopt.model import CoupledModel
+    from hisopt.coupled.model import CoupledModel
+    from hisopt.specification.design_space import DesignSpace
 
 FrfFn = Callable[..., Any]
 """``frf(s, output=None)``: output FRFs (n, F, 4 inputs, n_out) at ``s`` (n, F), or one output;
@@ -163,7 +163,7 @@ class Evaluator:
         """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their FRFs (n, F, 4, n_out),
         complex or as (real, imag) parts.
 
-        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`hisopt.psd.track_power`).
+        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`hisopt.evaluation.psd.track_power`).
         """
         re, im = h_out if isinstance(h_out, tuple) else split(h_out)
         phase = 2 * np.pi * f_hz * self.tau
@@ -208,7 +208,7 @@ class Evaluator:
         return scale**2 * (2 * np.pi * f_hz) ** (2 * power) * base_psd
 
     def _refined_max(self, name: str, f: np.ndarray, psd: np.ndarray, frf: FrfFn) -> np.ndarray:
-        """Continuous maximum of output ``name``'s PSD (:func:`hisopt.psd.zoom_maximum`)."""
+        """Continuous maximum of output ``name``'s PSD (:func:`hisopt.evaluation.psd.zoom_maximum`)."""
         base = self.derived[name][0]
 
         def values_at(pts: np.ndarray) -> np.ndarray:
@@ -378,7 +378,7 @@ def poles(model: CoupledModel) -> np.ndarray:
 
 
 def roll_gradient(model: CoupledModel) -> np.ndarray:
-    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.psd.roll_gradient`)."""
+    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
@@ -430,7 +430,7 @@ def zoom_maximum(
     return f_best, best
 
 
-# --- hisopt/quadrature.py at 5653c0c --------------------------------------------------
+# --- hisopt/evaluation/quadrature.py at 5653c0c --------------------------------------------------
 
 
 def base_edges(f_lo_hz: float, f_hi_hz: float, n_log: int = 24, n_lin: int = 24, extra_hz: np.ndarray | None = None) -> np.ndarray:

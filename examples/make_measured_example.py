@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import hisopt
-from hisopt.droptest import BODY_SENSORS, SENSOR_NAMES, response_sensors, simulate_drop
+from hisopt.simulation.droptest import BODY_SENSORS, SENSOR_NAMES, response_sensors, simulate_drop
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "examples" / "left_side_drop_measured.csv"

@@ -18,10 +18,10 @@ from typing import TYPE_CHECKING, Any
 from hisopt.errors import ConfigError, HisoptError, ModelError, ProblemFileNotFoundError, RunError
 
 if TYPE_CHECKING:
-    from hisopt.modal import modal_analysis
-    from hisopt.optim.layout_study import compare_layouts
+    from hisopt.coupled.modal import modal_analysis
     from hisopt.optim.run import optimize, resume
     from hisopt.problem import Problem, load_problem
+    from hisopt.studies.layout_study import compare_layouts
 
 __version__ = "0.1.0"
 
@@ -44,8 +44,8 @@ __all__ = [
 _LAZY = {
     "Problem": "hisopt.problem",
     "load_problem": "hisopt.problem",
-    "compare_layouts": "hisopt.optim.layout_study",
-    "modal_analysis": "hisopt.modal",
+    "compare_layouts": "hisopt.studies.layout_study",
+    "modal_analysis": "hisopt.coupled.modal",
     "optimize": "hisopt.optim.run",
     "resume": "hisopt.optim.run",
 }

@@ -9,7 +9,7 @@ could break the second rule is BLAS splitting a product between threads, which c
 
 Complex arithmetic on the hot path works on (real, imag) pairs of real arrays, so that
 matrix products go to real gemm (two real products share one call, see
-:func:`hisopt.evaluate.PoleResidueOutputs`).
+:func:`hisopt.evaluation.evaluate.PoleResidueOutputs`).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Plausibility: impossible input refused, implausible input warned about, picks on a bound marked.
 
 Every rule is here with its reason (docs/input.md, "Plausibility"); the validators of the
-problem file (:mod:`hisopt.config`), the seed parser and the outputs call these functions.
+problem file (:mod:`hisopt.specification.config`), the seed parser and the outputs call these functions.
 
 **Refused** (:class:`~hisopt.errors.ConfigError`; the CLI's one ``error:`` line, exit 2):
 
@@ -191,7 +191,7 @@ def given_warnings(spec: Any, given: Mapping[str, Any], precharges: Collection[s
 
     Parameters
     ----------
-    spec : the validated problem (:class:`hisopt.config.ProblemSpec`: the values judged)
+    spec : the validated problem (:class:`hisopt.specification.config.ProblemSpec`: the values judged)
     given : the problem's raw data as the user wrote it, or the part given (``{"his": {"p0":
         5e4}}`` for ``--set p0=5e4``): a value is judged only where it was given, and a roll
         limit warns only when given as a bare number (read in rad)

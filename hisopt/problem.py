@@ -1,4 +1,4 @@
-"""``Problem``: what users load: a :class:`~hisopt.design_space.DesignSpace` with its evaluator.
+"""``Problem``: what users load: a :class:`~hisopt.specification.design_space.DesignSpace` with its evaluator.
 
 ``hisopt.load_problem(path)`` gives one; ``problem.evaluate(designs)`` returns the
 docs/model.md §8.1 DataFrame (objectives, constraints, ``feasible``, ``status``, ``reason``).
@@ -13,14 +13,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from hisopt.config import parse_problem, read_problem_file
-from hisopt.design_space import DesignSpace
-from hisopt.evaluate import Evaluator, results_frame
-from hisopt.scenario_evaluator import ScenarioEvaluator, evaluator_for
-from hisopt.validation import design_matrix, flag_summary
+from hisopt.evaluation.evaluate import Evaluator, results_frame
+from hisopt.evaluation.scenarios import ScenarioEvaluator, evaluator_for
+from hisopt.specification.config import parse_problem, read_problem_file
+from hisopt.specification.design_space import DesignSpace
+from hisopt.specification.validation import design_matrix, flag_summary
 
 if TYPE_CHECKING:
-    from hisopt.parallel import Backend
+    from hisopt.evaluation.parallel import Backend
 
 
 class Problem(DesignSpace):
@@ -28,7 +28,7 @@ class Problem(DesignSpace):
 
     def evaluator(self) -> Evaluator | ScenarioEvaluator:
         """The (cached) batched evaluator of this problem's objectives and constraints (a
-        :class:`~hisopt.scenario_evaluator.ScenarioEvaluator` for a problem with scenarios)."""
+        :class:`~hisopt.evaluation.scenarios.ScenarioEvaluator` for a problem with scenarios)."""
         return evaluator_for(self)
 
     def results_frame(self, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
@@ -38,19 +38,19 @@ class Problem(DesignSpace):
     def evaluate(self, designs: Any, *, backend: Backend | None = None, source: str | None = None, log: bool = True) -> pd.DataFrame:
         """Objectives and constraints of many designs (docs/model.md §8.1).
 
-        Every row is checked first (:func:`hisopt.validation.check_designs`): an ``invalid`` row
+        Every row is checked first (:func:`hisopt.specification.validation.check_designs`): an ``invalid`` row
         (not finite, or a parameter's rule broken) is not evaluated and gets NaN results; an
         ``out_of_bounds`` row is evaluated; neither is ever feasible. With flagged rows and
         ``log``, one warning line counting them goes to the ``hisopt`` logger.
 
         Parameters
         ----------
-        designs : [variable units] any form :func:`hisopt.validation.design_matrix` accepts
-        backend : [-] a :class:`hisopt.parallel.Backend` (Dask) or None for this process
+        designs : [variable units] any form :func:`hisopt.specification.validation.design_matrix` accepts
+        backend : [-] a :class:`hisopt.evaluation.parallel.Backend` (Dask) or None for this process
         source : [-] where the designs come from (named in the messages)
         log : [-] log the warning line (the CLI prints it itself)
         """
-        from hisopt.parallel import evaluate_designs
+        from hisopt.evaluation.parallel import evaluate_designs
 
         x = design_matrix(self, designs, source)
         df = results_frame(self, x, evaluate_designs(self, x, backend))
@@ -72,5 +72,5 @@ def load_problem(path: str | Path, *, warn_implausible: bool = True) -> Problem:
 
 def problem_from_dict(data: dict[str, Any], source: str = "<problem>", *, warn_implausible: bool = True) -> Problem:
     """Build a problem from a dictionary with the problem file's structure (``warn_implausible``:
-    as :func:`hisopt.config.parse_problem`; False for a dump of a checked problem with a change)."""
+    as :func:`hisopt.specification.config.parse_problem`; False for a dump of a checked problem with a change)."""
     return Problem(parse_problem(data, source, warn_implausible=warn_implausible))

@@ -42,7 +42,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 if TYPE_CHECKING:
-    from hisopt.design_space import DesignSpace
+    from hisopt.specification.design_space import DesignSpace
 
 NO_UNIT = "-"
 """Unit of ratios, counts, flags and labels."""
@@ -103,8 +103,8 @@ def hypervolume_unit(n_objectives: int) -> str:
 def variable_units(problem: DesignSpace) -> dict[str, str]:
     """Unit of each design variable: the SI unit its ``[his]`` field declares, else that of the
     element field the layout reads it as (a layout's extra parameter;
-    :func:`hisopt.validation.variable_si_units`), else the problem file's ``unit`` label."""
-    from hisopt.validation import variable_si_units
+    :func:`hisopt.specification.validation.variable_si_units`), else the problem file's ``unit`` label."""
+    from hisopt.specification.validation import variable_si_units
 
     declared = variable_si_units(problem)
     return {name: declared[name] or problem.spec.variables[name].unit for name in problem.variable_names}

@@ -35,8 +35,8 @@ def every_quantity(steps: bool = True) -> tuple[list[str], list[dict[str, object
     """Objectives and constraints of a problem that evaluates every registered quantity: those
     that may be minimised as objectives, the others as constraints with a limit never met
     (``steps=False``: without the step-response quantities, docs/model.md §6.6)."""
+    from hisopt.evaluation.transient import STEP_NAMES
     from hisopt.metrics import METRICS
-    from hisopt.transient import STEP_NAMES
 
     objectives = [name for name, m in METRICS.items() if m.objective and (steps or name not in STEP_NAMES)]
     return objectives, [{"name": name, "limit": 1e-12} for name, m in METRICS.items() if not m.objective]

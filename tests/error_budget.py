@@ -191,7 +191,7 @@ def state_space_frf_states(ss, s: np.ndarray) -> np.ndarray:
 
 
 def state_space_frf(ss, f_hz: np.ndarray) -> np.ndarray:
-    """``X / z_g`` ``(n, F, 7, 4)`` of a :class:`hisopt.model.StateSpace` at ``f_hz`` [Hz]
+    """``X / z_g`` ``(n, F, 7, 4)`` of a :class:`hisopt.coupled.model.StateSpace` at ``f_hz`` [Hz]
     (:func:`state_space_frf_states`)."""
     return state_space_frf_states(ss, 2j * np.pi * np.asarray(f_hz, dtype=float))[..., :7, :]
 

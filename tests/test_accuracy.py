@@ -1,6 +1,6 @@
 """The evaluator against the converged reference over the whole design box (docs/model.md §10.7).
 
-Every quantity within 1e-3 of a direct solve on a converged grid (:mod:`hisopt.reference`),
+Every quantity within 1e-3 of a direct solve on a converged grid (:mod:`hisopt.evaluation.reference`),
 at 10, 20 and 33 m/s (the rear-wheel delay's ripple narrows as the speed falls), without
 pipes, with pipes (lumped, and distributed: the direct path), with pipes of a micrometre (a state matrix spanning many decades) and of
 1e-10 m (where the state matrix's eigenvalues go wrong and the evaluator must repair or
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 import hisopt
-import hisopt.channels as channels
-import hisopt.evaluate as evaluate
+import hisopt.evaluation.channels as channels
+import hisopt.evaluation.evaluate as evaluate
+from hisopt.evaluation.reference import converged_grid, grid_quantities
 from hisopt.problem import problem_from_dict
-from hisopt.reference import converged_grid, grid_quantities
 from tests.conftest import every_quantity, random_designs
 from tests.error_budget import BUG, assert_discriminating, assert_within, pole_budget
 
@@ -33,7 +33,7 @@ CASES = {
 
 def variant(problem: hisopt.Problem, speed: float, his: dict, coherence: str = "independent") -> hisopt.Problem:
     data = problem.spec.model_dump(by_alias=True)
-    # The step quantities' reference is their own code (hisopt/transient.py; tested against the
+    # The step quantities' reference is their own code (hisopt/evaluation/transient.py; tested against the
     # simulator in tests/test_transient.py), and pipes of micrometres give them NaN (§6.6).
     data["objectives"], data["constraints"] = every_quantity(steps=False)
     data["road"]["speed"] = speed
@@ -135,8 +135,8 @@ def test_symmetric_split_equals_full_path_within_its_rounding(problem, rng, case
     split = p.evaluator()(x)
     model = p.model(x).groups()[0][1]
     ss = model.state_space()
-    from hisopt.symmetry import split as halves_of
-    from hisopt.symmetry import state_mirror
+    from hisopt.evaluation.symmetry import split as halves_of
+    from hisopt.evaluation.symmetry import state_mirror
 
     halves = halves_of(ss, state_mirror(model, ss))
     assert halves is not None
@@ -157,7 +157,7 @@ def test_symmetry_is_detected_from_the_data(problem, rng):
     x = random_designs(problem, 4, rng, corners=False)
     model = problem.model(x)
     ss = model.state_space()
-    from hisopt.symmetry import split, state_mirror
+    from hisopt.evaluation.symmetry import split, state_mirror
 
     assert split(ss, state_mirror(model, ss)) is not None
     broken = ss.a.copy()
@@ -180,7 +180,7 @@ def asymmetric(tmp_path_factory) -> hisopt.Problem:
 
 
 def test_an_asymmetric_layout_is_evaluated_whole_and_within_1e3(asymmetric, rng):
-    from hisopt.symmetry import split, state_mirror
+    from hisopt.evaluation.symmetry import split, state_mirror
 
     x = random_designs(asymmetric, 3, rng, corners=False)
     x = np.vstack([x, asymmetric.lower + (asymmetric.upper - asymmetric.lower) * np.array([[1, 1, 1, 0], [0, 1, 0, 1]])])
@@ -189,7 +189,7 @@ def test_an_asymmetric_layout_is_evaluated_whole_and_within_1e3(asymmetric, rng)
     assert split(ss, state_mirror(model, ss)) is None
     fast = asymmetric.evaluator()(x)
     data = asymmetric.spec.model_dump(by_alias=True)
-    # The step quantities' reference is their own code (hisopt/transient.py; tested against the
+    # The step quantities' reference is their own code (hisopt/evaluation/transient.py; tested against the
     # simulator in tests/test_transient.py), and pipes of micrometres give them NaN (§6.6).
     data["objectives"], data["constraints"] = every_quantity(steps=False)
     every = problem_from_dict(data)

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 import hisopt
-from hisopt.channels import DirectOutputs
+from hisopt.evaluation.channels import DirectOutputs
+from hisopt.evaluation.symmetry import split, state_mirror
 from hisopt.metrics import COMFORT_OUTPUTS
-from hisopt.optim.casadi_model import CasadiModel, FrequencySet, SpectraCallback, compiled
+from hisopt.optim.gradient.casadi_model import CasadiModel, FrequencySet, SpectraCallback, compiled
 from hisopt.standards import iso_2631_1_1997 as iso2631
-from hisopt.symmetry import split, state_mirror
 from tests.conftest import ROOT, random_designs
 from tests.error_budget import EPS, SAFETY, assert_discriminating, network_condition, pole_budget, solve_budget
 
@@ -66,7 +66,7 @@ def numpy_quantities(
     ``at`` fixes the node of a maximum (its derivative is that node's, where the maximum is
     unique), so central differences do not straddle a change of the maximising node.
     """
-    from hisopt.evaluate import roll_gradient
+    from hisopt.evaluation.evaluate import roll_gradient
 
     ev = problem.evaluator()
     model = problem.model(x[None])

@@ -173,7 +173,7 @@ def test_set_help_names_every_key_set_accepts(problem):
     [his] model; --help names each, and --set accepts each."""
     from pydantic import BaseModel
 
-    from hisopt.cli import SET_KEYS
+    from hisopt.cli.app import SET_KEYS
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
     def is_model(annotation) -> bool:  # tables and lists ([his.parameters], [[his.circuits]]) are not scalars
@@ -255,7 +255,7 @@ def test_init_writes_the_paper_problem_and_refuses_to_overwrite(tmp_path):
 def test_usage_error_lines_from_plain_click_exceptions():
     """typer < 0.29 raises click's own classes, typer 0.29 its copies: the same lines for both."""
     click = pytest.importorskip("click")
-    from hisopt.cli_usage import integer, usage_error_line
+    from hisopt.cli.usage import integer, usage_error_line
 
     def click_integer(text: str) -> int:  # typer < 0.29: typer.BadParameter is click's
         try:

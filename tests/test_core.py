@@ -26,15 +26,15 @@ import numpy as np
 import pytest
 
 import hisopt
-from hisopt.channels import DirectOutputs
-from hisopt.evaluate import Evaluator, poles
+from hisopt.evaluation.channels import DirectOutputs
+from hisopt.evaluation.evaluate import Evaluator, poles
+from hisopt.evaluation.peaks import refine_maximum
+from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
+from hisopt.evaluation.reference import grid_quantities
 from hisopt.metrics import METRICS
-from hisopt.optim.casadi_model import CasadiModel
-from hisopt.peaks import refine_maximum
+from hisopt.optim.gradient.casadi_model import CasadiModel
 from hisopt.problem import problem_from_dict
-from hisopt.psd import comfort_gain_squared, reduce_metrics
-from hisopt.reference import grid_quantities
-from hisopt.timedomain import simulate
+from hisopt.simulation.timedomain import simulate
 from tests.conftest import DEFAULT_PROBLEM, ROOT, random_designs
 from tests.error_budget import assert_discriminating, assert_frf_within, assert_within, solve_budget, state_space_budget, state_space_frf
 
@@ -106,7 +106,7 @@ def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.
 
     values = reduce_metrics(
         ev.metrics, spec.comfort, lambda n: ev.outputs[n].weighting, integral,
-        lambda output: float(psd[:, ev.output_index[output]].max()), lambda name: float(hisopt.evaluate.roll_gradient(model)[0]),
+        lambda output: float(psd[:, ev.output_index[output]].max()), lambda name: float(hisopt.evaluation.evaluate.roll_gradient(model)[0]),
     )
     return {k: float(np.squeeze(v)) for k, v in values.items()}
 

@@ -18,7 +18,10 @@ import plotly.graph_objects as go
 import pytest
 
 import hisopt
-from hisopt.droptest import (
+from hisopt.coupled.modal import _MOTION_BASIS, MODE_NAMES, mac, mechanical_mode_shapes
+from hisopt.errors import ConfigError
+from hisopt.io import read_csv
+from hisopt.simulation.droptest import (
     BODY_SENSORS,
     DROP_CASES,
     MAC_MIN,
@@ -37,10 +40,7 @@ from hisopt.droptest import (
     simulate_drop,
     spectra_figure,
 )
-from hisopt.errors import ConfigError
-from hisopt.identification import IdentifiedMode, era, identify_mode
-from hisopt.io import read_csv
-from hisopt.modal import _MOTION_BASIS, MODE_NAMES, mac, mechanical_mode_shapes
+from hisopt.simulation.identification import IdentifiedMode, era, identify_mode
 from hisopt.vehicle import body_to_corners
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 

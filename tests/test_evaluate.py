@@ -7,12 +7,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hisopt.channels import DirectOutputs
-from hisopt.evaluate import Evaluator
+from hisopt.evaluation.channels import DirectOutputs
+from hisopt.evaluation.evaluate import Evaluator
+from hisopt.evaluation.reference import converged_grid, grid_quantities
 from hisopt.linalg import join
 from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
-from hisopt.reference import converged_grid, grid_quantities
 from tests.conftest import every_quantity, random_designs
 from tests.error_budget import assert_discriminating, pole_budget, solve_budget
 
@@ -59,10 +59,10 @@ def test_peaks_are_continuous_maxima_not_grid_samples(problem):
 @pytest.mark.parametrize("split", [True, False], ids=["symmetric-halves", "full"])
 def test_pole_residue_path_equals_direct_solve(problem, rng, split, monkeypatch):
     """The channels' FRFs from poles and residues, split into symmetric halves or not."""
-    import hisopt.channels as channels
-    import hisopt.evaluate as evaluate
-    from hisopt.symmetry import split as halves_of
-    from hisopt.symmetry import state_mirror
+    import hisopt.evaluation.channels as channels
+    import hisopt.evaluation.evaluate as evaluate
+    from hisopt.evaluation.symmetry import split as halves_of
+    from hisopt.evaluation.symmetry import state_mirror
 
     if not split:
         monkeypatch.setattr(channels, "split", lambda ss, mirror: None)
@@ -159,7 +159,7 @@ def test_roll_gradient_closed_form_without_his(all_metrics_problem):
     """Reference car: roll moment on springs in series with tyres, exact; HIS reduces it."""
     p = all_metrics_problem
     v = p.spec.vehicle
-    from hisopt.evaluate import roll_gradient
+    from hisopt.evaluation.evaluate import roll_gradient
 
     k_s = 2 * v.k_sf * v.t_f**2 + 2 * v.k_sr * v.t_r**2
     k_t = 2 * v.k_tf * v.t_f**2 + 2 * v.k_tr * v.t_r**2

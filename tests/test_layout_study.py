@@ -1,4 +1,4 @@
-"""Layout study (`hisopt compare-layouts`, hisopt.optim.layout_study) on a tiny budget.
+"""Layout study (`hisopt compare-layouts`, hisopt.studies.layout_study) on a tiny budget.
 
 - end to end through the CLI in a real process, SIGKILLed mid-study and re-run: the same
   files as an uninterrupted study; a changed problem is refused with one line;
@@ -26,7 +26,7 @@ import pytest
 
 from hisopt.io import read_csv
 from hisopt.optim import rundir
-from hisopt.optim.layout_study import run_layout_study
+from hisopt.studies.layout_study import run_layout_study
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
@@ -59,7 +59,7 @@ def test_study_outputs_and_units(serial):
     assert np.all(table["hv_min"] <= table["hv_mean"]) and np.all(table["hv_mean"] <= table["hv_max"])
     assert np.all(table["hv_merged"] >= table["hv_max"] - 1e-12)  # the merged front dominates each seed's
     # the stiffness columns are those of `hisopt layouts` (mode_stiffness) for the catalogue
-    from hisopt.layouts import mode_stiffness
+    from hisopt.studies.screening import mode_stiffness
 
     ref = mode_stiffness(serial.cases[0].problem).set_index("layout")
     for name in table["layout"]:
@@ -78,7 +78,7 @@ def test_study_outputs_and_units(serial):
 
 
 def test_equal_handling_is_feasible_and_beats_every_sampled_design(serial):
-    from hisopt.evaluate import roll_gradient
+    from hisopt.evaluation.evaluate import roll_gradient
 
     limit = serial.handling_limit
     assert serial.handling == "roll_gradient"
@@ -109,7 +109,7 @@ def test_equal_handling_is_feasible_and_beats_every_sampled_design(serial):
 
 
 def test_normalisation_does_not_depend_on_the_other_layouts(problem, serial):
-    from hisopt.optim.layout_metrics import normalised_hypervolume
+    from hisopt.studies.layout_metrics import normalised_hypervolume
 
     other = run_layout_study(problem, ["pitch_plane", "axle_roll"], SEEDS, pop_size=POP, generations=GENS)
     assert other.table["layout"].tolist() == ["roll_plane", "pitch_plane", "axle_roll"]
@@ -129,7 +129,7 @@ def test_normalisation_does_not_depend_on_the_other_layouts(problem, serial):
 
 
 def test_serial_and_dask_give_the_same_study(problem, serial):
-    from hisopt.parallel import open_backend
+    from hisopt.evaluation.parallel import open_backend
 
     with open_backend(workers=2) as backend:
         dist = run_layout_study(problem, "axle_roll", SEEDS, pop_size=POP, generations=GENS, backend=backend)
@@ -210,7 +210,7 @@ def test_cli_study_resumes_after_sigkill_to_identical_files(tmp_path):
 
 
 def test_layout_cases_take_variables_from_the_catalogue_and_custom_files(problem, rng):
-    from hisopt.optim.layout_cases import layout_cases
+    from hisopt.studies.layout_cases import layout_cases
 
     cases = {c.name: c for c in layout_cases(problem, "roll_plane_twin_accumulator,problems/layout_custom_roll_plane.toml")}
     assert list(cases) == ["roll_plane", "roll_plane_twin_accumulator", "layout_custom_roll_plane"]

@@ -24,8 +24,8 @@ from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.layout import Accumulator
 from hisopt.hydraulics.network import compile_network
 from hisopt.hydraulics.roll_plane import roll_plane_layout
-from hisopt.layouts import STROKE_PATTERNS, mode_stiffness, pattern_matrix
 from hisopt.problem import problem_from_dict
+from hisopt.studies.screening import STROKE_PATTERNS, mode_stiffness, pattern_matrix
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
@@ -305,7 +305,7 @@ def test_orifice_in_the_nonlinear_time_domain_is_the_valve_law_with_its_own_kq()
     """An orifice (R, K_q) in the nonlinear model equals a plain valve R with the global
     valve_kq = K_q (same equations, other code path); with K_q = 0 it is the linear model."""
     from hisopt.road import step_profile
-    from hisopt.timedomain import simulate
+    from hisopt.simulation.timedomain import simulate
 
     kq = 4e11
 
@@ -390,9 +390,9 @@ def test_layout_problem_files_evaluate_and_optimize(path, tmp_path):
 
 @pytest.mark.parametrize("name", ["roll_plane_twin_accumulator", "side_front_rear"])
 def test_sweep_regions_response_and_drop_tests_on_a_layout(name):
-    from hisopt.droptest import run_drop_tests
-    from hisopt.spectra import response_spectra
-    from hisopt.sweeps import regions, sweep
+    from hisopt.simulation.droptest import run_drop_tests
+    from hisopt.studies.spectra import response_spectra
+    from hisopt.studies.sweeps import regions, sweep
 
     p = hisopt.load_problem(ROOT / "problems" / f"layout_{name}.toml")
     s = sweep(p, "Rv_link", 4)
@@ -508,8 +508,8 @@ def test_readme_custom_layout_example_is_valid():
 def test_refinement_improves_a_design_of_another_layout_with_its_extra_variable():
     """CasADi refinement on the accumulator-valve layout, Rv_acc a design variable: the
     refined design dominates its start, checked by the numpy evaluator."""
-    from hisopt.optim.casadi_model import CasadiModel
-    from hisopt.optim.refine import Part, RefineSettings, refine_point
+    from hisopt.optim.gradient.casadi_model import CasadiModel
+    from hisopt.optim.gradient.refine import Part, RefineSettings, refine_point
 
     p = hisopt.load_problem(ROOT / "problems" / "layout_roll_plane_accumulator_valves.toml")
     x0 = p.baseline

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from hisopt.modal import refine_roots
-from hisopt.model import CoupledModel
+from hisopt.coupled.modal import refine_roots
+from hisopt.coupled.model import CoupledModel
 from tests.conftest import random_designs
 from tests.error_budget import assert_discriminating, assert_frf_within, solve_budget, state_space_budget, state_space_frf
 

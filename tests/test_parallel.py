@@ -7,8 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hisopt.evaluation.parallel import Backend, chunks, evaluate_designs, open_backend
 from hisopt.io import read_csv
-from hisopt.parallel import Backend, chunks, evaluate_designs, open_backend
 from tests.conftest import DEFAULT_PROBLEM, random_designs
 
 
@@ -72,7 +72,7 @@ def test_multi_seed_study_identical_serial_and_distributed(problem, dask_backend
 
 
 def test_sweep_and_regions_through_dask_equal_serial(problem, dask_backend):
-    from hisopt.sweeps import regions, sweep
+    from hisopt.studies.sweeps import regions, sweep
 
     a = sweep(problem, "p0", points=9)
     b = sweep(problem, "p0", points=9, backend=dask_backend)
@@ -86,7 +86,7 @@ def test_sweep_and_regions_through_dask_equal_serial(problem, dask_backend):
 def test_refinement_through_dask_equals_serial(problem, dask_backend):
     """One NLP per task; the refined designs do not depend on where they were solved."""
     import hisopt
-    from hisopt.optim.refine import refine_front
+    from hisopt.optim.gradient.refine import refine_front
 
     run = hisopt.optimize(problem, pop_size=12, generations=3, seed=4)
     local = refine_front(problem, run.front, max_points=2)

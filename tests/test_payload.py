@@ -17,15 +17,15 @@ import pytest
 from scipy.optimize import brentq
 
 import hisopt
-from hisopt import channels, evaluate
 from hisopt.constants import G_MPS2, P_ATM_PA
+from hisopt.coupled.modal import modal_table
+from hisopt.coupled.model import CoupledModel
+from hisopt.coupled.payload import Payload, laden_vehicle, payload_force, static_deflection, static_pressure_rise
 from hisopt.errors import ConfigError
+from hisopt.evaluation import channels, evaluate
+from hisopt.evaluation.symmetry import split, state_mirror
 from hisopt.hydraulics.coupling import HydraulicSystem
-from hisopt.modal import modal_table
-from hisopt.model import CoupledModel
-from hisopt.payload import Payload, laden_vehicle, payload_force, static_deflection, static_pressure_rise
 from hisopt.problem import problem_from_dict
-from hisopt.symmetry import split, state_mirror
 from hisopt.vehicle import VehicleParams, body_to_corners, mass_matrix, stiffness_matrix
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT, random_designs
@@ -163,7 +163,7 @@ def test_static_solution_is_the_same_in_the_laden_frame(problem, rng):
     # equilibrium of forces and of oil, by the residuals
     v = p.spec.vehicle
     xs = static_deflection(v, payload, unladen, his.static_rise)
-    from hisopt.payload import circuit_areas
+    from hisopt.coupled.payload import circuit_areas
     from hisopt.vehicle import stroke_matrix
 
     a = circuit_areas(unladen)
@@ -192,8 +192,8 @@ def test_numpy_and_casadi_give_the_same_static_rise(source, rng):
 
 
 def test_casadi_spectra_of_a_laden_car_equal_numpy(rng):
-    from hisopt.channels import DirectOutputs
-    from hisopt.optim.casadi_model import CasadiModel
+    from hisopt.evaluation.channels import DirectOutputs
+    from hisopt.optim.gradient.casadi_model import CasadiModel
 
     p = laden_problem({"mass": 300.0, "x": 0.4, "y": 0.25, "z": 0.2})
     model, ev = CasadiModel(p, compile=False), p.evaluator()
@@ -267,7 +267,7 @@ def test_time_domain_starts_at_the_laden_pressures_and_agrees_with_linear():
     """The nonlinear simulator's gas law runs about the laden point: at rest each accumulator
     holds ``p0 + dp``, and a small bump gives the linear (laden) model's response."""
     from hisopt.road import bump_profile
-    from hisopt.timedomain import simulate
+    from hisopt.simulation.timedomain import simulate
 
     p = laden_problem({"mass": 300.0, "x": 0.3, "y": 0.4})
     model = p.model()

@@ -100,7 +100,7 @@ def test_payloads_at_the_edge_of_the_body_are_accepted(tmp_path):
 
 
 def test_the_sag_check_uses_springs_and_tyres_in_series_and_leaves_a_springless_axle_to_the_model():
-    from hisopt.payload import Payload
+    from hisopt.coupled.payload import Payload
     from hisopt.plausibility import payload_problem, sprung_vertical_stiffness
     from hisopt.vehicle import VehicleParams
 

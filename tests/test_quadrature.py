@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from hisopt import kernels, quadrature
-from hisopt.channels import DirectOutputs, ModalChannels, frf_power
-from hisopt.peaks import refine_maximum
-from hisopt.quadrature import POLE_MARGIN, design_rho, panel_nodes, panels, ripple_error, ripple_splits, singularities
-from hisopt.symmetry import split, state_mirror
+from hisopt.evaluation import kernels, quadrature
+from hisopt.evaluation.channels import DirectOutputs, ModalChannels, frf_power
+from hisopt.evaluation.peaks import refine_maximum
+from hisopt.evaluation.quadrature import POLE_MARGIN, design_rho, panel_nodes, panels, ripple_error, ripple_splits, singularities
+from hisopt.evaluation.symmetry import split, state_mirror
 from tests.conftest import random_designs
 from tests.error_budget import EPS, SAFETY, assert_discriminating, pole_budget, solve_budget
 

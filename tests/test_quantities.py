@@ -20,12 +20,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import hisopt
-from hisopt.config import ProblemSpec
 from hisopt.constants import G_MPS2
 from hisopt.errors import ConfigError
 from hisopt.hydraulics.layout import FIELD_UNITS
 from hisopt.io import read_csv
 from hisopt.quantities import KINDS, field_unit, to_si, unit_factor
+from hisopt.specification.config import ProblemSpec
 from hisopt.units import _STEPS, variable_units
 from tests.cli_inprocess import Outcome, run_cli
 from tests.conftest import DEFAULT_PROBLEM
@@ -453,7 +453,7 @@ def test_every_printed_unit_pastes_back_to_the_same_value(tmp_path):
     assert_same(read_csv(tmp_path / "pasted.csv"), si)
 
     # layouts: the screening table against its SI frame
-    from hisopt.layouts import mode_stiffness
+    from hisopt.studies.screening import mode_stiffness
 
     out = run_cli("layouts")
     assert out.code == 0, out

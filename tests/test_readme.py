@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hisopt.droptest import measured_drop_test
+from hisopt.coupled.modal import modal_analysis
 from hisopt.io import read_csv
-from hisopt.modal import modal_analysis
+from hisopt.simulation.droptest import measured_drop_test
 from tests.conftest import ROOT
 
 README = ROOT / "README.md"

@@ -1,4 +1,4 @@
-"""Gradient refinement of Pareto fronts (hisopt.optim.refine).
+"""Gradient refinement of Pareto fronts (hisopt.optim.gradient.refine).
 
 Every kept refined design is re-evaluated with the standard evaluator and must weakly
 dominate its start; the refined front must be non-dominated and never lose hypervolume. The
@@ -22,8 +22,8 @@ import pytest
 import hisopt
 from hisopt.io import read_csv
 from hisopt.optim.archive import non_dominated_mask
-from hisopt.optim.casadi_model import CasadiModel
-from hisopt.optim.refine import (
+from hisopt.optim.gradient.casadi_model import CasadiModel
+from hisopt.optim.gradient.refine import (
     FRONT_REFINED_CSV,
     REFINE_JSON,
     Part,
@@ -125,7 +125,7 @@ def test_refine_front_keeps_only_dominating_designs(problem, small_run):
 
 
 def test_refinement_on_a_dask_cluster_equals_serial(problem, small_run):
-    from hisopt.parallel import open_backend
+    from hisopt.evaluation.parallel import open_backend
 
     serial = refine_front(problem, small_run.front, max_points=3)
     with open_backend(workers=2) as backend:

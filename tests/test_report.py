@@ -215,8 +215,8 @@ def test_report_layout_holds_in_a_narrow_window(default_report, tmp_path):
 
 @pytest.fixture(scope="module")
 def small_figures(problem):
-    from hisopt.spectra import response_spectra
-    from hisopt.sweeps import regions, sweep
+    from hisopt.studies.spectra import response_spectra
+    from hisopt.studies.sweeps import regions, sweep
 
     handling = load_problem(DEFAULT_PROBLEM.with_name("roll_plane_his_handling.toml"))
     return {
@@ -290,7 +290,7 @@ def test_report_of_a_per_scenario_run(tmp_path):
     front's "<quantity>@<scenario>" values), the spectra are those of the problem's [road]
     (the problem without its scenarios gives the same numbers), and nothing overlaps."""
     from hisopt.io import read_csv
-    from hisopt.spectra import response_spectra
+    from hisopt.studies.spectra import response_spectra
     from tests.cli_inprocess import run_cli
 
     text = (DEFAULT_PROBLEM.parent / "roll_plane_his_robust.toml").read_text()

@@ -150,8 +150,8 @@ def test_bad_scenario_tables_get_one_clear_line(change, words):
 def test_refinement_over_load_cases_improves_the_baseline(how):
     """The CasADi NLP aggregates the load cases as the evaluator does: from the baseline (far
     from the front) it finds a design the evaluator confirms dominates it."""
-    from hisopt.optim.casadi_model import CasadiModel
-    from hisopt.optim.refine import Part, RefineSettings, refine_point
+    from hisopt.optim.gradient.casadi_model import CasadiModel
+    from hisopt.optim.gradient.refine import Part, RefineSettings, refine_point
 
     roads = {k: ROADS[k] for k in ("city", "motorway")}
     data = copy.deepcopy(BASE)

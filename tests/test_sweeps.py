@@ -50,7 +50,7 @@ Not supported by the model (docs/model.md §2 and §3 fix the physics; the reaso
 
 The roll *angle* (rather than acceleration) peaks at the band's lower edge, where the road
 input is largest, and falls with every stiffening; the paper's "amplitude increases" refers to
-the Fig. 4 acceleration responses, which is why :data:`hisopt.sweeps.SWEEP_RESPONSES` uses them.
+the Fig. 4 acceleration responses, which is why :data:`hisopt.studies.sweeps.SWEEP_RESPONSES` uses them.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ import pytest
 
 import hisopt
 from hisopt.io import read_csv
-from hisopt.sweeps import INDICATORS, regions, response_peaks, sweep
+from hisopt.studies.sweeps import INDICATORS, regions, response_peaks, sweep
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
 HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"
@@ -226,7 +226,7 @@ def test_sweep_curves_have_no_jumps(sweeps, name):
 def test_tracking_does_not_depend_on_the_grid(problem, sweeps):
     # three points over the box (big steps, halved until the shapes match) give the 41-point
     # curves; wheel modes too: the warp stays rear_axle_tramp all along, at its closed form
-    from hisopt.modal import MODE_NAMES, track_modes
+    from hisopt.coupled.modal import MODE_NAMES, track_modes
 
     fine = track_modes(problem, problem.design_matrix({"p0": np.linspace(0.0, 4e6, 41)}), anchor=20)
     coarse = track_modes(problem, problem.design_matrix({"p0": [0.0, 2e6, 4e6]}), anchor=1)
@@ -244,8 +244,8 @@ def test_response_peaks_are_continuous_maxima(problem):
     # the refined peak is at least the largest value on a fine grid and within 1e-6 of it
     x = problem.design_matrix({"p0": [0.0, 4e6], "lam": [0.1, 0.8]})
     peaks = response_peaks(problem, x, ("acc_roll", "tire_load_fl"))
-    from hisopt.channels import DirectOutputs
-    from hisopt.evaluate import Evaluator
+    from hisopt.evaluation.channels import DirectOutputs
+    from hisopt.evaluation.evaluate import Evaluator
 
     ev = Evaluator(problem)
     f = np.geomspace(0.5, 80.0, 40001)[None, :].repeat(2, axis=0)

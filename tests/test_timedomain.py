@@ -15,14 +15,14 @@ import plotly.graph_objects as go
 import pytest
 from scipy.fft import next_fast_len
 
+from hisopt.coupled.model import CoupledModel
 from hisopt.errors import ConfigError
 from hisopt.hydraulics.laws import gas_compliance, gas_pressure_rise, gas_volume
 from hisopt.hydraulics.laws import valve_pressure_drop as orifice_pressure_drop
-from hisopt.model import CoupledModel
-from hisopt.nonlinear_model import NonlinearModel
 from hisopt.road import bump_profile, random_profile, step_profile
+from hisopt.simulation.nonlinear_model import NonlinearModel
+from hisopt.simulation.timedomain import RoadInput, simulate
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
-from hisopt.timedomain import RoadInput, simulate
 from hisopt.vehicle import stroke_matrix
 
 P_ABS0 = 2.0e6 + 101_325.0

@@ -1,4 +1,4 @@
-"""Transient roll quantities (hisopt/transient.py, docs/model.md §6.6) against independent
+"""Transient roll quantities (hisopt/evaluation/transient.py, docs/model.md §6.6) against independent
 methods: the static roll gradient, the time-domain simulator (scipy's integrator on the same
 state space, with the roll moment as an external body force), a direct solve of the dynamic
 stiffness on a very fine grid, and the CLI."""
@@ -11,10 +11,10 @@ import pytest
 import hisopt
 from hisopt.constants import G_MPS2
 from hisopt.errors import ConfigError
+from hisopt.evaluation.psd import roll_gradient
+from hisopt.evaluation.transient import NAMES, direct_response, modal_form, roll_moment_input, transient_quantities
 from hisopt.problem import problem_from_dict
-from hisopt.psd import roll_gradient
-from hisopt.timedomain import simulate
-from hisopt.transient import NAMES, direct_response, modal_form, roll_moment_input, transient_quantities
+from hisopt.simulation.timedomain import simulate
 from tests.conftest import ROOT
 from tests.error_budget import EPS, SAFETY, assert_discriminating, assert_within, pole_budget, solve_budget, state_space_budget
 
@@ -146,7 +146,7 @@ def test_problem_file_rules(problem):
 
 
 def test_finite_difference_designs_stay_in_the_box():
-    from hisopt.optim.transient_callback import difference_designs
+    from hisopt.optim.gradient.transient_callback import difference_designs
 
     u = np.array([0.0, 0.5, 1.0])
     designs, spread = difference_designs(u, 1e-3)
@@ -156,7 +156,7 @@ def test_finite_difference_designs_stay_in_the_box():
 
 
 def test_refinement_callback_equals_the_evaluator_and_its_slopes(problem):
-    from hisopt.optim.transient_callback import TransientCallback
+    from hisopt.optim.gradient.transient_callback import TransientCallback
 
     names = ["roll_step_peak", "roll_rate_peak", "roll_gain_peak"]
     span = problem.upper - problem.lower
@@ -176,8 +176,8 @@ def test_refinement_callback_equals_the_evaluator_and_its_slopes(problem):
 def test_refinement_meets_a_step_steer_limit(problem):
     """The CasADi refinement with a roll_step_peak constraint: the refined design improves on
     its start and the evaluator confirms it meets the limit."""
-    from hisopt.optim.casadi_model import CasadiModel
-    from hisopt.optim.refine import Part, RefineSettings, refine_point
+    from hisopt.optim.gradient.casadi_model import CasadiModel
+    from hisopt.optim.gradient.refine import Part, RefineSettings, refine_point
 
     data = problem.spec.model_dump(by_alias=True)
     q0 = problem_from_dict(data | {"objectives": ["roll_step_peak"]}).evaluator()(problem.baseline[None])

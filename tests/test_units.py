@@ -9,10 +9,10 @@ import pandas as pd
 import pytest
 
 import hisopt
-from hisopt.console import summary_tables
+from hisopt.cli.console import summary_tables
+from hisopt.coupled.modal import modal_analysis
 from hisopt.io import read_csv, write_csv
 from hisopt.metrics import METRICS
-from hisopt.modal import modal_analysis
 from hisopt.optim.run import optimize
 from hisopt.problem import problem_from_dict
 from hisopt.units import (

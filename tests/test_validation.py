@@ -1,4 +1,4 @@
-"""The one validation layer (hisopt.validation, hisopt.designs): rules, statuses, entry forms."""
+"""The one validation layer (hisopt.specification.validation, hisopt.specification.designs): rules, statuses, entry forms."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import pandas as pd
 import pytest
 
 import hisopt
-from hisopt.designs import read_designs
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
-from hisopt.validation import (
+from hisopt.specification.designs import read_designs
+from hisopt.specification.validation import (
     STATUS_INVALID,
     STATUS_OK,
     STATUS_OUT_OF_BOUNDS,

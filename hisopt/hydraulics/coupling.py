@@ -58,7 +58,7 @@ class HydraulicSystem:
     params: Mapping[str, Any]
     static_rise: Any = None
     """[Pa] Static pressure rise of each circuit above its precharge under a payload (numpy
-    ``B + (n_circuits,)`` or a CasADi column; :func:`hisopt.payload.static_pressure_rise`):
+    ``B + (n_circuits,)`` or a CasADi column; :func:`hisopt.coupled.payload.static_pressure_rise`):
     the accumulators are linearised there. ``None``: at the precharge."""
 
     @cached_property

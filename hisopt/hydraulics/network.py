@@ -231,7 +231,7 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
     linearised about its precharge: gas volume ``V0`` at absolute pressure ``p0 + p_atm``.
 
     ``static_rise`` [Pa]: the static pressure rise of each circuit above its precharge (a
-    payload's, :func:`hisopt.payload.static_pressure_rise`), numpy ``B + (n_circuits,)`` or a
+    payload's, :func:`hisopt.coupled.payload.static_pressure_rise`), numpy ``B + (n_circuits,)`` or a
     CasADi column; each accumulator is then linearised at its laden point, gas volume
     ``V0 - dV(dp)`` at ``p_abs0 + dp`` (docs/model.md §13). ``None``: the precharge itself.
     """

@@ -85,21 +85,21 @@ class OptimizationResult:
 
     def plot_front(self, refined: pd.DataFrame | None = None) -> Any:
         """Scatter matrix of the front's objectives, knee and ASF pick highlighted (plotly)."""
-        from hisopt.report.figures import front_scatter_matrix
+        from hisopt.plotting.figures import front_scatter_matrix
 
         highlights = {"knee": self.knee, "ASF pick": self.asf_pick()} if len(self.front) else {}
         return front_scatter_matrix(self.front, self.problem.objective_names, self.problem.variable_names, highlights, refined)
 
     def plot_parallel(self, color_by: str | None = None) -> Any:
         """Parallel coordinates of the front's variables and objectives (plotly)."""
-        from hisopt.report.figures import parallel_coordinates
+        from hisopt.plotting.figures import parallel_coordinates
 
         names = self.problem.objective_names
         return parallel_coordinates(self.front, self.problem.variable_names, names, color_by or names[0])
 
     def plot_convergence(self) -> Any:
         """Hypervolume, front size and feasible share per generation (plotly)."""
-        from hisopt.report.figures import convergence
+        from hisopt.plotting.figures import convergence
 
         return convergence(self.generations)
 

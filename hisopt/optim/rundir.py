@@ -75,7 +75,7 @@ FRONT_REFINED_CSV = "front_refined.csv"
 REFINE_JSON = "refine.json"
 """Summary of the refinement (settings, hypervolumes, timing, per point)."""
 LAYOUT_STUDY_JSON = "study.json"
-"""The record of a layout study directory (:mod:`hisopt.optim.layout_study`, whose runs are
+"""The record of a layout study directory (:mod:`hisopt.studies.layout_study`, whose runs are
 run directories one level down): named here so that a run command given such a folder says so."""
 CHECKPOINT_FORMAT = 1
 
@@ -268,7 +268,7 @@ def problem_copy(problem: Problem) -> tuple[str, bytes, dict[str, Any]]:
     same specification); otherwise the specification as JSON (``problem.json``), e.g. for
     :func:`~hisopt.problem.problem_from_dict` or ``Problem.with_values``.
     """
-    from hisopt.config import parse_problem
+    from hisopt.specification.config import parse_problem
 
     path = problem.path
     if path is not None and problem.sha256 is not None and Path(path).is_file():

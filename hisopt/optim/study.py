@@ -19,7 +19,7 @@ from hisopt.errors import ConfigError
 from hisopt.plausibility import seed_count_problem, with_bound_column
 
 if TYPE_CHECKING:
-    from hisopt.parallel import Backend
+    from hisopt.evaluation.parallel import Backend
     from hisopt.problem import Problem
 
 
@@ -104,10 +104,10 @@ def study(
     objective vectors the one of the lowest seed), by :func:`hisopt.optim.archive.non_dominated_mask`
     in ``O(n log^2 n)`` time and ``O(n)`` memory for ``n`` designs in the union.
     """
+    from hisopt.evaluation.parallel import Backend
     from hisopt.io import ensure_writable_dir, write_csv
     from hisopt.optim.archive import non_dominated_mask
     from hisopt.optim.decision import hypervolume, reference_point
-    from hisopt.parallel import Backend
     from hisopt.units import attach_units
 
     too_many = seed_count_problem(len(seeds))

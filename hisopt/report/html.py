@@ -186,12 +186,13 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     """
     import plotly.offline
 
+    from hisopt.coupled.modal import modal_analysis
     from hisopt.hydraulics.catalogue import his_parameter_values
     from hisopt.io import atomic_write_text
-    from hisopt.modal import modal_analysis
     from hisopt.optim.decision import asf_index, knee_index
-    from hisopt.report import figures, schematic
-    from hisopt.spectra import response_spectra
+    from hisopt.plotting import figures
+    from hisopt.report import schematic
+    from hisopt.studies.spectra import response_spectra
 
     run_dir = Path(run_dir)
     run = load_run_files(run_dir)

@@ -1,4 +1,4 @@
-"""``DIR/report.html`` of a layout study (:mod:`hisopt.optim.layout_study`): one offline page.
+"""``DIR/report.html`` of a layout study (:mod:`hisopt.studies.layout_study`): one offline page.
 
 Schematics of the layouts side by side, their fronts overlaid in the shared normalised
 objective space, the best comfort against the handling limit, the attainment surfaces across
@@ -13,15 +13,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hisopt.report.axes import log_axis
+from hisopt.plotting.axes import log_axis
+from hisopt.plotting.theme import COLORS, template
 from hisopt.report.html import _CSS, html_table
-from hisopt.report.theme import COLORS, template
 from hisopt.units import display_for, display_frame, format_quantity
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
 
-    from hisopt.optim.layout_study import LayoutStudyResult
+    from hisopt.studies.layout_study import LayoutStudyResult
 
 _GRID_CSS = ".schematics{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}"
 

@@ -31,7 +31,7 @@ from hisopt.hydraulics.layout import (
     Port,
     Valve,
 )
-from hisopt.report.theme import COLORS, template
+from hisopt.plotting.theme import COLORS, template
 from hisopt.units import format_quantity
 
 if TYPE_CHECKING:
@@ -112,7 +112,7 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
 
     Parameters
     ----------
-    layout : the circuits (e.g. :meth:`hisopt.design_space.DesignSpace.layout`)
+    layout : the circuits (e.g. :meth:`hisopt.specification.design_space.DesignSpace.layout`)
     values : [SI] parameter values shown on hover (e.g. the baseline's), None: names only
     title : figure title (default names the layout)
     """

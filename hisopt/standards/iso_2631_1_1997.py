@@ -410,7 +410,7 @@ __all__ = [
 def weighting_poles_hz(name: WeightingName) -> NDArray[np.complex128]:
     """[Hz] Singularities of ``|W(f)|^2`` in the complex frequency plane (upper half plane
     and the real axis), the roots of its denominator in ``f``: where a quadrature of a
-    weighted spectrum must keep its distance (:mod:`hisopt.quadrature`)."""
+    weighted spectrum must keep its distance (:mod:`hisopt.evaluation.quadrature`)."""
     _params(name)
     x = P.polyroots(_GAIN2_DEN[name])
     f = np.sqrt(x.astype(complex))

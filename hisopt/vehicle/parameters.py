@@ -36,7 +36,7 @@ class VehicleParams(BaseModel):
     l_r: float = Field(1.47, gt=0, description="CG to rear axle", json_schema_extra=si("m"))
     h_0s: float = Field(0.30, ge=0, description="CG height above the roll axis", json_schema_extra=si("m"))
     y_cg: float = Field(
-        0.0, description="lateral offset of the CG to the left of the track centre line (a laden car, hisopt.payload)", json_schema_extra=si("m")
+        0.0, description="lateral offset of the CG to the left of the track centre line (a laden car, hisopt.coupled.payload)", json_schema_extra=si("m")
     )
     # The body's extent: read only by the plausibility checks of a payload (hisopt.plausibility),
     # never by the model, which needs no CG height above the road (h_0s is above the roll axis).

@@ -1,0 +1,82 @@
+"""Response outputs and their road-induced PSDs (paper Eq. 22-24, docs/model.md §4.4 and §5.1).
+
+An output is a polynomial in ``s`` of the car's motion and the road input:
+``y(s) = sum_p s^p (c_p . X(s) + d_p . z_g(s))``. With the 4-wheel FRF ``H_X = X / z_g`` the
+output FRF per wheel input is ``H_y = sum_p s^p (c_p H_X + d_p)``; the two tracks combine front
+and delayed rear inputs and ``S_y = G (|h_L|^2 + |h_R|^2 + 2 g Re(h_L conj(h_R)))``
+(:meth:`hisopt.evaluation.evaluate.Evaluator.spectra`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hisopt.linalg import bmm
+from hisopt.vehicle import VehicleParams, stroke_matrix
+
+
+@dataclass(frozen=True)
+class Output:
+    """A linear response: ``c`` (P, 7) weights ``s^p X``, ``d`` (P, 4) weights ``s^p z_g``."""
+
+    name: str
+    unit: str
+    c: np.ndarray
+    d: np.ndarray
+    weighting: str | None = None  # ISO 2631-1 weighting applied in comfort sums
+
+    def frf(self, h_x: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """Output FRF per wheel input, shape ``(..., F, 4)``.
+
+        Parameters
+        ----------
+        h_x : X / z_g, shape ``(..., F, 7, 4)``
+        s : [rad/s] Laplace variable, shape ``(..., F)``
+        """
+        out = np.zeros(np.broadcast_shapes(h_x.shape[:-2], s.shape) + (4,), dtype=np.result_type(h_x, s))
+        for p in range(self.c.shape[0]):
+            term = bmm(self.c[p][None, :], h_x)[..., 0, :] + self.d[p]
+            out = out + s[..., None] ** p * term
+        return out
+
+
+def _unit(i: int, n: int) -> np.ndarray:
+    e = np.zeros(n)
+    e[i] = 1.0
+    return e
+
+
+def standard_outputs(vehicle: VehicleParams) -> dict[str, Output]:
+    """Every output of docs/model.md §5.1, keyed by name.
+
+    ``acc_z`` (CG vertical), ``acc_x = h_0s theta''``, ``acc_y = -h_0s phi''`` (paper Eq. 26),
+    ``acc_roll``/``acc_pitch`` (angular), ``roll``, ``pitch``, ``stroke_fl`` (``delta_1``,
+    extension positive) and ``tire_load_fl = k_t (z_u1 - z_g1) + c_t s (z_u1 - z_g1)``.
+    """
+    v = vehicle
+    zero7, zero4 = np.zeros(7), np.zeros(4)
+
+    def poly(*cs: np.ndarray) -> np.ndarray:
+        return np.array(cs)
+
+    acc = lambda c: poly(zero7, zero7, c)  # noqa: E731  s^2 x
+    acc_d = poly(zero4, zero4, zero4)
+    g = stroke_matrix(v)
+    return {
+        "acc_z": Output("acc_z", "m/s^2", acc(_unit(0, 7)), acc_d, "Wk"),
+        "acc_x": Output("acc_x", "m/s^2", acc(v.h_0s * _unit(2, 7)), acc_d, "Wd"),
+        "acc_y": Output("acc_y", "m/s^2", acc(-v.h_0s * _unit(1, 7)), acc_d, "Wd"),
+        "acc_roll": Output("acc_roll", "rad/s^2", acc(_unit(1, 7)), acc_d, "We"),
+        "acc_pitch": Output("acc_pitch", "rad/s^2", acc(_unit(2, 7)), acc_d, "We"),
+        "roll": Output("roll", "rad", poly(_unit(1, 7)), poly(zero4)),
+        "pitch": Output("pitch", "rad", poly(_unit(2, 7)), poly(zero4)),
+        "stroke_fl": Output("stroke_fl", "m", poly(g[0]), poly(zero4)),
+        "tire_load_fl": Output(
+            "tire_load_fl",
+            "N",
+            poly(v.k_tf * _unit(3, 7), v.c_tf * _unit(3, 7)),
+            poly(-v.k_tf * _unit(0, 4), -v.c_tf * _unit(0, 4)),
+        ),
+    }

@@ -1,0 +1,581 @@
+"""Batched, exact evaluation of objectives and constraints (docs/model.md §6 and §10).
+
+Fast path (lumped circuits): one eigendecomposition of the state-space matrix per design gives
+the poles and residues, so the FRF at any frequency is a small matrix product
+``H(s) = sum_k R_k / (s - lambda_k)``; the poles also place the quadrature panels
+(:mod:`hisopt.evaluation.quadrature`) and bracket each PSD peak, which is then refined off the grid by
+repeated zooming. Distributed pipes use the same nodes (from the lumped poles, repaired like
+the lumped path's where their eigenvectors are ill-conditioned) with a direct batched solve of
+the transfer-matrix model. Each design's pole-residue form is checked
+against a direct solve; designs that are unstable or singular give NaN, never an exception.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.coupled.response import Output, standard_outputs
+from hisopt.errors import ModelError
+from hisopt.evaluation import psd as psd_kernels
+from hisopt.evaluation.channels import (
+    CONDITION_LIMIT,
+    Channels,
+    DirectOutputs,
+    MixedChannels,
+    ModalChannels,
+    Pair,
+    RoadCase,
+    channel_feedthrough,
+    eigen_conditioning,
+    frf_power,
+    repair_poles,
+)
+from hisopt.evaluation.peaks import refine_maximum
+from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
+from hisopt.evaluation.quadrature import (
+    MAX_PANELS,
+    POLE_MARGIN,
+    _legendre,
+    design_rho,
+    panel_nodes,
+    panels,
+    peak_samples,
+    ripple_splits,
+    singularities,
+    split_nodes,
+)
+from hisopt.evaluation.transient import transient_quantities
+from hisopt.linalg import one_blas_thread
+from hisopt.metrics import COMFORT_OUTPUTS, METRICS, Metric
+from hisopt.road.spectra import isotropic_coherence
+from hisopt.specification.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
+from hisopt.standards import iso_2631_1_1997 as iso2631
+from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_power_law, temporal_psd
+from hisopt.units import NO_UNIT, attach_units
+
+if TYPE_CHECKING:
+    from hisopt.coupled.model import CoupledModel
+    from hisopt.specification.config import Comfort
+    from hisopt.specification.design_space import DesignSpace
+
+class Evaluator:
+    """Objective/constraint evaluator of one problem, reusable across many calls.
+
+    Parameters
+    ----------
+    problem : the problem (vehicle, HIS, road, band, comfort, objectives, constraints); of a
+        problem with ``[[scenarios]]``, its ``[road]`` without a scenario's payload, each
+        objective and constrained quantity under its plain name
+        (:class:`~hisopt.evaluation.scenarios.ScenarioEvaluator` evaluates the load cases)
+    chunk_size : designs per vectorised batch (bounds memory for any number of designs)
+    order : Gauss-Legendre nodes per panel
+    peak_steps : new samples of each PSD maximum (:func:`hisopt.evaluation.peaks.refine_maximum`)
+    base_panels : log- and linearly spaced panels over the band (each)
+    pole_ratio : growth of the panel breakpoints' distance from each resonance
+
+    The defaults keep every quantity within 1e-3 of a converged reference over the whole
+    design box (tests check 0.5 %); ``benchmarks/bench_evaluate.py`` prints the errors.
+    """
+
+    def __init__(
+        self,
+        problem: DesignSpace,
+        chunk_size: int = 256,
+        order: int = 4,
+        peak_steps: int = 2,
+        tolerance: float = 1e-4,
+    ):
+        spec = problem.spec
+        _prime_allocator()
+        self.problem = problem
+        self.chunk_size = chunk_size
+        self.order = order
+        self.peak_steps = peak_steps
+        # The plain quantities, not problem.objective_names: on a problem with [[scenarios]] this
+        # evaluator is its default load case (its [road], no scenario payload; as modes and
+        # sweeps), whose quantities are never "<quantity>@<scenario>" columns (per_scenario).
+        self.names = tuple(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
+        self.metrics = [METRICS[n] for n in self.names]
+        self.all_outputs = standard_outputs(problem.vehicle)
+        wanted: list[str] = []
+        for m in self.metrics:
+            if m.kind == "comfort":
+                wanted += list(COMFORT_OUTPUTS.values())
+            elif m.output is not None:
+                wanted.append(m.output)
+        wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
+        self.outputs: dict[str, Output] = {n: self.all_outputs[n] for n in dict.fromkeys(wanted)}
+        self.output_index = {name: i for i, name in enumerate(self.outputs)}
+        self.bases, self.derived = _share_outputs(self.outputs)
+        self.base_index = {name: i for i, name in enumerate(self.bases)}
+        self._feed = channel_feedthrough(list(self.bases.values()))
+        self.f_lo, self.f_hi = spec.band.f_min_hz, spec.band.f_max_hz
+        self.gd_n0 = class_gd_n0(spec.road.road_class)
+        self.speed = spec.road.speed
+        self.tau = problem.vehicle.wheelbase / self.speed
+        self.road = temporal_power_law(self.gd_n0, self.speed)  # G(f) = G_1 f^-w
+        self.tolerance = tolerance
+        self.unread: frozenset[str] = frozenset()
+        """Transient quantities left NaN (and out of the validity check) because no one reads
+        them: set by :class:`~hisopt.evaluation.scenarios.ScenarioEvaluator` for a load case
+        whose model serves only scenarios where they are not asked for."""
+        self.forced_edges = np.empty(0)  # [Hz] breakpoints every design's panels keep
+        if spec.comfort.method == "band":  # the band method's weighting steps at the band edges
+            bands = iso2631.third_octave_bands(self.f_lo, self.f_hi)
+            self.forced_edges = np.r_[bands.lower_hz, bands.upper_hz]
+        weightings = sorted({wt for o in self.outputs.values() if (wt := o.weighting)})
+        fixed = np.r_[0.0, *(iso2631.weighting_poles_hz(wt) for wt in weightings)]  # type: ignore[arg-type]
+        self.fixed_singularities = np.unique(np.round(fixed.real, 12) + 1j * np.round(np.abs(fixed.imag), 12))
+        forced = np.unique(self.forced_edges)
+        self._forced = forced[(forced > self.f_lo) & (forced < self.f_hi)]
+        self.integrals = _integral_keys(self.metrics, spec.comfort, self.outputs)
+        self.weightings = sorted({wt for _, wt in self.integrals if wt})
+        self._gain_polynomials = _padded_polynomials(self.weightings if spec.comfort.method == "filter" else [])
+        derived = [self.derived[output] for output, _ in self.integrals]
+        self._sums = (  # the integrals for hisopt.evaluation.kernels.weighted_sums
+            np.array([self.base_index[b] for b, _, _ in derived], dtype=np.int64),
+            np.array([p for _, _, p in derived], dtype=np.int64),
+            np.array([sc**2 for _, sc, _ in derived]),
+            np.array([self.weightings.index(wt) if wt else -1 for _, wt in self.integrals], dtype=np.int64),
+        )
+
+    # --- public ------------------------------------------------------------------------
+    def __call__(self, designs: Any) -> dict[str, np.ndarray]:
+        """Quantities by name, each shape ``(n,)``, plus ``"valid"`` (finite, stable model)."""
+        return self.shared(designs, [self])[0]
+
+    def shared(self, designs: Any, evaluators: list[Evaluator]) -> list[dict[str, np.ndarray]]:
+        """``[ev(designs) for ev in evaluators]`` with this evaluator's models, poles and
+        residues computed once for all of them: ``evaluators`` are of problems that differ
+        from this one only in the road (class, speed, coherence), load cases sharing a model
+        (docs/model.md §14.4)."""
+        x = self.problem.design_matrix(designs)
+        with one_blas_thread():
+            results = [self._chunk(x[i : i + self.chunk_size], evaluators) for i in range(0, max(len(x), 1), self.chunk_size)]
+        return [{k: np.concatenate([r[j][k] for r in results]) for k in results[0][j]} for j in range(len(evaluators))]
+
+    # --- internals -----------------------------------------------------------------------
+    def _chunk(self, x: np.ndarray, evaluators: list[Evaluator]) -> list[dict[str, np.ndarray]]:
+        n = len(x)
+        outs = [{name: np.full(n, np.nan) for name in ev.names} for ev in evaluators]
+        valid = admissible(self.problem, x)  # finite and within every parameter's rule
+        if not valid.any():
+            return [out | {"valid": valid} for out in outs]
+        idx = np.flatnonzero(valid)
+        oks = [valid.copy() for _ in evaluators]
+        with np.errstate(all="ignore"):
+            for rows, model in self.problem.model(x[valid]).groups():
+                try:
+                    solved = self._solve(model, evaluators)
+                except (np.linalg.LinAlgError, ModelError):
+                    solved = self._one_by_one(x[valid][rows], evaluators)
+                for out, ok_all, ev, (values, ok) in zip(outs, oks, evaluators, solved, strict=True):
+                    for name in ev.names:
+                        out[name][idx[rows]] = np.where(ok, values[name], np.nan)
+                    ok_all[idx[rows]] = ok
+        return [out | {"valid": ok} for out, ok in zip(outs, oks, strict=True)]
+
+    def _one_by_one(self, x: np.ndarray, evaluators: list[Evaluator]) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
+        out = [({name: np.full(len(x), np.nan) for name in ev.names}, np.zeros(len(x), dtype=bool)) for ev in evaluators]
+        for i, row in enumerate(x):
+            try:
+                ((_, model),) = self.problem.model(row[None, :]).groups()
+                solved = self._solve(model, evaluators)
+            except (np.linalg.LinAlgError, ValueError):
+                continue
+            for (values, ok), (v, good), ev in zip(out, solved, evaluators, strict=True):
+                for name in ev.names:
+                    values[name][i] = v[name][0]
+                ok[i] = good[0]
+        return out
+
+    def _solve(self, model: CoupledModel, evaluators: list[Evaluator]) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
+        lam, channels, repaired = self._channels(model)
+        scale = np.abs(lam).max(axis=1)
+        stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
+        shared = self._shared_samples(lam, channels, evaluators) if len(evaluators) > 1 else [None]
+        steps = self._transient(model, len(lam))  # of the model alone: once for all the roads
+        out = []
+        for ev, prior in zip(evaluators, shared, strict=True):
+            values = ev.quantities(lam, channels, model, prior, steps)
+            finite = [np.isfinite(v) for k, v in values.items() if k not in self.unread]
+            out.append((values, stable & np.all(finite, axis=0)))
+        return out
+
+    def _transient(self, model: CoupledModel, n: int) -> dict[str, np.ndarray]:
+        """The transient roll quantities asked for (docs/model.md §6.6) of ``n`` designs,
+        which depend on the model and ``[handling]``, not on the road; NaN for those in
+        :attr:`unread`."""
+        names = [m.name for m in self.metrics if m.kind == "transient"]
+        wanted = [name for name in names if name not in self.unread]
+        steps = transient_quantities(model, model.vehicle, wanted, self.problem.spec.handling.step_g) if wanted else {}
+        return steps | {name: np.full(n, np.nan) for name in names if name in self.unread}
+
+    def _shared_samples(self, lam: np.ndarray, channels: Channels, evaluators: list[Evaluator]) -> list[Prior]:
+        """The pole-aware nodes, laid once, and every evaluator's road PSDs there from one pass
+        over the FRFs (the nodes depend on the poles and the band, not on the road)."""
+        edges, f, w, f_peak = self._lay(lam)
+        f_all = np.concatenate([f, f_peak], axis=1)
+        roads = [RoadCase(ev.tau, ev.coherence(f_all), ev.road) for ev in evaluators]
+        both = channels.powers(f_all, roads)
+        order = np.argsort(f_all, axis=1, kind="stable")  # the peak search's sorted samples, for all roads
+        bases = self._peak_bases()
+        flat = (order + f_all.shape[1] * np.arange(len(order))[:, None]).ravel()  # one gather for all roads
+        # the row length spelled out: a problem without PSD maxima has no bases (reshape cannot infer -1 from 0 rows)
+        rows = both[:, bases].reshape(len(roads) * len(bases), order.size)
+        values = np.take(rows, flat, axis=1).reshape(len(roads), len(bases), *order.shape)
+        peaks = (np.take_along_axis(f_all, order, 1), values)
+        return [Prior(edges, f, w, f_peak, both[r], (peaks[0], peaks[1][r])) for r in range(len(evaluators))]
+
+    def _peak_bases(self) -> list[int]:
+        """The base output of each PSD maximum, in metric order."""
+        return [self.base_index[self.derived[m.signal][0]] for m in self.metrics if m.kind == "max"]
+
+    def _channels(self, model: CoupledModel) -> tuple[np.ndarray, Channels, np.ndarray]:
+        """Poles ``(n, k)`` [rad/s], the road channels' responses, and whether each design's
+        poles are trusted (after :func:`repair_poles` where the eigenvectors are ill-conditioned)."""
+        ss = model.state_space()
+        channels: Channels
+        repaired = np.ones(len(ss.a), dtype=bool)
+        if model.pipe_model == "distributed":
+            lam = np.linalg.eigvals(ss.a)  # the lumped twin's poles place the nodes
+            channels = DirectOutputs(model, self.bases)
+            flagged = eigen_conditioning(ss.a) > CONDITION_LIMIT
+            if np.any(flagged):  # the twin's eigenvalues are off (pipes of 1e-10 m): nodes there would miss the peaks
+                lam = lam.copy()
+                lam[flagged], repaired[flagged] = repair_poles(model.subset(flagged), lam[flagged], self.f_hi)
+        else:
+            modal = ModalChannels(model, ss, self.bases, self._feed)
+            lam = modal.lam
+            channels = modal
+            flagged = modal.conditioning > CONDITION_LIMIT
+            if np.any(flagged):  # eigenvectors too ill-conditioned for accurate poles and residues
+                sub = model.subset(flagged)
+                lam = lam.copy()
+                lam[flagged], repaired[flagged] = repair_poles(sub, lam[flagged], self.f_hi)
+                channels = MixedChannels(modal, DirectOutputs(sub, self.bases), flagged)
+        return lam, channels, repaired
+
+    def nodes(self, lam: np.ndarray, model: CoupledModel | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """[Hz] Quadrature nodes and weights per design, sorted (docs/model.md §10.3): the
+        panels the poles ``lam`` [rad/s] call for, split where ``model``'s response needs it
+        for the delay ripple (without a model, as laid before any response is known), and
+        the maxima's extra samples (band limits, damped frequencies) with weight 0."""
+        if model is None:
+            f, w = panel_nodes(self._panels(lam), self.order)
+            f_peak = peak_samples(lam, self.f_lo, self.f_hi)
+            f, w = np.concatenate([f, f_peak], axis=1), np.concatenate([w, np.zeros_like(f_peak)], axis=1)
+        else:
+            s = self._sample(lam, DirectOutputs(model, self.bases))
+            f = np.concatenate([s.f, s.f_split, s.f_peak], axis=1)
+            w = np.concatenate([s.w, s.w_split, np.zeros_like(s.f_peak)], axis=1)
+        order = np.argsort(f, axis=1, kind="stable")
+        return np.take_along_axis(f, order, 1), np.take_along_axis(w, order, 1)
+
+    def _lay(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Panels ``(n, P + 1)``, their nodes and weights ``(n, F)`` and the peak samples: the
+        steps of :meth:`_panels`, :func:`~hisopt.evaluation.quadrature.panel_nodes` and
+        :func:`~hisopt.evaluation.quadrature.peak_samples`, compiled together."""
+        from hisopt.evaluation.kernels import lay_nodes
+
+        rho = design_rho(self.order, self.tolerance / POLE_MARGIN)
+        x, w = _legendre(self.order)
+        return lay_nodes(
+            np.ascontiguousarray(lam, dtype=complex), self.fixed_singularities.astype(complex), self._forced, self.f_lo, self.f_hi,
+            0.5 * (rho + 1.0 / rho), x, w, MAX_PANELS,
+        )
+
+    def _panels(self, lam: np.ndarray) -> np.ndarray:
+        sing = singularities(lam, self.fixed_singularities)
+        return panels(self.f_lo, self.f_hi, self.forced_edges, sing, self.order, self.tolerance)
+
+    def _sample(self, lam: np.ndarray, source: Channels, prior: Prior | None = None) -> Samples:
+        """The PSDs at the pole-aware panels' nodes, at the nodes of the panels split for the
+        delay ripple (where its bound times the panel's share of an integral exceeds the
+        tolerance) and at the peak samples (``prior``: the first and last already known,
+        :meth:`_shared_samples`)."""
+        if prior is None:
+            edges, f, w, f_peak = self._lay(lam)
+            both = self.psd(np.concatenate([f, f_peak], axis=1), source)
+        else:
+            edges, f, w, f_peak, both = prior.edges, prior.f, prior.w, prior.f_peak, prior.psd_all
+        n_panels = edges.shape[1] - 1
+        psd = both[:, :, : f.shape[1]]
+        totals, panel_abs, panel_sum = self._sums_at(f, w, psd, n_panels)
+        share = np.max(panel_abs / np.where(totals != 0, np.abs(totals), np.inf)[:, None, :], axis=2, initial=0.0)
+        top = np.nanmax(edges, axis=1, keepdims=True)
+        e = np.where(np.isfinite(edges), edges, top)
+        parts = ripple_splits(0.5 * (e[:, 1:] - e[:, :-1]), share, self.tau, self.order, self.tolerance)
+        f_split, w_split = split_nodes(e, parts)
+        if f_split.shape[1]:
+            psd_split = self.psd(f_split, source)
+            # The split panels' sums are replaced by their parts' (summed in panel order).
+            kept = np.cumsum(np.where((parts > 0)[..., None], 0.0, panel_sum), axis=1)[:, -1]
+            totals = kept + self._sums_at(f_split, w_split, psd_split, 0)[0]
+        else:
+            psd_split = np.zeros((len(self.bases),) + f_split.shape)
+        w = np.where(np.repeat(parts > 0, self.order, axis=1), 0.0, w)  # the split panels' nodes stay as samples
+        return Samples(f, w, psd, totals, f_split, w_split, psd_split, f_peak, both)
+
+    def _sums_at(self, f: np.ndarray, w: np.ndarray, psd: np.ndarray, n_panels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every integral's quadrature sum at nodes ``f`` (n, F) with weights ``w``, and per
+        panel (the first ``n_panels`` groups of ``order`` nodes) its sums of ``|w g|``, ``w g``
+        (:func:`hisopt.evaluation.kernels.weighted_sums`)."""
+        from hisopt.evaluation.kernels import weighted_sums
+
+        n, r = len(f), len(self.integrals)
+        spec = self.problem.spec
+        num, den = self._gain_polynomials
+        if num.shape[0] or not self.weightings:
+            gains = np.empty((0, 0, 0))
+        else:  # the band method's steps: tabulated at the nodes
+            gains = np.stack([comfort_gain_squared(f, wt, spec.comfort, self.f_lo, self.f_hi) for wt in self.weightings])
+        totals, panel_abs, panel_sum = np.empty((n, r)), np.empty((n, n_panels, r)), np.empty((n, n_panels, r))
+        weighted_sums(
+            np.ascontiguousarray(f), np.ascontiguousarray(w), np.ascontiguousarray(psd), gains, num, den, *self._sums, self.order, totals, panel_abs, panel_sum
+        )
+        return totals, panel_abs, panel_sum
+
+    def coherence(self, f_hz: np.ndarray) -> np.ndarray | None:
+        """[-] Left-right coherence of the road's tracks at ``f_hz`` (None: independent)."""
+        if self.problem.spec.road.coherence != "isotropic":
+            return None
+        v = self.problem.vehicle
+        return isotropic_coherence(f_hz / self.speed, v.t_f + v.t_r)
+
+    def spectra(self, f_hz: np.ndarray, channels: dict[str, Pair]) -> np.ndarray:
+        """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their road channels' FRFs
+        (``"sym"``, ``"anti"``: (real, imag) parts, each (n, F, 2 axles, n_out)).
+
+        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`hisopt.evaluation.psd.channel_power`).
+        """
+        power = frf_power(channels, f_hz, self.tau, self.coherence(f_hz))
+        return temporal_psd(f_hz, self.gd_n0, self.speed)[..., None] * power
+
+    def psd(self, f_hz: np.ndarray, source: Channels, output_of: np.ndarray | None = None) -> np.ndarray:
+        """One-sided PSDs ``(n_out, n, F)`` of the outputs of ``source`` at ``f_hz`` (n, F)
+        (``output_of``: per column, the one output needed there, or -1 for all)."""
+        return source.power(f_hz, self.tau, self.coherence(f_hz), output_of, self.road)
+
+    def quantities(
+        self, lam: np.ndarray, frf: Channels, model: CoupledModel, prior: Prior | None = None, steps: dict[str, np.ndarray] | None = None
+    ) -> dict[str, np.ndarray]:
+        """All requested metrics from poles (for the nodes) and the road channels' FRFs
+        (``prior``: what load cases sharing the model share; ``steps``: the transient
+        quantities, computed here if not given)."""
+        s = self._sample(lam, frf, prior)
+        column = {key: r for r, key in enumerate(self.integrals)}
+
+        def integral(output: str, weighting: str | None) -> np.ndarray:
+            return s.totals[:, column[(output, weighting)]]
+
+        peaks = [m.signal for m in self.metrics if m.kind == "max"]
+        maxima: dict[str, np.ndarray] = {}
+        if peaks and prior is not None:  # searched on the panels' nodes and the peak samples, sorted
+            f, values = prior.sorted_peaks
+        elif peaks:
+            f = np.concatenate([s.f, s.f_peak], axis=1)
+            order = np.argsort(f, axis=1, kind="stable")
+            f = np.take_along_axis(f, order, 1)
+            values = np.take_along_axis(s.psd_all[self._peak_bases()], order[None], 2)
+        if peaks:
+            spectra = np.stack([self._derive(name, f, values[j]) for j, name in enumerate(peaks)])
+            maxima = self._refined_maxima(peaks, f, spectra, frf)
+        steps = self._transient(model, len(lam)) if steps is None else steps
+        return reduce_metrics(
+            self.metrics,
+            self.problem.spec.comfort,
+            lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
+            integral,
+            lambda output: maxima[output],
+            lambda name: roll_gradient(model),
+            steps.__getitem__,
+        )
+
+    def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
+        """PSD of output ``name`` from its base: ``scale^2 omega^(2p) S_base``."""
+        _, scale, power = self.derived[name]
+        if power == 0 and scale == 1.0:
+            return base_psd
+        factor = np.full(f_hz.shape, scale**2)
+        omega2 = np.square(2 * np.pi * f_hz)
+        for _ in range(power):
+            factor *= omega2
+        return factor * base_psd
+
+    def _refined_maxima(self, names: list[str], f: np.ndarray, spectra: np.ndarray, frf: Channels) -> dict[str, np.ndarray]:
+        """Continuous maxima of the outputs ``names``' PSDs (``spectra``: ``(k, n, F)`` at the
+        sorted samples ``f``), searched together (:func:`hisopt.evaluation.peaks.refine_maximum`: one
+        kernel call per step for all of them)."""
+        n, k = len(f), len(names)
+        bases = [self.base_index[self.derived[name][0]] for name in names]
+
+        def values_at(pts: np.ndarray) -> np.ndarray:  # (k n, P): row block j is output j's
+            per = pts.reshape(k, n, -1).transpose(1, 0, 2).reshape(n, -1)  # (n, k P)
+            output_of = np.repeat(bases, pts.shape[1])
+            psd = self.psd(per, frf, output_of).reshape(len(self.bases), n, k, -1)
+            blocks = per.reshape(n, k, -1)
+            parts = [self._derive(name, blocks[:, j], psd[bases[j], :, j]) for j, name in enumerate(names)]
+            return np.concatenate(parts, axis=0)
+
+        best = refine_maximum(values_at, f, spectra.reshape(k * n, -1), self.peak_steps)[1]
+        return {name: best[j * n : (j + 1) * n] for j, name in enumerate(names)}
+
+
+@dataclass(frozen=True)
+class Prior:
+    """What load cases sharing a model share (:meth:`Evaluator._shared_samples`): the panels,
+    nodes, weights and peak samples, one road's PSDs at the nodes then the peak samples, and
+    the peak search's sorted samples with the PSDs of the maxima's base outputs there."""
+
+    edges: np.ndarray
+    f: np.ndarray
+    w: np.ndarray
+    f_peak: np.ndarray
+    psd_all: np.ndarray
+    sorted_peaks: tuple[np.ndarray, np.ndarray]
+
+
+@dataclass(frozen=True)
+class Samples:
+    """A batch's PSDs where the evaluator samples them (:meth:`Evaluator._sample`), each
+    ``(n, F...)`` with PSDs ``(n_bases, n, F...)``.
+
+    Attributes
+    ----------
+    f, w, psd : the pole-aware panels' nodes, weights (0 where the panel was split) and PSDs
+        (sorted by frequency)
+    totals : ``(n, R)`` the quadrature sum of each integral (:attr:`Evaluator.integrals`)
+    f_split, w_split, psd_split : the nodes of the panels split for the delay ripple
+    f_peak : the maxima's extra samples (band limits, damped frequencies)
+    psd_all : the PSDs at ``f`` then ``f_peak``
+    """
+
+    f: np.ndarray
+    w: np.ndarray
+    psd: np.ndarray
+    totals: np.ndarray
+    f_split: np.ndarray
+    w_split: np.ndarray
+    psd_split: np.ndarray
+    f_peak: np.ndarray
+    psd_all: np.ndarray
+
+
+def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, Output]) -> list[tuple[str, str | None]]:
+    """The ``(output, weighting)`` integrals :func:`hisopt.evaluation.psd.reduce_metrics` asks for (found
+    by running it once on placeholders, so the dispatch stays in one place)."""
+    keys: list[tuple[str, str | None]] = []
+
+    def record(output: str, weighting: str | None) -> float:
+        keys.append((output, weighting))
+        return 0.0
+
+    reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
+    return list(dict.fromkeys(keys))
+
+
+def _padded_polynomials(weightings: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The weightings' ``|W|^2`` numerators and denominators in ``f^2``, zero-padded to common
+    lengths, ``(W, D)`` each (``(0, 1)`` for none)."""
+    pairs = [iso2631.weighting_gain_polynomials(wt) for wt in weightings]  # type: ignore[arg-type]
+    out = []
+    for part in (0, 1):
+        width = max([len(p[part]) for p in pairs], default=1)
+        out.append(np.array([np.pad(p[part], (0, width - len(p[part]))) for p in pairs]).reshape(len(pairs), width))
+    return out[0], out[1]
+
+
+_PRIMED: list[bool] = []
+
+
+def _prime_allocator(block_bytes: int = 16 << 20) -> None:
+    """Allocate and free one 16 MB block, once per process.
+
+    A chunk's numpy temporaries are up to a few MB each. glibc's malloc serves blocks that
+    large by mmap and returns them to the system when freed, until its adaptive threshold has
+    grown past them (it grows on freeing such a block), so every chunk would fault its
+    arrays' pages in afresh: about a fifth of the evaluator's time on the default problem.
+    Freeing one block larger than any of them raises the threshold at once (glibc's own rule;
+    elsewhere this is a harmless allocation).
+    """
+    if not _PRIMED:
+        np.ones(block_bytes // 8)
+        _PRIMED.append(True)
+
+
+def _total(terms: np.ndarray) -> np.ndarray:
+    """Row sums in sequential order (zero-weight padding nodes add exact zeros)."""
+    return np.cumsum(terms, axis=1)[:, -1]
+
+
+def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[str, tuple[str, float, int]]]:
+    """Evaluate fewer FRFs: an output ``s^p (c . X)`` is a multiple of a displacement output.
+
+    Returns the base outputs to evaluate and, per output, ``(base, scale, p)`` with
+    ``S_y = scale^2 omega^(2p) S_base`` (e.g. ``acc_y = -h_0s phi''`` from ``roll``).
+    """
+    bases: dict[str, Output] = {}
+    derived: dict[str, tuple[str, float, int]] = {}
+    pure: dict[str, np.ndarray] = {}  # base name -> displacement vector of a pure (p = 0, no road term) base
+    for name, out in outputs.items():
+        rows = np.flatnonzero(np.any(out.c != 0, axis=1))
+        if len(rows) != 1 or np.any(out.d):
+            bases[name], derived[name] = out, (name, 1.0, 0)
+            continue
+        p, vec = int(rows[0]), out.c[rows[0]]
+        k = int(np.flatnonzero(vec)[0])
+        for bname, bvec in pure.items():
+            if np.allclose(vec * bvec[k], bvec * vec[k], rtol=0, atol=0):
+                derived[name] = (bname, float(vec[k] / bvec[k]), p)
+                break
+        else:
+            bases[name] = Output(name, out.unit, vec[None, :], np.zeros((1, 4)), out.weighting)
+            pure[name] = vec
+            derived[name] = (name, 1.0, p)
+    return bases, derived
+
+
+def poles(model: CoupledModel) -> np.ndarray:
+    """[rad/s] Eigenvalues of the model's (lumped) state space, ``(n, n_states)``, computed as
+    the evaluator computes them (with eigenvectors: the same LAPACK path), so nodes placed
+    from them are the evaluator's own."""
+    return np.linalg.eig(model.state_space().a)[0]
+
+
+def roll_gradient(model: CoupledModel) -> np.ndarray:
+    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
+    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
+
+
+def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
+    """Designs and their quantities as a DataFrame.
+
+    Columns: the variable names, the objective names, the constraint names (physical units,
+    each quantity once; in a scenario problem also every ``"<quantity>@<scenario>"``), ``feasible`` (all constraints met, the model valid and the row
+    ``ok``), ``status`` (``ok``, ``out_of_bounds``, ``invalid``, or ``failed`` for a model
+    that is unstable or singular there) and ``reason`` (empty when ``ok``); their units in
+    ``attrs["units"]``.
+    """
+    x = problem.design_matrix(designs)
+    check: DesignCheck = check_designs(problem, x)
+    df = pd.DataFrame(x, columns=list(problem.variable_names))
+    for name in problem.result_columns:
+        df[name] = quantities[name]
+    valid = np.asarray(quantities["valid"], dtype=bool)
+    feasible = valid & check.ok
+    for c in problem.spec.constraints:
+        feasible &= quantities[c.name] <= c.limit
+    df["feasible"] = feasible
+    status, reason = check.status.copy(), check.reason.copy()
+    failed = check.evaluable & ~valid
+    status[failed & (status == STATUS_OK)] = STATUS_FAILED
+    for i in np.flatnonzero(failed):
+        reason[i] = "; ".join(r for r in (reason[i], "the model is unstable or singular here (NaN results)") if r)
+    df["status"] = status.astype(str)
+    df["reason"] = reason.astype(str)
+    return attach_units(df, problem, {"reason": NO_UNIT})

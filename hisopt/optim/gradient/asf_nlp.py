@@ -1,0 +1,346 @@
+"""The refinement's NLP: the nodes it is built on and one solve around a design.
+
+The achievement-scalarising NLP of :mod:`hisopt.optim.gradient.refine` (see its docstring for the
+formulation and the trust region), over one or several load cases (docs/model.md §14.5):
+each load case's model on its own pole-aware nodes, the objectives aggregated as the
+evaluator aggregates them, every limit a constraint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from hisopt.metrics import METRICS
+
+if TYPE_CHECKING:
+    from hisopt.optim.gradient.casadi_model import CasadiModel, FrequencySet
+    from hisopt.problem import Problem
+
+
+# --- settings and results --------------------------------------------------------------------
+@dataclass(frozen=True)
+class RefineSettings:
+    """Settings of the refinement (the :mod:`hisopt.optim.gradient.refine` docstring).
+
+    Attributes
+    ----------
+    trust_radius : [-] initial trust-region radius in scaled design units (bounds = [0, 1])
+    min_radius : [-] stop once the radius falls below this
+    rounds : [-] most NLP solves per start design
+    rho : [-] ASF augmentation: weight of the summed improvement beside the worst one
+    margin : [-] initial least improvement demanded of every objective (weighted log10)
+    min_gain : [-] stop once a round lowers the merit by less than this
+    peak_share : [-] local PSD peaks at least this share of the maximum get a node cluster
+    node_share : [-] a maximum's epigraph also uses nodes with PSD at least this share of it
+    cluster_offsets : [-] cluster nodes each side of a peak, in half-power half-widths
+    max_iter : [-] IPOPT iterations per solve
+    tol : [-] IPOPT convergence tolerance
+    """
+
+    trust_radius: float = 0.5
+    min_radius: float = 0.01
+    rounds: int = 3
+    rho: float = 0.05
+    margin: float = 1e-7
+    min_gain: float = 1e-5
+    peak_share: float = 0.1
+    node_share: float = 0.3
+    cluster_offsets: tuple[float, ...] = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.4, 2.0)
+    max_iter: int = 50
+    tol: float = 1e-6
+
+
+# --- frequency nodes -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class NodePlan:
+    """Frequency nodes of one NLP.
+
+    Attributes
+    ----------
+    fs : the frequency set (quadrature weights, per-node parameters)
+    max_nodes : node indices of each band-maximum quantity's epigraph
+    """
+
+    fs: FrequencySet
+    max_nodes: dict[str, np.ndarray]
+
+
+def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, steps: int = 12, points: int = 9) -> float:
+    """[Hz] Location of the PSD maximum of ``output`` in ``[lo_hz, hi_hz]``, from ``points``
+    samples refined by :func:`hisopt.evaluation.peaks.refine_maximum` (``steps`` new samples).
+
+    Parameters
+    ----------
+    frf : output FRF function of one design, as :class:`hisopt.evaluation.channels.DirectOutputs`
+    ev : the problem's evaluator (for its road spectra)
+    """
+    from hisopt.evaluation.peaks import refine_maximum
+
+    def values_at(pts: np.ndarray) -> np.ndarray:
+        return ev.spectra(pts, frf(2 * np.pi * pts, output))[..., 0]
+
+    f = np.linspace(lo_hz, hi_hz, points)[None, :]
+    return float(refine_maximum(values_at, f, values_at(f), steps)[0][0])
+
+
+def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: RefineSettings) -> NodePlan:
+    """Nodes of the NLP at design ``x`` [variable units], ``(n_var,)`` (module docstring)."""
+    from hisopt.evaluation.channels import DirectOutputs
+    from hisopt.evaluation.evaluate import Evaluator, poles
+
+    ev = problem.evaluator()
+    assert isinstance(ev, Evaluator), "a node plan is of a single-case problem (a scenario's)"
+    coupled = problem.model(np.asarray(x, dtype=float)[None, :])
+    lam = poles(coupled)
+    frf = DirectOutputs(coupled, ev.outputs)
+    f, w = ev.nodes(lam, coupled)
+    f, inverse = np.unique(f[0], return_inverse=True)  # padding repeats the band limit
+    w = np.bincount(inverse, weights=w[0], minlength=f.size)
+    psd = ev.spectra(f[None], frf(2 * np.pi * f[None]))[0]
+    upper = lam[0][lam[0].imag > 0]  # one of each conjugate pair
+    offsets = np.array(settings.cluster_offsets)
+    offsets = np.r_[-offsets[::-1], 0.0, offsets]
+    clusters: dict[str, list[np.ndarray]] = {}
+    for m in model.metrics:
+        if m.kind != "max":
+            continue
+        j = model.output_index[m.signal]
+        y = psd[:, j]
+        is_peak = np.r_[y[0] > y[1], (y[1:-1] >= y[:-2]) & (y[1:-1] >= y[2:]), y[-1] > y[-2]]
+        clusters[m.name] = []
+        for k in (int(i) for i in np.flatnonzero(is_peak & (y >= settings.peak_share * y.max()))):
+            f_pk = peak_location(frf, ev, j, f[max(k - 1, 0)], f[min(k + 1, f.size - 1)])
+            nearest = upper[np.argmin(np.abs(upper.imag / (2 * np.pi) - f_pk))] if upper.size else 0j
+            half_width = max(abs(nearest.real) / (2 * np.pi), 1e-3 * f_pk)
+            c = f_pk + half_width * offsets
+            clusters[m.name].append(c[(c >= ev.f_lo) & (c <= ev.f_hi)])
+    extra = [c for cs in clusters.values() for c in cs]
+    f_all, inverse = np.unique(np.concatenate([f, *extra]), return_inverse=True)
+    w_all = np.bincount(inverse[: f.size], weights=w, minlength=f_all.size)
+    psd_all = ev.spectra(f_all[None], frf(2 * np.pi * f_all[None]))[0]
+    max_nodes = {}
+    for name, cs in clusters.items():
+        y = psd_all[:, model.output_index[METRICS[name].signal]]
+        in_cluster = np.isin(f_all, np.concatenate(cs)) if cs else np.zeros(f_all.size, dtype=bool)
+        max_nodes[name] = np.flatnonzero(in_cluster | (y >= settings.node_share * y.max()))
+    return NodePlan(model.frequency_set(f_all, w_all), max_nodes)
+
+
+# --- the NLP ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SolveOutcome:
+    """One NLP solve.
+
+    Attributes
+    ----------
+    u : [-] scaled design found, ``(n_var,)``
+    status : [-] IPOPT return status
+    iterations : [-] IPOPT iterations
+    gap : [-] the model's weighted log10 change of each objective against the reference
+    """
+
+    u: np.ndarray
+    status: str
+    iterations: int
+    gap: np.ndarray
+
+
+@dataclass(frozen=True)
+class Part:
+    """One load case of the NLP: its single-case problem, CasADi model and nodes (the problem
+    itself, scenario ``None``, for a problem without ``[[scenarios]]``)."""
+
+    scenario: str | None
+    problem: Problem
+    model: CasadiModel
+    plan: NodePlan | None = None
+
+
+def solve_asf(
+    problem: Problem,
+    parts: list[Part],
+    u_c: np.ndarray,
+    ref_log: np.ndarray,
+    weights: np.ndarray,
+    radius: float,
+    settings: RefineSettings,
+    margin: np.ndarray,
+) -> SolveOutcome:
+    """One ASF solve around the scaled design ``u_c`` (module docstring).
+
+    Parameters
+    ----------
+    parts : the load cases with their nodes at ``u_c`` (one for a single-case problem)
+    u_c : [-] current design scaled to [0, 1] over the bounds, ``(n_var,)``
+    ref_log : [decades] reference point, ``log10`` of the start's objectives, ``(n_obj,)``
+    weights : [1/decade] ASF weights, ``(n_obj,)``
+    radius : [-] trust-region radius in scaled units
+    margin : [-] least weighted log10 improvement demanded of each objective, ``(n_obj,)``
+    """
+    import casadi as ca
+
+    from hisopt.optim.gradient.casadi_model import SpectraCallback
+    from hisopt.optim.gradient.transient_callback import TransientCallback
+
+    lower, upper = problem.lower, problem.upper
+    n_var = lower.size
+    objectives = problem.objective_names
+
+    def log10(e: Any) -> Any:
+        return ca.log(e) / np.log(10.0)
+
+    # ---- decision variables -------------------------------------------------------------------
+    u = ca.MX.sym("u", n_var)  # design scaled to [0, 1] over its bounds
+    s = ca.MX.sym("s")  # ASF level
+    x = ca.DM(lower) + ca.DM(upper - lower) * u
+    levels: list[Any] = []  # log10 epigraph level of each band maximum in each part
+    g: list[Any] = []
+
+    # ---- each load case's model on its fixed nodes ----------------------------------------------
+    z_of: list[dict[str, Any]] = []
+    callbacks: list[Any] = []  # CasADi keeps no reference to a Python callback: these must outlive the solve
+    for part in parts:
+        assert part.plan is not None
+        callbacks.append(SpectraCallback(part.model, part.plan.fs, lower, upper - lower))
+        psd = callbacks[-1](u)
+        steps = [m.name for m in part.model.metrics if m.kind == "transient"]
+        transient = None
+        if steps:  # from the numpy code through a callback (hisopt.optim.gradient.transient_callback)
+            callbacks.append(TransientCallback(part.problem, steps, lower, upper - lower))
+            values = callbacks[-1](u)
+            transient = {name: values[k] for k, name in enumerate(steps)}.__getitem__
+        z = {name: log10(value) for name, value in part.model.integrals(x, part.plan.fs, psd, transient).items()}
+        for name, nodes in part.plan.max_nodes.items():
+            t = ca.MX.sym(f"t_{name}_{len(levels)}")
+            levels.append(t)
+            row = part.model.output_index[METRICS[name].signal]
+            g.append(log10(psd[row, [int(k) for k in nodes]].T) - t)  # epigraph of the maximum
+            z[name] = t
+        z_of.append(z)
+    z_obj, extra, g_agg = _aggregated(problem, parts, z_of, ref_log)
+    floor = np.r_[np.full(len(levels), -np.inf), [b for _, b in extra]]
+    levels += [v for v, _ in extra]
+    g += g_agg
+    lv = ca.vertcat(*levels) if levels else ca.MX(0, 1)
+    start = np.maximum(_start_levels(u, lv, g, u_c), floor)  # before any constraint involving s
+    gap = ca.vertcat(*[weights[i] * (z_obj[name] - ref_log[i]) for i, name in enumerate(objectives)])
+
+    # ---- constraints ----------------------------------------------------------------------------
+    g.append(gap - s)  # ASF epigraph
+    g.append(gap + ca.DM(margin))  # no objective worse than the start
+    for c in problem.spec.constraints:
+        where = problem.constraint_scenarios(c.name) if problem.spec.scenarios else (None,)
+        g += [z[c.name] - np.log10(c.limit) for part, z in zip(parts, z_of, strict=True) if part.scenario in where]
+
+    # ---- objective ------------------------------------------------------------------------------
+    objective = s + settings.rho * ca.sum1(gap)
+
+    # ---- initial values and bounds --------------------------------------------------------------
+    gap_fn = ca.Function("gap", [u, lv], [gap])
+    s0 = float(np.max(np.array(gap_fn(u_c, start))))
+    n_free = 1 + len(levels)
+    lbx = np.r_[np.maximum(0.0, u_c - radius), -np.inf, floor]
+    ubx = np.r_[np.minimum(1.0, u_c + radius), np.full(n_free, np.inf)]
+
+    # ---- solve NLP ------------------------------------------------------------------------------
+    options: dict[str, Any] = {
+        "print_time": False,
+        "ipopt.print_level": 0,
+        "ipopt.sb": "yes",
+        "ipopt.max_iter": settings.max_iter,
+        "ipopt.tol": settings.tol,
+        "ipopt.bound_relax_factor": 0.0,
+        # Quasi-Newton (the spectra callback has first derivatives only); a small constant
+        # initial Hessian lets the first steps reach the trust-region bounds.
+        "ipopt.hessian_approximation": "limited-memory",
+        "ipopt.limited_memory_initialization": "constant",
+        "ipopt.limited_memory_init_val": 1e-3,
+    }
+    nlp: dict[str, Any] = {"x": ca.vertcat(u, s, lv), "f": objective, "g": ca.vertcat(*g)}
+    solver = ca.nlpsol("asf", "ipopt", nlp, options)
+    sol = solver(x0=np.r_[u_c, s0, start], lbx=lbx, ubx=ubx, lbg=-np.inf, ubg=0.0)
+    stats = solver.stats()
+    opt = np.array(sol["x"]).ravel()
+    u_opt = np.clip(opt[:n_var], 0.0, 1.0)
+    gap_opt = np.array(gap_fn(u_opt, opt[n_var + 1 :])).ravel()
+    del callbacks
+    return SolveOutcome(u_opt, str(stats["return_status"]), int(stats["iter_count"]), gap_opt)
+
+
+def _aggregated(
+    problem: Problem, parts: list[Part], z_of: list[dict[str, Any]], ref_log: np.ndarray
+) -> tuple[dict[str, Any], list[tuple[Any, float]], list[Any]]:
+    """The objectives' log10 expressions over the load cases (docs/model.md §14.5), with any
+    new epigraph variables (and their lower bounds) and their constraints ``<= 0``.
+
+    ``worst``: a level ``tau_q`` above every scenario's ``z_q,s``. ``expected``: ``log10`` of
+    the weighted sum of the values. ``cvar``: Rockafellar and Uryasev's epigraph
+    ``eta + sum_s w_s u_s / (1 - alpha)``, ``u_s >= v_s - eta``, ``u_s >= 0``, in values scaled
+    by the start's (so IPOPT sees numbers near 1). ``per_scenario``: each pair as it is.
+    """
+    import casadi as ca
+
+    from hisopt.robust import normalised, scenario_column
+
+    spec = problem.spec
+    if not spec.scenarios:
+        return z_of[0], [], []
+    how = spec.robust.aggregate
+    if how == "per_scenario":
+        return {scenario_column(q, p.scenario or ""): z[q] for q in spec.objectives for p, z in zip(parts, z_of, strict=True)}, [], []
+    w = normalised([sc.weight for sc in spec.scenarios])
+    names = problem.objective_names
+    out: dict[str, Any] = {}
+    extra: list[Any] = []
+    bounds: list[float] = []
+    g: list[Any] = []
+    for i, q in enumerate(names):
+        zs = [z[q] for z in z_of]
+        if len(zs) == 1:
+            out[q] = zs[0]
+        elif how == "worst":
+            tau = ca.MX.sym(f"tau_{q}")
+            extra.append(tau)
+            bounds.append(-np.inf)
+            g += [zq - tau for zq in zs]
+            out[q] = tau
+        elif how == "expected":
+            out[q] = ref_log[i] + ca.log(sum(float(wk) * 10 ** (zq - ref_log[i]) for wk, zq in zip(w, zs, strict=True))) / np.log(10.0)
+        else:
+            eta, slack = ca.MX.sym(f"eta_{q}"), [ca.MX.sym(f"u_{q}_{k}") for k in range(len(zs))]
+            extra += [eta, *slack]  # bounded below as variables: the values are positive, so is the
+            # optimal eta, and the bound keeps log10 defined where IPOPT's iterates break constraints
+            bounds += [CVAR_FLOOR] + [0.0] * len(slack)
+            g += [10 ** (zq - ref_log[i]) - eta - uk for zq, uk in zip(zs, slack, strict=True)]
+            value = eta + sum(float(wk) * uk for wk, uk in zip(w, slack, strict=True)) / (1.0 - spec.robust.alpha)
+            out[q] = ref_log[i] + ca.log(value) / np.log(10.0)
+    return out, list(zip(extra, bounds, strict=True)), g
+
+
+CVAR_FLOOR = 1e-6
+"""[-] Least threshold ``eta`` of the CVaR epigraph, in units of the start design's values."""
+
+
+def _start_levels(u: Any, levels: Any, g: list[Any], u_c: np.ndarray) -> np.ndarray:
+    """Starting values of the epigraph variables at ``u_c``: each the least value every
+    constraint bounding it from below allows (tight epigraphs; a few passes, as levels feed
+    later ones)."""
+    import casadi as ca
+
+    n = levels.shape[0]
+    if n == 0:
+        return np.zeros(0)
+    start = np.zeros(n)
+    gs = ca.vertcat(*g)
+    g_fn = ca.Function("g", [u, levels], [gs, ca.jacobian(gs, levels)])
+    for _ in range(4):  # epigraph chains are at most three deep (maximum, aggregate, slack)
+        value, jac = (np.array(a) for a in g_fn(u_c, start))
+        value = value.ravel()
+        for k in range(n):  # a constraint g = ... - level_k (Jacobian -1) bounds level_k below
+            rows = np.flatnonzero((jac[:, k] < 0) & np.isfinite(value))
+            if rows.size:
+                start[k] += float(np.max(value[rows] / -jac[rows, k]))
+    return start

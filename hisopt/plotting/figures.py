@@ -1,0 +1,210 @@
+"""Figures of optimisation results (plotly), each in the ``hisopt`` template.
+
+Quantities are plotted in engineering units (:func:`hisopt.units.display_for`: ``p0 [MPa]``,
+``dA [cm^2]``); the units come from the frames' ``attrs["units"]`` unless given.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+
+from hisopt.plotting.theme import COLORS, template
+from hisopt.units import Display, display_for, hypervolume_unit
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+HIGHLIGHT_STYLE = {
+    "knee": {"color": "#d1495b", "symbol": "diamond", "size": 12},
+    "ASF pick": {"color": "#edae49", "symbol": "star", "size": 14},
+    "selected": {"color": "#00798c", "symbol": "x", "size": 12},
+}
+
+
+def displays(frame: pd.DataFrame, columns: Sequence[str], units: Mapping[str, str] | None = None) -> dict[str, Display]:
+    """The engineering display of each column (one unit per column, from its values)."""
+    units = dict(frame.attrs.get("units", {}) if units is None else units)
+    return {c: display_for(units.get(c, ""), frame[c].to_numpy(dtype=float)) for c in columns}
+
+
+def _hover(frame: pd.DataFrame, shown: Mapping[str, Display]) -> list[str]:
+    rows = frame[list(shown)].to_numpy(dtype=float)
+    return ["<br>".join(f"{c} = {d(v)}" for (c, d), v in zip(shown.items(), row, strict=True)) for row in rows]
+
+
+def front_scatter_matrix(
+    front: pd.DataFrame,
+    objectives: Sequence[str],
+    variables: Sequence[str],
+    highlights: Mapping[str, pd.Series] | None = None,
+    refined: pd.DataFrame | None = None,
+    units: Mapping[str, str] | None = None,
+) -> go.Figure:
+    """Scatter matrix of the objectives; hovering a point shows its whole design."""
+    import plotly.graph_objects as go
+
+    shown = displays(front, list(variables) + list(objectives), units)
+    dims = lambda df: [{"label": shown[o].label(o), "values": shown[o].values(df[o])} for o in objectives]  # noqa: E731
+    fig = go.Figure()
+    fig.add_trace(
+        go.Splom(dimensions=dims(front), text=_hover(front, shown), hoverinfo="text", name="front",
+                 marker={"size": 5, "color": COLORS[0], "opacity": 0.6}, diagonal_visible=False, showupperhalf=False)
+    )
+    if refined is not None and len(refined):
+        fig.add_trace(
+            go.Splom(dimensions=dims(refined), text=_hover(refined, shown), hoverinfo="text", name="refined front",
+                     marker={"size": 6, "color": "#66a182", "symbol": "triangle-up"}, diagonal_visible=False, showupperhalf=False)
+        )
+    for label, row in (highlights or {}).items():
+        one = row.to_frame().T
+        style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
+        fig.add_trace(
+            go.Splom(dimensions=dims(one), text=_hover(one, shown), hoverinfo="text", name=label,
+                     marker={**style, "line": {"width": 1, "color": "black"}}, diagonal_visible=False, showupperhalf=False)
+        )
+    n = max(len(objectives) - 1, 1)
+    fig.update_layout(
+        template=template(), title="Pareto front: objectives (hover for the design)", height=170 + 230 * n,
+        dragmode="select", margin={"t": 60, "b": 110},
+    )
+    # Side by side the columns' x ticks meet at the seams; three at most keeps them apart.
+    fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, len(objectives) + 1)})
+    return fig
+
+
+def scenario_scatter_matrix(
+    front: pd.DataFrame,
+    quantities: Sequence[str],
+    scenarios: Sequence[str],
+    variables: Sequence[str],
+    highlights: Mapping[str, pd.Series] | None = None,
+    refined: pd.DataFrame | None = None,
+    units: Mapping[str, str] | None = None,
+) -> go.Figure:
+    """The front of a ``per_scenario`` problem (objectives ``"<quantity>@<scenario>"``): one
+    scatter matrix of the quantities, a colour per load case, each design once per scenario.
+
+    The matrix of every column would be ``(Q S)^2 / 2`` panels (120 for four quantities in four
+    scenarios); this one is ``Q^2 / 2`` and shows how each load case trades the quantities
+    off. Each quantity's axis has one unit across its scenarios; hovering a point shows its
+    design and that scenario's values.
+    """
+    import plotly.graph_objects as go
+
+    from hisopt.robust import scenario_column
+
+    units = dict(front.attrs.get("units", {}) if units is None else units)
+    columns = {q: [scenario_column(q, s) for s in scenarios] for q in quantities}
+    tables = [front] + ([refined] if refined is not None and len(refined) else []) + [r.to_frame().T for r in (highlights or {}).values()]
+    shown = {q: display_for(units.get(cols[0], ""), np.concatenate([t[cols].to_numpy(dtype=float).ravel() for t in tables]))
+             for q, cols in columns.items()}
+    design = displays(front, variables, units)
+
+    def dims(df: pd.DataFrame, s: str) -> list[dict]:
+        return [{"label": shown[q].label(q), "values": shown[q].values(df[scenario_column(q, s)])} for q in quantities]
+
+    def hover(df: pd.DataFrame, s: str) -> list[str]:
+        both = {v: design[v] for v in variables} | {scenario_column(q, s): shown[q] for q in quantities}
+        return [f"load case {s}<br>{text}" for text in _hover(df, both)]
+
+    fig = go.Figure()
+    for k, s in enumerate(scenarios):
+        colour = COLORS[k % len(COLORS)]
+        fig.add_trace(go.Splom(dimensions=dims(front, s), text=hover(front, s), hoverinfo="text", name=s, legendgroup=s,
+                               marker={"size": 5, "color": colour, "opacity": 0.6}, diagonal_visible=False, showupperhalf=False))
+        if refined is not None and len(refined):
+            fig.add_trace(go.Splom(dimensions=dims(refined, s), text=hover(refined, s), hoverinfo="text", name=f"{s}: refined",
+                                   legendgroup=s, marker={"size": 6, "color": colour, "symbol": "triangle-up"},
+                                   diagonal_visible=False, showupperhalf=False))
+    for label, row in (highlights or {}).items():
+        one = row.to_frame().T
+        style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
+        for k, s in enumerate(scenarios):  # the same design in every load case: one legend entry
+            fig.add_trace(go.Splom(dimensions=dims(one, s), text=hover(one, s), hoverinfo="text", name=label, legendgroup=label,
+                                   showlegend=k == 0, marker={**style, "line": {"width": 1, "color": "black"}},
+                                   diagonal_visible=False, showupperhalf=False))
+    n = max(len(quantities) - 1, 1)
+    fig.update_layout(
+        template=template(), title="Pareto front in each load case (colour; hover for the design)", height=170 + 230 * n,
+        dragmode="select", margin={"t": 60, "b": 110},
+    )
+    fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, len(quantities) + 1)})
+    return fig
+
+
+def parallel_coordinates(
+    front: pd.DataFrame,
+    variables: Sequence[str],
+    objectives: Sequence[str],
+    color_by: str,
+    units: Mapping[str, str] | None = None,
+) -> go.Figure:
+    """Parallel coordinates of variables and objectives, coloured by ``color_by``."""
+    import plotly.graph_objects as go
+
+    columns = list(variables) + list(objectives)
+    shown = displays(front, list(dict.fromkeys(columns + [color_by])), units)
+
+    def dimension(c: str) -> dict:
+        out = {"label": shown[c].label(c), "values": shown[c].values(front[c])}
+        out["tickformat"] = ".2~e" if shown[c].scientific else ".4~g"  # ticks and range labels
+        return out
+
+    colour = shown[color_by]
+    colorbar = {"title": {"text": colour.label(color_by).replace(" [", "<br>["), "side": "top"}, "thickness": 14}
+    colorbar["tickformat"] = ".2~e" if colour.scientific else ".4~g"
+    fig = go.Figure(
+        go.Parcoords(
+            dimensions=[dimension(c) for c in columns],
+            line={"color": colour.values(front[color_by]), "colorscale": "Viridis", "showscale": True, "colorbar": colorbar},
+            labelfont={"size": 12},
+            labelangle=-20,
+            rangefont={"size": 10},
+            tickfont={"size": 11},
+        )
+    )
+    colour_name = colour.label(color_by)
+    top = 140
+    if len(columns) > 10:  # e.g. per-scenario objectives: slanted labels would cross the next axes' ranges
+        top = 80 + 7 * max(len(d["label"]) for d in fig.data[0].dimensions)  # ~7 px per character at 12 px
+        fig.update_traces(labelangle=-90)
+        # ticks of neighbouring axes meet below ~75 px apart: a fixed width (the report's figures scroll sideways)
+        fig.update_layout(width=75 * len(columns) + 190, autosize=False)
+    fig.update_layout(
+        template=template(), title=f"Designs and objectives of the front (colour: {colour_name})", height=420 + top,
+        margin={"t": top, "l": 70, "r": 120, "b": 40},
+    )
+    return fig
+
+
+def convergence(generations: pd.DataFrame, n_objectives: int | None = None) -> go.Figure:
+    """Hypervolume, front size and feasible share per generation.
+
+    ``n_objectives`` sets the hypervolume's unit (``decades^n``); default from the frame's
+    ``attrs["units"]``.
+    """
+    from plotly.subplots import make_subplots
+
+    hv_unit = generations.attrs.get("units", {}).get("hypervolume") or (
+        hypervolume_unit(n_objectives) if n_objectives else "decades^n"
+    )
+    fig = make_subplots(rows=1, cols=3, horizontal_spacing=0.09)
+    x = generations["generation"]
+    panels = (
+        ("hypervolume", f"hypervolume [{hv_unit}]", 1.0),
+        ("front_size", "front size [-]", 1.0),
+        ("feasible_share", "feasible designs [%]", 100.0),
+    )
+    for i, (name, title, scale) in enumerate(panels, start=1):
+        if name in generations:
+            fig.add_scatter(x=x, y=generations[name] * scale, mode="lines+markers", name=title, row=1, col=i,
+                            showlegend=False, line={"color": COLORS[i - 1]}, marker={"size": 5})
+        fig.update_xaxes(title_text="generation [-]", row=1, col=i)
+        fig.update_yaxes(title_text=title, row=1, col=i, rangemode="tozero" if name != "hypervolume" else "normal")
+    fig.update_yaxes(range=[0, 105], row=1, col=3)
+    fig.update_layout(template=template(), title="Convergence (hypervolume in log10 objective space)", height=340, margin={"t": 60})
+    return fig

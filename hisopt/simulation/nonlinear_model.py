@@ -1,0 +1,310 @@
+"""The nonlinear car + HIS for time-domain simulation (paper Section VI; docs/model.md §3).
+
+The lumped network of the linear model with three nonlinearities (laws from
+:mod:`hisopt.hydraulics.laws`):
+
+- every node carrying an accumulator integrates its *stored oil volume* ``W`` (the node's
+  flow balance), and its pressure follows the polytropic gas law in absolute pressure,
+  ``p_abs = p_abs0 (V0 / (V0 - dV))^gamma`` (``dV`` the gas volume taken by oil, plus any
+  linear compliance ``C_o p`` at the node: oil, pipe ends);
+- optional quadratic orifice valves ``dp = R_v q + K_q q |q|`` (``valve_kq`` for every damper
+  valve, and each orifice element with its own ``R`` and ``K_q``; docs/model.md §12.2), the
+  algebraic valve network solved by Newton's method at each right-hand-side evaluation;
+- optional tyre lift-off: the tyre pushes but never pulls (contact force
+  ``F_static - k_t (z_u - z_g) - c_t (dz_u - dz_g) >= 0``).
+
+Every other element stays linear, so for small inputs it reproduces the linear model. The
+state integrates the full lumped descriptor (one redundant volume per closed circuit,
+conserved exactly), with its exact Jacobian for implicit integrators. All states are
+deviations from the static equilibrium on a flat road.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hisopt.constants import G_MPS2, P_ATM_PA
+from hisopt.coupled.model import CoupledModel
+from hisopt.errors import ConfigError, ModelError
+from hisopt.hydraulics import laws
+from hisopt.hydraulics.coupling import HydraulicSystem
+from hisopt.vehicle import damping_matrix, mass_matrix, road_damping_input, road_stiffness_input, stiffness_matrix, stroke_matrix
+
+GAS_VOLUME_LIMIT = 0.999
+"""[-] Largest share of the gas volume the oil may take before the accumulator bottoms out."""
+
+
+def _single(x: ArrayLike, what: str) -> float:
+    """A per-design parameter of a single-design model as a float."""
+    arr = np.asarray(x, dtype=float).reshape(-1)
+    if np.unique(arr).size != 1:
+        raise ConfigError(f"time simulation takes one design; {what} has {arr.size} values")
+    return float(arr[0])
+
+
+def _single_design(a: np.ndarray, trailing: int, what: str) -> np.ndarray:
+    """Drop a batch axis of size 1 (one design), keeping ``trailing`` matrix axes."""
+    batch = a.shape[: a.ndim - trailing]
+    if int(np.prod(batch, dtype=int)) != 1:
+        raise ConfigError(f"time simulation takes one design; the model's {what} has batch shape {batch}")
+    return a.reshape(a.shape[a.ndim - trailing :])
+
+
+@dataclass(frozen=True)
+class Accumulators:
+    """The accumulators of one design's network: where they sit and their gas data.
+
+    ``rows``: the descriptor row of each accumulator's node; ``v0`` [m^3], ``p_abs0`` [Pa],
+    ``gamma`` [-]: gas volume, absolute pressure and exponent at the operating point;
+    ``p0_gauge`` [Pa] the gauge operating pressure.
+    """
+
+    names: tuple[str, ...]
+    rows: NDArray[np.int_]
+    v0: NDArray[np.float64]
+    p_abs0: NDArray[np.float64]
+    gamma: NDArray[np.float64]
+    p0_gauge: NDArray[np.float64]
+
+    @property
+    def compliance(self) -> NDArray[np.float64]:
+        """[m^3/Pa] Linearised compliance of each accumulator."""
+        return laws.accumulator_compliance(self.v0, self.p_abs0, self.gamma)
+
+
+def accumulators(his: HydraulicSystem) -> Accumulators:
+    """The accumulators of a single-design HIS, in element order (named by their circuit,
+    with a number when a circuit has several)."""
+    net = his.network
+    found = net.accumulators()
+    circuits = [net.elements[k][0] for k, _, _ in found]
+    names, gas = [], []
+    for i, ((k, _, _), c) in enumerate(zip(found, circuits, strict=True)):
+        same = [j for j, cj in enumerate(circuits) if cj == c]
+        name = net.layout.circuits[c].name
+        names.append(name if len(same) == 1 else f"{name}{same.index(i) + 1}")
+        gas.append(tuple(_single(v, "accumulator parameter") for v in his.values.gas[k]))
+    v0, p_abs0, gamma = (np.array(col, dtype=float) for col in zip(*gas, strict=True)) if gas else (np.zeros(0),) * 3
+    rows = np.array([row for _, _, row in found], dtype=int)
+    return Accumulators(tuple(names), rows, v0, p_abs0, gamma, p_abs0 - P_ATM_PA)
+
+
+class NonlinearModel:
+    """Right-hand side of the nonlinear model (see the module docstring), one design.
+
+    State ``y = [X (7), V (7), w (n_d)]``: ``w`` holds the dynamic hydraulic states of the
+    lumped descriptor, except that nodes with accumulators hold their stored oil volume.
+    """
+
+    def __init__(self, model: CoupledModel, valve_kq: float, tyre_liftoff: bool):
+        v = model.vehicle
+        self.m = np.diag(mass_matrix(v))
+        # Tyres are split off the conventional matrices so lift-off can clip their force.
+        self.kt = np.diag(road_stiffness_input(v)[3:])
+        self.ct = np.diag(road_damping_input(v)[3:])
+        self.k_susp = stiffness_matrix(v)
+        self.k_susp[3:, 3:] -= np.diag(self.kt)
+        self.c_susp = damping_matrix(v)
+        self.c_susp[3:, 3:] -= np.diag(self.ct)
+        self.f_static = v.static_corner_loads(G_MPS2)
+        self.tyre_liftoff = tyre_liftoff
+
+        self.valve_kq = valve_kq
+        if model.his is None:  # the reference car: no network, only the tyre nonlinearity
+            self._no_network()
+            return
+        his = model.his
+        net = his.network
+        e_h, a_h = his.descriptor()
+        e = _single_design(np.asarray(e_h), 1, "hydraulic descriptor")
+        a = _single_design(np.asarray(a_h), 2, "hydraulic descriptor").copy()
+        n_inc = _single_design(np.asarray(his.incidence), 2, "cylinder incidence")
+        self.acc = accumulators(his)
+        kq_row = np.zeros(net.size)  # quadratic coefficient of each valve flow row
+        for k, _, rows in net.valves():
+            if k in his.values.orifice:  # an orifice: its own law, its laminar part in A
+                r_lam, kq = (_single(v, "orifice parameter") for v in his.values.orifice[k])
+                a[rows[2], rows[2]] += _single(his.values.resistance[k], "orifice resistance") - r_lam
+                kq_row[rows[2]] = kq
+            else:
+                kq_row[rows[2]] = valve_kq
+        self.dyn, self.alg = np.flatnonzero(net.dynamic), np.flatnonzero(~net.dynamic)
+        self.n_h = e.size
+        self.coupling = net.injection @ n_inc @ stroke_matrix(v)  # node inflow per velocity
+        self.a_dyn = a[self.dyn]
+        self.cp_dyn = self.coupling[self.dyn]
+        self.e_dyn = e[self.dyn]
+
+        # Accumulator nodes: the descriptor compliance is the accumulators' linear share
+        # plus any other (linear) compliance at the node (oil, pipe ends), kept linear.
+        pos = {int(r): i for i, r in enumerate(self.dyn)}
+        acc_nodes = np.unique(self.acc.rows)
+        self.acc_state = np.array([pos[int(r)] for r in acc_nodes], dtype=int)
+        self.node_accs = [np.flatnonzero(self.acc.rows == r) for r in acc_nodes]
+        other = np.array([e[r] - self.acc.compliance[k].sum() for r, k in zip(acc_nodes, self.node_accs, strict=True)])
+        self.other_compliance = np.where(other > 1e-9 * e[acc_nodes], other, 0.0)
+
+        # Algebraic part: pressures of nodes without compliance and valve flows.
+        if self.alg.size:
+            a_aa = a[np.ix_(self.alg, self.alg)]
+            try:
+                inv = np.linalg.inv(a_aa)
+            except np.linalg.LinAlgError as exc:
+                raise ModelError("the hydraulic network has an algebraic loop with no resistance") from exc
+            self.a_aa = a_aa
+            self.a_ad = a[np.ix_(self.alg, self.dyn)]
+            self.cp_alg = self.coupling[self.alg]
+            self.solve_lin_d = -inv @ self.a_ad
+            self.solve_lin_v = -inv @ self.cp_alg
+            self.kq_alg = kq_row[self.alg]
+
+    def _no_network(self) -> None:
+        empty = np.zeros(0)
+        self.acc = Accumulators((), np.zeros(0, dtype=int), empty, empty, empty, empty)
+        self.dyn = self.alg = np.zeros(0, dtype=int)
+        self.n_h = 0
+        self.coupling = np.zeros((0, 7))
+        self.a_dyn, self.cp_dyn, self.e_dyn = np.zeros((0, 0)), np.zeros((0, 7)), empty
+        self.acc_state = np.zeros(0, dtype=int)
+        self.node_accs, self.other_compliance = [], empty
+
+    @property
+    def n_states(self) -> int:
+        return 14 + self.dyn.size
+
+    def initial_state(self) -> NDArray[np.float64]:
+        return np.zeros(self.n_states)
+
+    # hydraulic constitutive laws ----------------------------------------------------------
+    def node_pressure(self, w: np.ndarray) -> np.ndarray:
+        """[Pa] Pressure rise of each accumulator node from its stored volume, ``(n_acc_nodes, k)``."""
+        out = np.empty_like(w)
+        for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance, strict=True)):
+            v0 = self.acc.v0[accs]
+            if accs.size == 1 and c_o == 0.0:
+                dv = np.minimum(w[j], GAS_VOLUME_LIMIT * v0[0])
+                out[j] = laws.gas_pressure_rise(dv, v0[0], self.acc.p_abs0[accs[0]], self.acc.gamma[accs[0]])
+            else:
+                out[j] = self._invert_node(w[j], accs, c_o)
+        return out
+
+    def _invert_node(self, w: np.ndarray, accs: np.ndarray, c_o: float) -> np.ndarray:
+        """Newton on ``sum dV_i(p) + C_o p = w``: concave in ``p``, so after one step the
+        iterates approach the root from below, monotonically."""
+        p_floor = -0.999 * self.acc.p_abs0[accs].min()
+        p = w / (self.acc.compliance[accs].sum() + c_o)
+        for _ in range(100):
+            vol = c_o * p
+            slope = np.full_like(p, c_o)
+            for i in accs:
+                gas = (self.acc.v0[i], self.acc.p_abs0[i], self.acc.gamma[i])
+                vol = vol + laws.gas_volume(p, *gas)
+                slope = slope + laws.gas_compliance(p, *gas)
+            step = (vol - w) / slope
+            p = np.maximum(p - step, p_floor)
+            if np.all(np.abs(step) <= 1e-12 * self.acc.p_abs0[accs].max()):
+                return p
+        raise ModelError("accumulator node pressure did not converge (gas volume exhausted?)")
+
+    def algebraic(self, h_dyn: np.ndarray, vel: np.ndarray) -> np.ndarray:
+        """Pressures of compliance-free nodes and valve flows, ``(n_alg, k)``.
+
+        Linear valves: one matrix product. Quadratic orifices: Newton from the linear
+        solution, Jacobian ``A_aa - diag(2 K_q |q|)``.
+        """
+        x = self.solve_lin_d @ h_dyn + self.solve_lin_v @ vel
+        if not self.kq_alg.any():
+            return x
+        rhs = self.a_ad @ h_dyn + self.cp_alg @ vel
+        scale = np.abs(x).max(axis=0, keepdims=True) + 1e-30
+        for _ in range(100):
+            resid = self.a_aa @ x + rhs - (self.kq_alg[:, None] * x * np.abs(x))
+            jac = self.a_aa[None] - (2.0 * self.kq_alg * np.abs(x).T)[:, None, :] * np.eye(x.shape[0])[None]
+            step = np.linalg.solve(jac, resid.T[..., None])[..., 0].T
+            x = x - step
+            if np.all(np.abs(step) <= 1e-12 * scale):
+                return x
+        raise ModelError("the quadratic valve network did not converge; check valve_kq and the valve layout")
+
+    def hydraulic_state(self, w: np.ndarray, vel: np.ndarray) -> np.ndarray:
+        """All descriptor unknowns ``h`` (node pressures, branch flows), ``(n_h, k)``."""
+        h_dyn = w.copy()
+        h_dyn[self.acc_state] = self.node_pressure(w[self.acc_state])
+        h = np.zeros((self.n_h, w.shape[1]))
+        h[self.dyn] = h_dyn
+        if self.alg.size:
+            h[self.alg] = self.algebraic(h_dyn, vel)
+        return h
+
+    def tyre_force(self, x: np.ndarray, vel: np.ndarray, u: np.ndarray, du: np.ndarray) -> np.ndarray:
+        """[N] Upward road force on each wheel above its static value, ``(4, k)``.
+
+        ``u``, ``du``: road displacement [m] and rate [m/s], shape ``(4, 1)`` or ``(4, k)``.
+        """
+        force = self.kt[:, None] * (u - x[3:]) + self.ct[:, None] * (du - vel[3:])
+        if self.tyre_liftoff:
+            force = np.maximum(force, -self.f_static[:, None])
+        return force
+
+    def derivative(self, y: np.ndarray, u: np.ndarray, du: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``dy/dt`` and the descriptor unknowns ``h`` for states ``y`` ``(n, k)``."""
+        x, vel, w = y[:7], y[7:14], y[14:]
+        h = self.hydraulic_state(w, vel)
+        force = -self.k_susp @ x - self.c_susp @ vel - self.coupling.T @ h
+        force[3:] += self.tyre_force(x, vel, u, du)
+        flows = self.a_dyn @ h + self.cp_dyn @ vel
+        dw = flows / self.e_dyn[:, None]
+        dw[self.acc_state] = flows[self.acc_state]  # accumulator nodes integrate their volume
+        return np.concatenate([vel, force / self.m[:, None], dw]), h
+
+    def jacobian(self, y: np.ndarray, u: np.ndarray, du: np.ndarray) -> np.ndarray:
+        """Exact Jacobian ``d(dy/dt)/dy`` at one state ``y`` ``(n,)`` (for implicit solvers).
+
+        Chain rule through the node laws (``dp/dW = 1 / sum of tangent compliances``), the
+        algebraic valve network (``dh_a = -J_a^-1 (A_ad dh_d + C_a dV)``) and the tyres
+        (no stiffness while a wheel is off the road).
+        """
+        x, vel, w = y[:7, None], y[7:14, None], y[14:, None]
+        h = self.hydraulic_state(w, vel)[:, 0]
+        n_d = self.dyn.size
+        dpdw = np.ones(n_d)
+        for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance, strict=True)):
+            p = h[self.dyn[self.acc_state[j]]]
+            gas = sum(laws.gas_compliance(p, self.acc.v0[i], self.acc.p_abs0[i], self.acc.gamma[i]) for i in accs)
+            dpdw[self.acc_state[j]] = 1.0 / (c_o + gas)
+        dh_dw = np.zeros((self.n_h, n_d))
+        dh_dv = np.zeros((self.n_h, 7))
+        dh_dw[self.dyn, np.arange(n_d)] = dpdw
+        if self.alg.size:
+            jac_a = self.a_aa - np.diag(2.0 * self.kq_alg * np.abs(h[self.alg]))
+            sol = -np.linalg.solve(jac_a, np.hstack([self.a_ad * dpdw, self.cp_alg]))
+            dh_dw[self.alg], dh_dv[self.alg] = sol[:, :n_d], sol[:, n_d:]
+        on = np.ones(4)
+        if self.tyre_liftoff:
+            on = (self.tyre_force(x, vel, u[:, None], du[:, None])[:, 0] > -self.f_static).astype(float)
+        df_dx = -self.k_susp.copy()
+        df_dx[3:, 3:] -= np.diag(self.kt * on)
+        df_dv = -self.c_susp - self.coupling.T @ dh_dv
+        df_dv[3:, 3:] -= np.diag(self.ct * on)
+        row = np.where(np.isin(np.arange(n_d), self.acc_state), 1.0, 1.0 / self.e_dyn)[:, None]
+        jac = np.zeros((self.n_states, self.n_states))
+        jac[:7, 7:14] = np.eye(7)
+        jac[7:14, :7] = df_dx / self.m[:, None]
+        jac[7:14, 7:14] = df_dv / self.m[:, None]
+        jac[7:14, 14:] = -(self.coupling.T @ dh_dw) / self.m[:, None]
+        jac[14:, 7:14] = row * (self.a_dyn @ dh_dv + self.cp_dyn)
+        jac[14:, 14:] = row * (self.a_dyn @ dh_dw)
+        return jac
+
+    def volume_margin(self, w: np.ndarray) -> float:
+        """[-] Largest stored volume over gas volume of any accumulator node (1 = bottomed)."""
+        worst = 0.0
+        for j, accs in enumerate(self.node_accs):
+            worst = max(worst, float(np.max(w[self.acc_state[j]])) / float(self.acc.v0[accs].sum()))
+        return worst
+
+
+# --- results ----------------------------------------------------------------------------

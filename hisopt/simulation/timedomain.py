@@ -1,0 +1,470 @@
+"""Time-domain simulation of the lumped car + HIS model (paper Section VI; docs/model.md §3).
+
+Two fidelity levels share one road input (any ``(n_t, 4)`` wheel profile, read between samples
+by :class:`hisopt.road.interpolation.RoadInput`) and one result, :class:`TimeResponse`:
+
+- ``"linear"``: the exact lumped state space ``dx/dt = A x + B0 u + B1 du/dt`` of
+  :meth:`hisopt.coupled.model.CoupledModel.state_space`, integrated as
+  ``d(x - B1 u)/dt = A (x - B1 u) + (B0 + A B1) u`` so a road step needs no impulse; every
+  pressure and flow comes back through the realisation's inverse map;
+- ``"nonlinear"``: :class:`hisopt.simulation.nonlinear_model.NonlinearModel` (gas law in absolute
+  pressure, quadratic orifices, tyre lift-off).
+
+All states are deviations from the static equilibrium on a flat road (``z_g = 0``), where
+the accumulators sit at their operating point. Outputs are SI.
+
+References
+----------
+Paper Eq. (1)-(6), (10), (15)-(21); docs/model.md §1-§4.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+from scipy.integrate import solve_ivp
+
+from hisopt.constants import DOF_NAMES, WHEEL_NAMES
+from hisopt.coupled.model import CoupledModel, StateSpace
+from hisopt.errors import ConfigError, ModelError
+from hisopt.hydraulics import laws
+from hisopt.road.interpolation import Interpolation, RoadInput
+from hisopt.simulation.nonlinear_model import GAS_VOLUME_LIMIT, NonlinearModel, _single_design, accumulators
+from hisopt.vehicle import body_to_corners, road_damping_input, road_stiffness_input, stroke_matrix
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+SimulationMode = Literal["linear", "nonlinear"]
+"""``"linear"``: exact lumped state space; ``"nonlinear"``: gas law, orifices, tyre lift-off."""
+
+SolverMethod = Literal["auto", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
+"""``scipy.integrate.solve_ivp`` method; ``"auto"`` is LSODA (stiffness detected on the fly)."""
+
+
+def _linear_matrices(ss: StateSpace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return (
+        _single_design(np.asarray(ss.a), 2, "state matrix"),
+        _single_design(np.asarray(ss.b0), 2, "input matrix"),
+        _single_design(np.asarray(ss.b1), 2, "input-rate matrix"),
+    )
+
+
+def state_scales(
+    a: np.ndarray,
+    b0: np.ndarray,
+    b1: np.ndarray,
+    output: np.ndarray | None = None,
+    f_hz: ArrayLike = (0.5, 1.5, 3.0, 11.0),
+) -> NDArray[np.float64]:
+    """Typical magnitude of each state per metre of road input (for absolute tolerances).
+
+    The largest ``|(C x)_i(j w)|`` over a few frequencies spanning the body and wheel modes
+    and over the four wheel inputs, ``x(j w) = (j w I - A)^-1 (B0 + j w B1)``.
+
+    Parameters
+    ----------
+    a, b0, b1
+        State-space matrices, shapes ``(n, n)``, ``(n, 4)``, ``(n, 4)``.
+    output
+        Map ``C`` ``(n_out, n)`` to the quantities wanted (default: the states).
+    f_hz
+        [Hz] Probe frequencies.
+
+    Returns
+    -------
+    ndarray, shape ``(n_out,)``
+        [quantity unit / m] Scales, positive.
+    """
+    s = 2j * np.pi * np.asarray(f_hz, dtype=float)[:, None, None]
+    n = a.shape[-1]
+    x = np.linalg.solve(s * np.eye(n) - a, b0 + s * b1)
+    if output is not None:
+        x = output @ x
+    scale = np.abs(x).max(axis=(0, 2))
+    return np.where(scale > 0, scale, scale.max())
+
+
+
+
+@dataclass(frozen=True)
+class TimeResponse:
+    """A simulated time history; SI units, samples at the road input times.
+
+    Shapes: ``t_s`` ``(n_t,)``; ``road_m``, ``stroke_m``, ``tyre_force_n`` ``(n_t, 4)`` (FL,
+    FR, RL, RR); ``displacement``, ``velocity``, ``acceleration`` ``(n_t, 7)`` in DOF order
+    ``[z_s, phi, theta, z_u1..z_u4]`` (m or rad, per s, per s^2); accumulator arrays
+    ``(n_t, n_acc)``.
+    """
+
+    t_s: NDArray[np.float64]
+    road_m: NDArray[np.float64]
+    displacement: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    stroke_m: NDArray[np.float64]
+    """[m] Suspension stroke ``delta = G X``, extension positive."""
+    tyre_force_n: NDArray[np.float64]
+    """[N] Dynamic tyre load ``k_t (z_u - z_g) + c_t (dz_u - dz_g)`` (docs/model.md §5.1)."""
+    accumulator_pressure_pa: NDArray[np.float64]
+    """[Pa] Gauge accumulator pressure, precharge plus dynamic rise."""
+    accumulator_volume_m3: NDArray[np.float64]
+    """[m^3] Oil stored in each accumulator (gas volume lost)."""
+    accumulator_names: tuple[str, ...]
+    corners: NDArray[np.float64]
+    """``T_z`` (4, 3): body points above the wheels from ``[z_s, phi, theta]``."""
+    mode: SimulationMode
+
+    @property
+    def corner_acceleration(self) -> NDArray[np.float64]:
+        """[m/s^2] Vertical body acceleration above each wheel, ``T_z [z_s, phi, theta]''``, ``(n_t, 4)``."""
+        return self.acceleration[:, :3] @ self.corners.T
+
+    def to_frame(self) -> pd.DataFrame:
+        """All signals in one table (SI), one row per sample.
+
+        Columns: ``time``; ``road_<w>``; DOF displacements ``z_s, phi, theta, z_u1..z_u4``,
+        velocities ``d<dof>``, accelerations ``dd<dof>``; ``a_body_<w>`` (body corners),
+        ``stroke_<w>``, ``tyre_force_<w>``; ``p_acc_<name>`` (gauge), ``dv_acc_<name>``.
+        """
+        cols: dict[str, np.ndarray] = {"time": self.t_s}
+        cols |= {f"road_{w}": self.road_m[:, i] for i, w in enumerate(WHEEL_NAMES)}
+        cols |= {n: self.displacement[:, i] for i, n in enumerate(DOF_NAMES)}
+        cols |= {f"d{n}": self.velocity[:, i] for i, n in enumerate(DOF_NAMES)}
+        cols |= {f"dd{n}": self.acceleration[:, i] for i, n in enumerate(DOF_NAMES)}
+        corner = self.corner_acceleration
+        cols |= {f"a_body_{w}": corner[:, i] for i, w in enumerate(WHEEL_NAMES)}
+        cols |= {f"stroke_{w}": self.stroke_m[:, i] for i, w in enumerate(WHEEL_NAMES)}
+        cols |= {f"tyre_force_{w}": self.tyre_force_n[:, i] for i, w in enumerate(WHEEL_NAMES)}
+        cols |= {f"p_acc_{n}": self.accumulator_pressure_pa[:, i] for i, n in enumerate(self.accumulator_names)}
+        cols |= {f"dv_acc_{n}": self.accumulator_volume_m3[:, i] for i, n in enumerate(self.accumulator_names)}
+        frame = pd.DataFrame(cols)
+        frame.attrs["units"] = {name: signal_unit(name) for name in frame.columns}
+        return frame
+
+    def plot_signals(
+        self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: go.Figure | None = None
+    ) -> go.Figure:
+        """Stacked time histories of columns of :meth:`to_frame`, one panel each.
+
+        Parameters
+        ----------
+        columns
+            Column names of :meth:`to_frame` (SI units).
+        fig
+            Figure to add the traces to (its subplot grid must have ``len(columns)`` rows);
+            ``None`` makes a new one.
+        """
+        from plotly.subplots import make_subplots
+
+        frame = self.to_frame()
+        unknown = [c for c in columns if c not in frame.columns]
+        if unknown:
+            raise ConfigError(
+                f"unknown signal(s) {unknown}; expected columns of to_frame(), e.g. {list(frame.columns[:8])}"
+            )
+        from hisopt.plotting.theme import template
+
+        units = frame.attrs["units"]
+        if fig is None:
+            fig = make_subplots(rows=len(columns), cols=1, shared_xaxes=True, subplot_titles=list(columns))
+            fig.update_layout(template=template())
+        for row, col in enumerate(columns, start=1):
+            fig.add_scatter(x=frame["time"], y=frame[col], name=f"{col} ({self.mode})", row=row, col=1)
+            fig.update_yaxes(title_text=f"{col} [{units[col]}]", row=row, col=1)
+        fig.update_xaxes(title_text="time [s]", row=len(columns), col=1)
+        return fig
+
+    def plot_pressures(self, fig: go.Figure | None = None) -> go.Figure:
+        """Gauge accumulator pressures [MPa] against time."""
+        import plotly.graph_objects as go
+
+        from hisopt.plotting.theme import template
+
+        fig = go.Figure(layout={"template": template()}) if fig is None else fig
+        for i, name in enumerate(self.accumulator_names):
+            pressure_mpa = self.accumulator_pressure_pa[:, i] / 1e6
+            fig.add_scatter(x=self.t_s, y=pressure_mpa, name=f"accumulator {name} ({self.mode})")
+        fig.update_layout(xaxis_title="time [s]", yaxis_title="gauge pressure [MPa]")
+        return fig
+
+
+def signal_unit(column: str) -> str:
+    """[-] SI unit of a column of :meth:`TimeResponse.to_frame`."""
+    dof = {name: ("rad" if name in ("phi", "theta") else "m") for name in DOF_NAMES}
+    if column in dof:
+        return dof[column]
+    if column.startswith("dd") and column[2:] in dof:
+        return f"{dof[column[2:]]}/s^2"
+    if column.startswith("d") and column[1:] in dof:
+        return f"{dof[column[1:]]}/s"
+    prefixes = {"time": "s", "road_": "m", "a_body_": "m/s^2", "stroke_": "m", "tyre_force_": "N", "p_acc_": "Pa", "dv_acc_": "m^3"}
+    return next(unit for prefix, unit in prefixes.items() if column.startswith(prefix))
+
+
+# --- simulation ---------------------------------------------------------------------------
+
+
+def _integrate(
+    fun: Callable[[float, np.ndarray], np.ndarray],
+    y0: np.ndarray,
+    road: RoadInput,
+    method: str,
+    rtol: float,
+    atol: np.ndarray,
+    jac: Callable[[float, np.ndarray], np.ndarray],
+) -> np.ndarray:
+    """``solve_ivp`` over the road record with outputs at its samples, ``(n, n_t)``."""
+    options: dict[str, object] = {}
+    if method in ("Radau", "BDF", "LSODA"):  # explicit methods warn about an unused jac
+        options["jac"] = jac
+    sol = solve_ivp(
+        fun,
+        (float(road.t_s[0]), float(road.t_s[-1])),
+        y0,
+        method=method,
+        t_eval=road.t_s,
+        rtol=rtol,
+        atol=atol,
+        max_step=float(np.diff(road.t_s).min()),  # resolve every input segment
+        vectorized=True,
+        **options,
+    )
+    if not sol.success:
+        raise ModelError(f"time integration failed ({method}): {sol.message}")
+    return sol.y
+
+
+def simulate(
+    model: CoupledModel,
+    t_s: ArrayLike,
+    road_m: ArrayLike,
+    mode: SimulationMode = "linear",
+    *,
+    valve_kq: float = 0.0,
+    tyre_liftoff: bool = False,
+    interpolation: Interpolation = "pchip",
+    method: SolverMethod = "auto",
+    rtol: float = 1e-8,
+    body_force: ArrayLike | None = None,
+) -> TimeResponse:
+    """Simulate the car (with or without HIS) driven by road displacements at the wheels.
+
+    The car starts at rest in its static equilibrium on a flat road; a profile that does not
+    start at 0 therefore begins with a transient.
+
+    Parameters
+    ----------
+    model
+        Single-design lumped model (``pipe_model="lumped"``; distributed pipes have no
+        finite state space).
+    t_s
+        [s] Increasing sample times, shape ``(n_t,)``; outputs are given at these times.
+    road_m
+        [m] Road displacement under FL, FR, RL, RR, shape ``(n_t, 4)`` (e.g. from
+        :func:`hisopt.road.random_profile`, :func:`~hisopt.road.step_profile`,
+        :func:`~hisopt.road.bump_profile`), read between samples as ``interpolation`` says.
+    mode
+        ``"linear"`` (exact state space) or ``"nonlinear"`` (gas law, options below).
+    valve_kq
+        [Pa s^2 m^-6] Quadratic orifice coefficient ``K_q`` of every damper valve,
+        ``dp = R_v q + K_q q |q|`` (nonlinear mode only).
+    tyre_liftoff
+        [-] Let wheels leave the road when the dynamic load exceeds the static load
+        (nonlinear mode only).
+    interpolation
+        ``"pchip"`` (default; keeps steps monotone), ``"cubic"`` (smoothest: fastest and
+        most faithful for sampled random roads) or ``"linear"`` (:data:`Interpolation`).
+    method
+        Integrator of ``scipy.integrate.solve_ivp``; ``"auto"`` is LSODA, which switches
+        between Adams and BDF as stiffness requires (exact Jacobian in linear mode).
+        Explicit ``"DOP853"`` is often fastest for smooth (``"cubic"``) random roads.
+    rtol
+        [-] Relative tolerance; absolute tolerances follow from each state's typical size.
+    body_force
+        [N, N m] External generalised force on the 7 DOFs ``[z_s, phi, theta, z_u1..z_u4]``,
+        shape ``(7,)``, held constant from ``t_s[0]`` (a step: e.g. the roll moment
+        ``m_s a_y h_0s`` of a lateral acceleration, :mod:`hisopt.evaluation.transient`). Default none.
+
+    Returns
+    -------
+    TimeResponse
+    """
+    if model.pipe_model != "lumped":
+        raise ConfigError(f"time simulation needs pipe_model='lumped', got {model.pipe_model!r}")
+    if mode not in ("linear", "nonlinear"):
+        raise ConfigError(f"unknown mode {mode!r}; expected 'linear' or 'nonlinear'")
+    if mode == "linear" and (valve_kq != 0.0 or tyre_liftoff):
+        raise ConfigError("valve_kq and tyre_liftoff need mode='nonlinear'")
+    if not valve_kq >= 0.0:
+        raise ConfigError(f"expected valve_kq >= 0 [Pa s^2 m^-6], got {valve_kq!r}")
+    if not 0.0 < rtol < 1.0:
+        raise ConfigError(f"expected 0 < rtol < 1, got {rtol!r}")
+    road = RoadInput(t_s, road_m, interpolation)
+    force = np.zeros(7) if body_force is None else np.asarray(body_force, dtype=float)
+    if force.shape != (7,) or not np.all(np.isfinite(force)):
+        raise ConfigError(f"expected body_force of shape (7,) [N, N m], finite, got shape {force.shape}")
+    ((_, contracted),) = model.groups()  # a single design: one group
+    quadratic = valve_kq > 0.0 or (mode == "nonlinear" and _has_quadratic_orifice(model))
+    if contracted is not model and quadratic:
+        raise ModelError(
+            "a valve with R_v = 0 between two oil volumes has no linear resistance for the orifice "
+            "law to start from; give it R_v > 0 or set valve_kq = 0"
+        )
+    model = contracted  # zero-resistance valves between oil volumes merged (exact shorts)
+    ss = model.state_space()
+    a, b0, b1 = _linear_matrices(ss)
+    u_scale = max(float(np.abs(road.z_m).max()), 1e-6)
+    # LSODA switches between Adams (non-stiff) and BDF (stiff: chamber or pipe compliance)
+    # by itself, and one evaluation per step suits steps capped at the input spacing.
+    chosen = "LSODA" if method == "auto" else method
+    if mode == "linear":
+        return _simulate_linear(model, ss, road, chosen, rtol, u_scale, force)
+    return _simulate_nonlinear(model, ss, road, chosen, rtol, u_scale, valve_kq, tyre_liftoff, force)
+
+
+def _has_quadratic_orifice(model: CoupledModel) -> bool:
+    """Whether an orifice element of the model's network has a quadratic coefficient."""
+    if model.his is None:
+        return False
+    return any(bool(np.any(np.asarray(kq) > 0.0)) for _, kq in model.his.values.orifice.values())
+
+
+def _body_acceleration(model: CoupledModel, n_states: int, force: np.ndarray) -> np.ndarray:
+    """State derivative ``M^-1 f`` of a generalised force on the velocity rows (7..13)."""
+    out = np.zeros(n_states)
+    out[7:14] = force / np.diag(model.mass)
+    return out
+
+
+def _simulate_linear(
+    model: CoupledModel, ss: StateSpace, road: RoadInput, method: str, rtol: float, u_scale: float, force: np.ndarray
+) -> TimeResponse:
+    a, b0, b1 = _linear_matrices(ss)
+    forcing = b0 + a @ b1  # input matrix of the shifted state x - B1 u
+    push = _body_acceleration(model, a.shape[0], force)
+
+    def fun(t: float, y: np.ndarray) -> np.ndarray:
+        f = forcing @ road.value(t) + push
+        return a @ y + (f[:, None] if y.ndim == 2 else f)
+
+    scales = state_scales(a, b0, b1)
+    if np.any(force):  # the force's own static response sets the states' sizes too
+        static = np.abs(np.linalg.solve(a, push))
+        scales = np.maximum(scales * u_scale, static) / u_scale
+    atol = 1e-3 * rtol * u_scale * scales
+    y = _integrate(fun, np.zeros(a.shape[0]), road, method, rtol, atol, lambda t, y: a)
+    u, du = road.z_m.T, road.sampled_rate().T
+    x = y + b1 @ u
+    dx = a @ x + b0 @ u + b1 @ du + push[:, None]
+    names: tuple[str, ...] = ()
+    p = np.zeros((0, x.shape[1]))
+    vol = np.zeros_like(p)
+    if model.his is not None and ss.realisation is not None:
+        acc = accumulators(model.his)
+        full = _single_design(ss.realisation.full_map(), 2, "realisation")
+        p = full[14 + acc.rows] @ x
+        vol = acc.compliance[:, None] * p  # linearised gas law
+        names = acc.names
+        p = p + acc.p0_gauge[:, None]
+    return _response(model, road, x[:7], x[7:14], dx[7:14], p, vol, names, "linear")
+
+
+def _simulate_nonlinear(
+    model: CoupledModel,
+    ss: StateSpace,
+    road: RoadInput,
+    method: str,
+    rtol: float,
+    u_scale: float,
+    valve_kq: float,
+    tyre_liftoff: bool,
+    force: np.ndarray,
+) -> TimeResponse:
+    net = NonlinearModel(model, valve_kq, tyre_liftoff)
+    a, b0, b1 = _linear_matrices(ss)
+    # The nonlinear state is every dynamic unknown of the descriptor: the realisation's T.
+    expand = np.eye(a.shape[0]) if ss.realisation is None else _single_design(ss.realisation.expand, 2, "realisation")
+    scale = state_scales(a, b0, b1, expand) * u_scale
+    # Accumulator nodes integrate volume: their typical size is compliance x pressure.
+    scale[14 + net.acc_state] *= net.e_dyn[net.acc_state]
+    has_ct = bool(np.any(net.ct))
+    zeros = np.zeros((4, 1))
+    push = (force / np.diag(model.mass))[:, None]
+
+    def fun(t: float, y: np.ndarray) -> np.ndarray:
+        column = y.ndim == 1
+        yy = y[:, None] if column else y
+        du = road.rate(t)[:, None] if has_ct else zeros
+        dy, _ = net.derivative(yy, road.value(t)[:, None], du)
+        dy[7:14] += push
+        return dy[:, 0] if column else dy
+
+    def jac(t: float, y: np.ndarray) -> np.ndarray:
+        return net.jacobian(y, road.value(t), road.rate(t) if has_ct else zeros[:, 0])
+
+    y = _integrate(fun, net.initial_state(), road, method, rtol, 1e-3 * rtol * scale, jac)
+    if net.volume_margin(y[14:]) >= GAS_VOLUME_LIMIT * (1.0 - 1e-9):
+        raise ModelError("an accumulator bottomed out (oil filled its gas volume): reduce the input or raise V0")
+    dy, h = net.derivative(y, road.z_m.T, road.sampled_rate().T)
+    dy[7:14] += push
+    p_nodes = h[net.dyn][net.acc_state]
+    p = np.zeros((len(net.acc.names), y.shape[1]))
+    vol = np.zeros_like(p)
+    for j, accs in enumerate(net.node_accs):
+        for i in accs:
+            p[i] = p_nodes[j]
+            vol[i] = laws.gas_volume(p_nodes[j], net.acc.v0[i], net.acc.p_abs0[i], net.acc.gamma[i])
+    p = p + net.acc.p0_gauge[:, None]
+    response = _response(model, road, y[:7], y[7:14], dy[7:14], p, vol, net.acc.names, "nonlinear")
+    if tyre_liftoff:  # report the clipped tyre force, as the model applied it
+        force = -net.tyre_force(y[:7], y[7:14], road.z_m.T, road.sampled_rate().T).T
+        response = replace(response, tyre_force_n=force)
+    return response
+
+
+def _response(
+    model: CoupledModel,
+    road: RoadInput,
+    x: np.ndarray,
+    v: np.ndarray,
+    acc: np.ndarray,
+    p: np.ndarray,
+    vol: np.ndarray,
+    names: tuple[str, ...],
+    mode: SimulationMode,
+) -> TimeResponse:
+    """Assemble a :class:`TimeResponse` from ``(7, n_t)`` mechanical histories."""
+    veh = model.vehicle
+    kt = np.diag(road_stiffness_input(veh)[3:])
+    ct = np.diag(road_damping_input(veh)[3:])
+    tyre = kt * (x[3:].T - road.z_m) + ct * (v[3:].T - road.sampled_rate())
+    return TimeResponse(
+        t_s=road.t_s,
+        road_m=road.z_m,
+        displacement=x.T,
+        velocity=v.T,
+        acceleration=acc.T,
+        stroke_m=(stroke_matrix(veh) @ x).T,
+        tyre_force_n=tyre,
+        accumulator_pressure_pa=p.T,
+        accumulator_volume_m3=vol.T,
+        accumulator_names=names,
+        corners=body_to_corners(veh),
+        mode=mode,
+    )
+
+
+__all__ = [
+    "RoadInput",
+    "SimulationMode",
+    "SolverMethod",
+    "TimeResponse",
+    "simulate",
+    "state_scales",
+]

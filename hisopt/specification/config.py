@@ -1,0 +1,404 @@
+"""Problem files: TOML, validated with pydantic; every mistake becomes one clear line.
+
+A problem file holds the vehicle, the fixed HIS parameters (their values are the baseline
+design), the design variables with bounds, the road, the frequency band, comfort settings,
+objectives, constraints and optimiser settings. See ``problems/roll_plane_his.toml``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
+
+from hisopt.coupled.payload import Payload, laden_problem
+from hisopt.errors import ConfigError, ProblemFileNotFoundError
+from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_problem, used_parameters
+from hisopt.hydraulics.layout import Accumulator, parameter_uses
+from hisopt.hydraulics.roll_plane import RollPlaneHIS
+from hisopt.metrics import METRICS
+from hisopt.plausibility import given_warnings, rule_reason, speed_problem, warn
+from hisopt.quantities import si
+from hisopt.specification.problem_units import convert_problem_units
+from hisopt.specification.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
+from hisopt.vehicle import VehicleParams
+
+OBJECTIVE_NAMES = tuple(METRICS)
+"""Names of every objective/constraint quantity (docs/model.md §6)."""
+
+ROAD_CLASSES = ("A", "B", "C", "D", "E", "F", "G", "H")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class Variable(_Strict):
+    """A design variable: a HIS parameter with its bounds [SI units]."""
+
+    lower: float
+    upper: float
+    unit: str = ""
+    description: str = ""
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Variable:
+        if not self.lower < self.upper:
+            raise ValueError(f"expected lower < upper, got lower={self.lower}, upper={self.upper}")
+        return self
+
+
+class Road(_Strict):
+    """ISO 8608 road at constant speed (docs/model.md §4)."""
+
+    road_class: Literal["A", "B", "C", "D", "E", "F", "G", "H"] = Field("C", alias="class")
+    speed: float = Field(10.0, gt=0, description="vehicle speed", json_schema_extra=si("m/s"))
+    coherence: Literal["independent", "isotropic"] = "independent"
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, allow_inf_nan=False)
+
+    @field_validator("speed")
+    @classmethod
+    def _road_vehicle(cls, v: float) -> float:
+        problem = speed_problem(v)  # hisopt.plausibility: the cap and its reason
+        if problem:
+            raise ValueError(problem)
+        return v
+
+
+class Band(_Strict):
+    """Frequency band of every response integral and maximum [Hz]."""
+
+    f_min_hz: float = Field(0.5, gt=0, json_schema_extra=si("Hz"))
+    f_max_hz: float = Field(80.0, gt=0, json_schema_extra=si("Hz"))
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Band:
+        if not self.f_min_hz < self.f_max_hz:
+            raise ValueError(f"expected f_min_hz < f_max_hz, got {self.f_min_hz} and {self.f_max_hz}")
+        return self
+
+
+class Comfort(_Strict):
+    """ISO 2631-1 comfort evaluation (docs/model.md §5)."""
+
+    k_x: float = Field(1.0, ge=0, json_schema_extra=si("-"))
+    k_y: float = Field(1.0, ge=0, json_schema_extra=si("-"))
+    k_z: float = Field(1.0, ge=0, json_schema_extra=si("-"))
+    method: Literal["filter", "band"] = "filter"
+
+
+class Constraint(_Strict):
+    """``value <= limit``, normalised for optimisers as ``value / limit - 1 <= 0``.
+
+    In a scenario problem the limit holds in every scenario, or in those ``scenarios`` names.
+    """
+
+    name: str
+    limit: float = Field(gt=0)
+    scenarios: list[str] | None = Field(None, min_length=1)
+
+    @field_validator("name")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        if v not in OBJECTIVE_NAMES:
+            raise ValueError(f"unknown constraint {v!r}; expected one of {', '.join(OBJECTIVE_NAMES)}")
+        return v
+
+
+class Scenario(_Strict):
+    """A load case: a road at a speed, an optional payload, and its weight (docs/model.md §14).
+
+    ``road`` defaults to the problem's ``[road]``; the weight is relative (normalised over the
+    problem's scenarios) and enters ``expected`` and ``cvar`` aggregation.
+    """
+
+    name: str = Field(min_length=1, max_length=40)
+    road: Road | None = None
+    payload: Payload | None = None
+    weight: float = Field(1.0, gt=0, json_schema_extra=si("-"))
+
+    @field_validator("name")
+    @classmethod
+    def _plain(cls, v: str) -> str:
+        if not all(ch.isalnum() or ch in "_-" for ch in v):
+            raise ValueError(f"expected letters, digits, '_' or '-' (the name becomes part of column names like sigma_aw@{v!s}), got {v!r}")
+        return v
+
+
+class Robust(_Strict):
+    """How a scenario problem's objectives combine its scenarios (docs/model.md §14.3)."""
+
+    aggregate: Literal["worst", "expected", "cvar", "per_scenario"] = "worst"
+    alpha: float = Field(0.8, ge=0, lt=1, description="CVaR level: the mean of the worst 1 - alpha of the weight", json_schema_extra=si("-"))
+
+    @field_validator("alpha")
+    @classmethod
+    def _cvar_only(cls, v: float, info: ValidationInfo) -> float:
+        # runs only for an alpha written in the file: a default is never validated
+        how = info.data.get("aggregate", "worst")
+        if how != "cvar":
+            raise ValueError(f"alpha is the CVaR level, which only aggregate = \"cvar\" reads; expected no alpha with aggregate = \"{how}\", "
+                             f"or aggregate = \"cvar\"")
+        return v
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data = handler(self)
+        if self.aggregate != "cvar":  # a dump reads back: alpha only where the file may hold it
+            data.pop("alpha", None)
+        return data
+
+
+class Handling(_Strict):
+    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6)."""
+
+    step_g: float = Field(0.4, gt=0, description="lateral-acceleration step of roll_step_peak and roll_rate_peak", json_schema_extra=si("g"))
+
+
+class Optimizer(_Strict):
+    """Evolutionary search settings (overridable on the command line)."""
+
+    algorithm: Literal["auto", "nsga2", "nsga3"] = "auto"
+    pop_size: int = Field(100, ge=4)
+    generations: int = Field(200, ge=1)
+    seed: int = Field(1, ge=0)
+
+
+class ProblemSpec(_Strict):
+    """The whole problem file."""
+
+    name: str = "problem"
+    description: str = ""
+    vehicle: VehicleParams = Field(default_factory=VehicleParams)
+    his: RollPlaneHIS = Field(default_factory=RollPlaneHIS)
+    variables: dict[str, Variable] = Field(default_factory=dict)
+    road: Road = Field(default_factory=Road)
+    band: Band = Field(default_factory=Band)
+    comfort: Comfort = Field(default_factory=Comfort)
+    handling: Handling = Field(default_factory=Handling)
+    objectives: list[str] = Field(
+        default_factory=lambda: ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]
+    )
+    constraints: list[Constraint] = Field(default_factory=list)
+    optimizer: Optimizer = Field(default_factory=Optimizer)
+    payload: Payload | None = None
+    scenarios: list[Scenario] = Field(default_factory=list)
+    robust: Robust = Field(default_factory=Robust)
+
+    @field_validator("objectives")
+    @classmethod
+    def _known_objectives(cls, v: list[str]) -> list[str]:
+        unknown = [o for o in v if o not in OBJECTIVE_NAMES]
+        if unknown:
+            raise ValueError(f"unknown objective {unknown[0]!r}; expected names from {', '.join(OBJECTIVE_NAMES)}")
+        if not v:
+            raise ValueError("expected at least one objective")
+        ranked = [o for o in v if not METRICS[o].objective]
+        if ranked:
+            raise ValueError(f"{ranked[0]!r} cannot be minimised (lower is not better); constrain it in [[constraints]] instead")
+        twice = [o for i, o in enumerate(v) if o in v[:i]]
+        if twice:
+            raise ValueError(f"{twice[0]!r} is listed twice; expected each objective once")
+        return v
+
+    @field_validator("constraints")
+    @classmethod
+    def _constraints_once(cls, v: list[Constraint]) -> list[Constraint]:
+        names = [c.name for c in v]
+        twice = [n for i, n in enumerate(names) if n in names[:i]]
+        if twice:
+            raise ValueError(f"{twice[0]!r} is constrained twice; expected one [[constraints]] table per quantity")
+        return v
+
+    @model_validator(mode="after")
+    def _scenarios_consistent(self) -> ProblemSpec:
+        names = [sc.name for sc in self.scenarios]
+        twice = [n for i, n in enumerate(names) if n in names[:i]]
+        if twice:
+            raise ValueError(f"scenarios: {twice[0]!r} is named twice; expected each scenario name once")
+        if self.scenarios and self.payload is not None:
+            raise ValueError("payload: a problem with [[scenarios]] gives each scenario its payload; expected no top-level [payload]")
+        for sc in self.scenarios:
+            problem = None if sc.payload is None else laden_problem(self.vehicle, sc.payload)
+            if problem:
+                raise ValueError(f"scenario {sc.name!r}: {problem}")
+        for c in self.constraints:
+            unknown = [n for n in c.scenarios or [] if n not in names]
+            if unknown:
+                known = f"one of {', '.join(names)}" if names else "[[scenarios]] tables for it to name, or no scenarios on the constraint"
+                raise ValueError(f"constraints: {c.name} names scenario {unknown[0]!r}; expected {known}")
+        for c in self.constraints if self.scenarios else []:
+            worst_everywhere = self.robust.aggregate in ("worst", "per_scenario") and c.scenarios is None
+            if c.name in self.objectives and not worst_everywhere:
+                raise ValueError(
+                    f"constraints: {c.name} is also an objective; in a scenario problem its column is then the objective's "
+                    f"aggregate, so expected [robust] aggregate = \"worst\" and the limit in every scenario, or one role only"
+                )
+        if "robust" in self.model_fields_set and not self.scenarios:  # a [robust] table at all, whatever it holds
+            raise ValueError("robust: [robust] combines the results of [[scenarios]] and this problem has none; "
+                             "expected at least one [[scenarios]] table, or no [robust] table")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data = handler(self)
+        if not self.scenarios:  # a dump reads back: [robust] only where the file may hold it
+            data.pop("robust", None)
+        return data
+
+    @model_validator(mode="after")
+    def _variables_are_his_fields(self) -> ProblemSpec:
+        # The layout first: the variables may name its parameters (docs/model.md §12).
+        problem = layout_problem(self.his)
+        if problem:
+            raise ValueError(problem)
+        layout = his_layout(self.his)
+        # The rules come from RollPlaneHIS's fields and the layout's element fields
+        # (hisopt.specification.validation), not from a list here.
+        allowed = design_parameters() + tuple(layout_defaults(self.his))
+        used = used_parameters(layout)
+        if not self.variables:  # also for a file without [variables] (defaults are not validated)
+            raise ValueError(
+                "variables: expected at least one design variable, e.g. [variables] p0 = { lower = 0.0, upper = 4.0e6 } "
+                "(see problems/roll_plane_his.toml)"
+            )
+        for name, var in self.variables.items():
+            if name not in allowed:
+                raise ValueError(f"variables.{name}: not a design parameter of [his]; expected one of {', '.join(allowed)}")
+            problem = bounds_problem(name, var.lower, var.upper, layout) or switched_off(name, self.his)
+            if not problem and name not in used:
+                read = ", ".join(n for n in allowed if n in used)
+                problem = f"not read by layout {self.his.layout!r}, so it would do nothing; " + (
+                    f"expected one of {read}" if read else "its elements read only numbers, so it has no design variable")
+            if problem:
+                raise ValueError(f"variables.{name}: {problem}")
+        return self
+
+    @model_validator(mode="after")
+    def _payload_fits(self) -> ProblemSpec:
+        problem = None if self.payload is None else laden_problem(self.vehicle, self.payload)
+        if problem:
+            raise ValueError(problem)
+        return self
+
+
+def _key_part(part: Any) -> str:
+    text = str(part)
+    return text if text.isprintable() and text.strip() == text and text else repr(text)
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _unwrap(annotation: Any) -> Any:
+    """``PipeLayout | None`` -> ``PipeLayout``; containers (``dict[str, Variable]``) unchanged."""
+    args = [a for a in getattr(annotation, "__args__", ()) if a is not type(None)]
+    container = getattr(annotation, "__origin__", None) in (dict, list)
+    return args[0] if len(args) == 1 and not container else annotation
+
+
+def _allowed_keys(loc: tuple[Any, ...]) -> list[str]:
+    """The keys the table at ``loc`` (a pydantic error location) may hold."""
+    model: Any = ProblemSpec
+    for part in loc:
+        fields = getattr(model, "model_fields", {})
+        field = fields.get(part) or next((f for f in fields.values() if f.alias == part), None)
+        if field is not None:
+            model = _unwrap(field.annotation)
+        else:  # a variable's name or a list index: step into the item type
+            model = (getattr(model, "__args__", None) or (None,))[-1]
+    fields = getattr(model, "model_fields", None)
+    return [f.alias or name for name, f in fields.items()] if fields else []
+
+
+def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
+    key = ".".join(_key_part(p) for p in err["loc"] if not str(p).startswith("function-"))
+    msg = " ".join(err["msg"].removeprefix("Value error, ").split())
+    value = err.get("input")
+    if err["type"] == "extra_forbidden":
+        allowed = _allowed_keys(err["loc"][:-1])
+        return key, f"unknown key; expected one of {', '.join(allowed)} (check the spelling)" if allowed else "unknown key"
+    elif isinstance(value, bool) and err["type"] in ("float_type", "int_type", "float_parsing", "int_parsing"):
+        kind = "an integer" if err["type"].startswith("int") else "a number"
+        return key, f"expected {kind}, got the boolean {str(value).lower()} (booleans are not numbers)"
+    elif err["type"] == "finite_number":
+        return key, f"expected a finite number, got {value!r}"
+    elif err["type"] in ("float_type", "float_parsing", "int_type", "int_parsing", "int_from_float"):
+        kind = "an integer" if err["type"].startswith("int") else "a valid number"
+        return key, f"expected {kind}, got {_short(value)}"
+    elif err["type"] in ("model_type", "dict_type", "model_attributes_type"):
+        return key, f"expected a table (e.g. [{key}] or {{ key = value }}), got {_short(value)}"
+    elif err["type"] == "list_type":
+        return key, f"expected a list (e.g. [\"a\", \"b\"]), got {_short(value)}"
+    elif err["type"] == "missing":
+        return key, "missing; expected a value (see problems/roll_plane_his.toml)"
+    msg = msg.replace("Input should be ", "expected ", 1)
+    if err["type"] in ("greater_than", "greater_than_equal", "less_than", "less_than_equal") and err["loc"]:
+        msg += rule_reason(str(err["loc"][-1]))  # a rule with a physical reason says it (hisopt.plausibility)
+    if "input" in err and not isinstance(err["input"], dict) and not any(g in msg for g in (", got ", "; got ")):  # a validator may name it
+        msg = f"{msg}, got {_short(err['input'])}"
+    return key, msg
+
+
+def parse_problem(data: dict[str, Any], source: str = "<problem>", *, warn_implausible: bool = True) -> ProblemSpec:
+    """Validate a problem dictionary; raise :class:`ConfigError` naming the key on failure.
+
+    Validation is strict: a number must be a TOML integer or float, or a string of a number
+    and its unit (``"2.5 MPa"``, read in that unit: :mod:`hisopt.specification.problem_units`; a boolean or
+    other text is not a number; an integer field takes no float) and finite (no ``inf``, ``nan``, ``1e309``),
+    and every number is zero or of a magnitude within
+    :data:`hisopt.specification.validation.MAGNITUDE_RANGE` (1e-15 to 1e15). Physically impossible values
+    are refused and, with ``warn_implausible``, each implausible value ``data`` gives issues a
+    :class:`~hisopt.errors.PlausibilityWarning` (:mod:`hisopt.plausibility`); problems derived
+    from a checked one (a dump with one change) pass False, so that nothing warns twice.
+    """
+    written = data  # as the user wrote it: a roll limit warns only when written as a bare number
+    data = convert_problem_units(data, source, ProblemSpec)  # "2.5 MPa" -> 2.5e6: SI before the strict validation
+    try:
+        spec = ProblemSpec.model_validate(data, strict=True)
+    except ValidationError as exc:
+        key, msg = _format_error(exc.errors()[0])
+        raise ConfigError(msg, file=source, key=key or None) from None
+    found = implausible_number(data)
+    if found:
+        raise ConfigError(found[1], file=source, key=found[0])
+    if warn_implausible:
+        warn(implausible_values(spec, written), source)
+    return spec
+
+
+def implausible_values(spec: ProblemSpec, given: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """``(key, message)`` of each implausible value of ``spec`` that ``given`` (the raw data,
+    or the part given, e.g. ``{"his": {"p0": 5e4}}``) holds (:func:`hisopt.plausibility.given_warnings`)."""
+    uses = parameter_uses(his_layout(spec.his))
+    precharges = {name for name, fields in uses.items() if (Accumulator, "precharge") in fields}
+    return given_warnings(spec, given, precharges)
+
+
+def read_problem_file(path: str | Path, *, warn_implausible: bool = True) -> tuple[ProblemSpec, str]:
+    """Read and validate a TOML problem file; returns the spec and the file's SHA-256
+    (``warn_implausible``: as :func:`parse_problem`)."""
+    path = Path(path)
+    raw, text = read_file(path, "a TOML problem file", ProblemFileNotFoundError)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"invalid TOML: {exc}; expected a TOML problem file like problems/roll_plane_his.toml", file=str(path)) from None
+    return parse_problem(data, str(path), warn_implausible=warn_implausible), hashlib.sha256(raw).hexdigest()

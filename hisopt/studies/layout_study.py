@@ -1,0 +1,374 @@
+"""Layout study: which HIS layout gives the best ride at equal handling (docs/model.md §15).
+
+``hisopt compare-layouts PROBLEM --layouts ... --seeds 1-3 --out DIR`` and
+:func:`compare_layouts` optimise every layout (:mod:`hisopt.studies.layout_cases`) on the same
+objectives and constraints with the same budget per layout and seed, then compare them:
+
+1. **Spread across seeds**: each seed's front's hypervolume in one shared normalisation
+   (:mod:`hisopt.studies.layout_metrics`), their mean, standard deviation, minimum and maximum,
+   the merged front's, and the attainment of the comfort-handling trade-off across seeds
+   (EAF, Vorob'ev expectation and deviation).
+2. **Equal handling**: for a handling limit (default: the handling quantity of the study
+   problem's baseline design on the roll-plane layout), per layout the best comfort
+   (``sigma_aw``) among every feasible design its runs evaluated that meets the limit, and
+   the epsilon-constraint NLP (:func:`hisopt.optim.gradient.refine.refine_constrained`: minimise
+   ``sigma_aw`` subject to the constraints and ``handling <= limit``) started from each
+   seed's best such design (kept only if the evaluator confirms it); the best of these, and
+   its gain over the roll-plane
+   layout at the same limit, ``gain_vs_roll_plane_pct = 100 (1 - sigma_layout / sigma_roll_plane)``
+   (positive: better comfort). The trade-off curve of best comfort against the limit is the
+   staircase of the non-dominated (handling, comfort) pairs of all those designs, plus a few
+   refined points.
+
+Study directory ``DIR``::
+
+    study.json          problem (SHA-256 of its specification), budget, normalisation, layouts
+    <layout>/seed-<n>/  an ordinary run directory of each layout and seed (hisopt resume works)
+    layouts.csv         one row per layout (:data:`TABLE_DOC`)
+    runs.csv            one row per layout and seed: hypervolume, front size, evaluations
+    fronts.csv          each seed's front per layout: objectives, normalised objectives
+    handling_curve.csv  best comfort against the handling limit per layout (the staircase)
+    attainment.csv      attainment surfaces and Vorob'ev expectation per layout
+    report.html         :mod:`hisopt.report.layout_report`
+
+Re-running the same command on ``DIR`` resumes interrupted runs (killed, Ctrl-C) and reuses
+finished ones, with results identical to an uninterrupted study; a study of another problem
+or budget in ``DIR`` is refused. Layouts and seeds may be added on a re-run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.errors import ConfigError, RunError
+from hisopt.optim.rundir import LAYOUT_STUDY_JSON
+from hisopt.plausibility import seed_count_problem
+from hisopt.studies.layout_cases import LayoutCase, layout_cases
+from hisopt.studies.layout_metrics import (
+    COMFORT,
+    Normalisation,
+    check_handling,
+    default_handling_quantity,
+    evaluate_quantities,
+    shared_normalisation,
+)
+
+if TYPE_CHECKING:
+    from hisopt.evaluation.parallel import Backend
+    from hisopt.problem import Problem
+
+STUDY_JSON = LAYOUT_STUDY_JSON
+STUDY_FORMAT = "hisopt-layout-study/1"
+LAYOUTS_CSV, RUNS_CSV, FRONTS_CSV, CURVE_CSV, ATTAINMENT_CSV = (
+    "layouts.csv", "runs.csv", "fronts.csv", "handling_curve.csv", "attainment.csv")
+CURVE_REFINED = 4
+"""Limits per layout at which the trade-off curve is refined (spread over its staircase)."""
+
+TABLE_DOC = """layout, source (catalogue or file), variables; hv_mean, hv_std, hv_min, hv_max
+(normalised hypervolume of the seeds' fronts), hv_merged (of their merged front),
+vorobev_threshold_pct, vorobev_deviation (comfort-handling plane); handling (the quantity's
+name), handling_limit, sigma_aw_at_limit (best comfort meeting it), handling_at_best,
+refined (the NLP improved the best sampled design), gain_vs_roll_plane_pct; handling_least
+(the least handling of the layout's feasible designs), at_limit ("met", or why the layout has
+no design at the limit: its sigma_aw_at_limit and gain are then empty); k_bounce ...
+c_warp, stiffness_coupling (hisopt layouts, at the layout's baseline); best_<variable>: the
+design of sigma_aw_at_limit (empty where a layout lacks the variable)."""
+
+
+def parse_seed_list(text: str | Sequence[int]) -> list[int]:
+    """Seeds from ``"1-3"``/``"1,3,5"`` or a sequence (:func:`hisopt.optim.study.parse_seeds`)."""
+    from hisopt.optim.study import parse_seeds
+
+    if isinstance(text, str):
+        return parse_seeds(text)
+    seeds = sorted({int(s) for s in text})
+    if not seeds or seeds[0] < 0:
+        raise ConfigError(f"expected non-negative seeds, got {list(text)!r}", key="--seeds")
+    too_many = seed_count_problem(len(seeds))
+    if too_many:
+        raise ConfigError(too_many, key="--seeds")
+    return seeds
+
+
+# --- one (layout, seed) run, in whichever process runs it ---------------------------------------
+def _run(problem: Problem, run_dir: Path | None, seed: int, pop: int | None, gens: int | None) -> Any:
+    """A new run, or the run already in ``run_dir`` continued (or just read when finished)."""
+    from hisopt.optim import rundir
+    from hisopt.optim.run import optimize, prepare_resume
+    from hisopt.optim.settings import resolve_settings
+
+    if run_dir is None or not (run_dir / rundir.RUN_JSON).is_file():
+        return optimize(problem, out=run_dir, seed=seed, pop_size=pop, generations=gens)
+    plan = prepare_resume(run_dir)
+    wanted = resolve_settings(problem, pop_size=pop, generations=gens, seed=seed)
+    if plan.engine.problem.spec != problem.spec or plan.engine.settings != wanted:
+        raise RunError(f"{run_dir} holds a run of another problem or budget than this study's; choose another --out")
+    return plan.run()
+
+
+def _run_task(task: tuple[str, int], cases: dict[str, Problem], out: str | None, pop: int | None, gens: int | None,
+              handling: str) -> dict[str, Any]:
+    name, seed = task
+    problem = cases[name]
+    result = _run(problem, None if out is None else Path(out) / name / f"seed-{seed}", seed, pop, gens)
+    names = list(problem.variable_names)
+    history = result.history[result.history["feasible"]].reset_index(drop=True)
+    designs = history[["evaluation", *names]].copy()
+    have = [q for q in (COMFORT, handling) if q in history.columns]
+    for q in have:
+        designs[q] = history[q].to_numpy()
+    need = tuple(q for q in (COMFORT, handling) if q not in have)
+    if need and len(designs):
+        values = evaluate_quantities(problem, designs[names].to_numpy(), need)
+        for q in need:
+            designs[q] = values[q]
+    elif need:
+        for q in need:
+            designs[q] = np.zeros(0)
+    front = result.front[[*names, *problem.objective_names]].reset_index(drop=True)
+    return {"layout": name, "seed": seed, "front": front, "designs": designs, "evaluations": len(result.history)}
+
+
+# --- the study record ----------------------------------------------------------------------------
+def problem_digest(problem: Problem) -> str:
+    """[-] SHA-256 of the problem's specification (its content, not its file's bytes)."""
+    return hashlib.sha256(problem.spec.model_dump_json(by_alias=True).encode()).hexdigest()
+
+
+def study_budget(problem: Problem, pop_size: int | None, generations: int | None) -> dict[str, int]:
+    """[-] ``{"pop_size", "generations"}`` of every run (overrides or the problem's ``[optimizer]``).
+
+    Raises
+    ------
+    ConfigError
+        An override is out of range.
+    """
+    from hisopt.optim.settings import resolve_settings
+
+    settings = resolve_settings(problem, pop_size=pop_size, generations=generations)
+    return {"pop_size": settings.pop_size, "generations": settings.generations}
+
+
+def read_study_record(out: Path | None, problem: Problem, budget: dict[str, int]) -> dict[str, Any]:
+    """``out/study.json`` if it is a study of ``problem`` with ``budget`` ({} when there is none).
+
+    Raises
+    ------
+    RunError
+        ``out`` holds a study of another problem or budget, or an unreadable record.
+    """
+    path = None if out is None else Path(out) / STUDY_JSON
+    if path is None or not path.is_file():
+        return {}
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise RunError(f"{path}: unreadable ({exc}); choose another --out") from None
+    if not isinstance(record, dict) or record.get("format") != STUDY_FORMAT:
+        raise RunError(f"{path}: not a hisopt layout study; choose another --out")
+    digest = problem_digest(problem)
+    if record["problem"]["sha256"] != digest:
+        raise RunError(f"{out} holds a layout study of another problem (sha256 {record['problem']['sha256'][:12]} -> "
+                       f"{digest[:12]}); choose another --out or delete {out}")
+    if record["budget"] != budget:
+        raise RunError(f"{out} holds a layout study with budget {record['budget']}, not {budget}; "
+                       f"use the same --pop and --gens, or another --out")
+    return record
+
+
+def _study_record(out: Path | None, problem: Problem, budget: dict[str, int], handling: str,
+                  cases: list[LayoutCase]) -> tuple[dict[str, Any], Normalisation]:
+    """The stored record (checked against this study) or a new one, with its normalisation."""
+    digest = problem_digest(problem)
+    record = read_study_record(out, problem, budget)
+    norms = record.get("normalisation", {})
+    if handling in norms:
+        norm = Normalisation.from_json(norms[handling])
+    else:
+        norm = shared_normalisation(cases[0].problem, handling)
+    record = {
+        "format": STUDY_FORMAT,
+        "problem": {"name": problem.name, "sha256": digest, "path": None if problem.path is None else str(problem.path)},
+        "budget": budget,
+        "normalisation": norms | {handling: norm.to_json()},
+        "layouts": {c.name: c.source for c in cases} | record.get("layouts", {}),
+    }
+    return record, norm
+
+
+# --- results ------------------------------------------------------------------------------------
+@dataclass
+class LayoutStudyResult:
+    """Everything a layout study found (module docstring); frames carry ``attrs["units"]``.
+
+    Attributes
+    ----------
+    table : one row per layout (``layouts.csv``, :data:`TABLE_DOC`)
+    runs : one row per layout and seed: ``layout``, ``seed``, ``hypervolume`` [-],
+        ``front_size``, ``evaluations``, ``feasible_designs``
+    fronts : each seed's front: ``layout``, ``seed``, objectives [physical units] and
+        ``<objective>_norm`` [-]
+    curve : the trade-off staircase: ``layout``, ``source`` (sampled or refined), ``seed``,
+        the handling quantity and ``sigma_aw`` [physical units]
+    attainment : ``layout``, ``kind`` (``eaf`` or ``vorobev``), ``percentile`` [%],
+        ``sigma_aw`` and the handling quantity [physical units]
+    cases : the layouts
+    normalisation : the shared normalisation
+    handling : [-] the handling quantity
+    handling_limit : [quantity unit] the limit of the equal-handling comparison
+    out : the study directory (None: nothing written)
+    """
+
+    table: pd.DataFrame
+    runs: pd.DataFrame
+    fronts: pd.DataFrame
+    curve: pd.DataFrame
+    attainment: pd.DataFrame
+    cases: list[LayoutCase]
+    normalisation: Normalisation
+    handling: str
+    handling_limit: float
+    out: Path | None
+
+    def limit_notes(self) -> list[str]:
+        """One sentence per layout without a design at the handling limit (``at_limit`` not
+        ``met``): why, and the least limit that would compare it; the gains' absence when the
+        reference is one of them."""
+        from hisopt.studies.layout_cases import REFERENCE_LAYOUT
+        from hisopt.units import format_quantity
+
+        if "at_limit" not in self.table:  # a table written before hisopt said why
+            return []
+        unit = self.table.attrs["units"]["handling_limit"]
+        notes = []
+        for row in self.table.itertuples(index=False):
+            if row.at_limit == "met":
+                continue
+            text = f"{row.layout}: {row.at_limit}, so it has no sigma_aw_at_limit"
+            if np.isfinite(row.handling_least):
+                text += f"; a handling limit of at least {format_quantity(row.handling_least, unit)} (--handling-limit) compares it"
+            if row.layout == REFERENCE_LAYOUT:
+                text += "; without the reference, no layout has a gain_vs_roll_plane_pct"
+            notes.append(text)
+        return notes
+
+
+def check_arguments(problem: Problem, layouts: str | Sequence[str] | None, seeds: str | Sequence[int], handling: str | None,
+                    handling_limit: float | None) -> tuple[list[int], list[LayoutCase], str]:
+    """The seeds, the layouts and the handling quantity of a study, checked (before any work).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`run_layout_study`.
+    """
+    seed_list = parse_seed_list(seeds)
+    cases = layout_cases(problem, layouts)
+    name = check_handling(problem, handling or default_handling_quantity(problem))
+    if handling_limit is not None and not (np.isfinite(handling_limit) and handling_limit > 0):
+        raise ConfigError(f"expected a finite limit > 0 of {name}, got {handling_limit!r}", key="--handling-limit")
+    return seed_list, cases, name
+
+
+def run_layout_study(
+    problem: Problem,
+    layouts: str | Sequence[str] | None = None,
+    seeds: str | Sequence[int] = (1, 2, 3),
+    *,
+    out: str | Path | None = None,
+    pop_size: int | None = None,
+    generations: int | None = None,
+    handling: str | None = None,
+    handling_limit: float | None = None,
+    backend: Backend | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+) -> LayoutStudyResult:
+    """Optimise every layout with every seed and compare them (module docstring).
+
+    Parameters
+    ----------
+    problem : the study problem (its layout is replaced by each layout's)
+    layouts : [-] catalogue names and custom layouts' problem files, as a list or
+        comma-separated; default the whole catalogue; ``roll_plane`` is always included
+    seeds : [-] one run per layout and seed, e.g. ``"1-3"``
+    out : study directory (module docstring); None keeps everything in memory
+    pop_size, generations : [-] the budget of every run (default the problem's ``[optimizer]``)
+    handling : [-] the quantity held equal (default :func:`default_handling_quantity`)
+    handling_limit : [quantity unit] its limit (default its value at the baseline design on
+        the roll-plane layout)
+    backend : where runs and refinements go (default this process; Dask: one task per run)
+    progress : called with ``{"layout", "seed", "evaluations", "feasible_designs"}`` as each run ends
+
+    Raises
+    ------
+    ConfigError
+        An unknown layout, bad seeds, an unknown handling quantity or a non-positive limit.
+    RunError
+        ``out`` holds a study of another problem or budget, or a run that cannot be resumed.
+    """
+    from hisopt.evaluation.parallel import Backend
+    from hisopt.io import ensure_writable_dir
+
+    seed_list, cases, handling = check_arguments(problem, layouts, seeds, handling, handling_limit)
+    budget = study_budget(problem, pop_size, generations)  # bad budgets fail before any work
+    out_dir = None if out is None else Path(out)
+    if out_dir is not None:
+        ensure_writable_dir(out_dir)
+    record, norm = _study_record(out_dir, problem, budget, handling, cases)
+    if out_dir is not None:
+        from hisopt.io import atomic_write_json
+
+        atomic_write_json(out_dir / STUDY_JSON, record)
+    if handling_limit is None:
+        base = cases[0].problem
+        handling_limit = float(evaluate_quantities(base, base.baseline[None, :], (handling,))[handling][0])
+    backend = backend or Backend()
+    problems = {c.name: c.problem for c in cases}
+    tasks = [(c.name, s) for c in cases for s in seed_list]
+
+    def report(_: int, r: dict[str, Any]) -> None:
+        if progress is not None:
+            progress({"layout": r["layout"], "seed": r["seed"], "evaluations": r["evaluations"], "feasible_designs": len(r["designs"])})
+
+    runs = backend.map(_run_task, tasks, problems, None if out_dir is None else str(out_dir), pop_size, generations, handling,
+                       on_result=report)
+    from hisopt.studies.layout_tables import assemble
+
+    frames = assemble(cases, runs, norm, handling, handling_limit, backend)
+    result = LayoutStudyResult(**frames, cases=cases, normalisation=norm, handling=handling, handling_limit=handling_limit,
+                               out=out_dir)
+    if out_dir is not None:
+        from hisopt.io import write_csv
+
+        for frame, name in ((result.table, LAYOUTS_CSV), (result.runs, RUNS_CSV), (result.fronts, FRONTS_CSV),
+                            (result.curve, CURVE_CSV), (result.attainment, ATTAINMENT_CSV)):
+            write_csv(frame, out_dir / name)
+    return result
+
+
+def compare_layouts(
+    problem: Problem,
+    layouts: str | Sequence[str] | None = None,
+    seeds: str | Sequence[int] = (1, 2, 3),
+    *,
+    out: str | Path | None = None,
+    pop_size: int | None = None,
+    generations: int | None = None,
+    handling: str | None = None,
+    handling_limit: float | None = None,
+    backend: Backend | None = None,
+) -> pd.DataFrame:
+    """The table of :func:`run_layout_study` (``layouts.csv``; units in ``attrs["units"]``).
+
+    Parameters and errors as :func:`run_layout_study`.
+    """
+    return run_layout_study(problem, layouts, seeds, out=out, pop_size=pop_size, generations=generations, handling=handling,
+                            handling_limit=handling_limit, backend=backend).table

@@ -1,0 +1,113 @@
+"""Response spectra of one design with and without HIS (paper Fig. 4)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.evaluation.channels import DirectOutputs
+from hisopt.evaluation.evaluate import Evaluator
+from hisopt.units import psd_unit, variable_units, with_units
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+    from hisopt.problem import Problem
+
+FIG4_OUTPUTS = ("acc_z", "acc_roll", "acc_pitch", "tire_load_fl")
+"""Paper Fig. 4: CG vertical, roll and pitch accelerations and the FL tyre force."""
+
+OUTPUT_LABELS = {
+    "acc_z": "CG vertical acceleration",
+    "acc_x": "longitudinal acceleration at the occupant",
+    "acc_y": "lateral acceleration at the occupant",
+    "acc_roll": "roll acceleration",
+    "acc_pitch": "pitch acceleration",
+    "roll": "roll angle",
+    "pitch": "pitch angle",
+    "stroke_fl": "FL suspension stroke",
+    "tire_load_fl": "FL dynamic tyre load",
+}
+"""What each output of :func:`hisopt.coupled.response.standard_outputs` is, for figure titles."""
+
+
+@dataclass(frozen=True)
+class ResponseSpectra:
+    """PSDs on a frequency grid: column ``<output>_his`` and ``<output>_ref`` per output.
+
+    ``frame`` has ``f_hz`` [Hz] and the PSDs [(output unit)^2/Hz] (``frame.attrs["units"]``);
+    ``units`` is each output's own unit.
+    """
+
+    frame: pd.DataFrame
+    outputs: tuple[str, ...]
+    units: dict[str, str]
+    design: dict[str, float]
+    design_units: dict[str, str] = field(default_factory=dict)
+
+    def plot(self, fig: go.Figure | None = None) -> go.Figure:
+        """Log-log PSDs with and without HIS, one panel per output (plotly)."""
+        from plotly.subplots import make_subplots
+
+        from hisopt.plotting.axes import log_axis
+        from hisopt.plotting.theme import WITH_HIS, WITHOUT_HIS, template
+        from hisopt.units import format_design
+
+        cols = 2
+        rows = (len(self.outputs) + 1) // cols
+        titles = [f"{o}: {OUTPUT_LABELS.get(o, o)}" for o in self.outputs]
+        fig = fig or make_subplots(rows=rows, cols=cols, subplot_titles=titles, vertical_spacing=0.3 / rows, horizontal_spacing=0.1)
+        f = self.frame["f_hz"]
+        x_axis = log_axis(f, pad=0.0, max_ticks=8)
+        for k, name in enumerate(self.outputs):
+            r, c = k // cols + 1, k % cols + 1
+            for suffix, label, dash, color in (("his", "with HIS", "solid", WITH_HIS), ("ref", "without HIS", "dash", WITHOUT_HIS)):
+                fig.add_scatter(
+                    x=f, y=self.frame[f"{name}_{suffix}"], name=label, legendgroup=label, showlegend=k == 0,
+                    line={"dash": dash, "color": color, "width": 1.6}, row=r, col=c,
+                )
+            psd = self.frame[[f"{name}_his", f"{name}_ref"]].to_numpy()
+            fig.update_xaxes(title_text="frequency [Hz]", row=r, col=c, **x_axis)
+            fig.update_yaxes(title_text=f"PSD [{psd_unit(self.units[name])}]", row=r, col=c, **log_axis(psd))
+        design = format_design(self.design, self.design_units)
+        fig.update_layout(
+            template=template(), title=f"Response spectra with and without HIS<br><sup>{design}</sup>",
+            height=130 + 360 * rows, margin={"t": 90, "b": 70},
+        )
+        return fig
+
+
+def frequency_grid(models: list[Any], f_lo_hz: float, f_hi_hz: float, n: int = 1500, per_mode: int = 60) -> np.ndarray:
+    """[Hz] log grid plus points clustered (tan spacing) around every mode of ``models``."""
+    parts = [np.geomspace(f_lo_hz, f_hi_hz, n)]
+    theta = np.linspace(-1.5, 1.5, per_mode)
+    for model in models:
+        a = model.state_space().a
+        lam = np.linalg.eigvals(a.reshape((-1,) + a.shape[-2:])[0])
+        for pole in lam[lam.imag > 0]:
+            parts.append(pole.imag / (2 * np.pi) - pole.real / (2 * np.pi) * np.tan(theta))
+    f = np.concatenate(parts)
+    return np.unique(f[(f >= f_lo_hz) & (f <= f_hi_hz)])
+
+
+def response_spectra(problem: Problem, design: Any = None, outputs: tuple[str, ...] = FIG4_OUTPUTS) -> ResponseSpectra:
+    """Road-induced PSDs of ``outputs`` for ``design`` (baseline if None) and the car without HIS."""
+    x = problem.design_matrix(problem.baseline if design is None else design)[:1]
+    ev = Evaluator(problem)
+    chosen = {name: ev.all_outputs[name] for name in outputs}
+    models = {"his": problem.model(x), "ref": problem.model(his=False)}
+    band = problem.spec.band
+    f = frequency_grid(list(models.values()), band.f_min_hz, band.f_max_hz)[None, :]
+    frame = pd.DataFrame({"f_hz": f[0]})
+    for suffix, model in models.items():
+        psd = ev.spectra(f, DirectOutputs(model, chosen)(2 * np.pi * f))
+        for i, name in enumerate(outputs):
+            frame[f"{name}_{suffix}"] = psd[0, :, i]
+    units = {name: chosen[name].unit for name in outputs}
+    columns = {f"{name}_{suffix}": psd_unit(units[name]) for name in outputs for suffix in models}
+    with_units(frame, {"f_hz": "Hz"} | columns)
+    design = dict(zip(problem.variable_names, x[0], strict=True))
+    return ResponseSpectra(frame, tuple(outputs), units, design, variable_units(problem))
