@@ -27,12 +27,15 @@ def weakly_dominates(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    a : [objective units] shape ``(m, k)``
-    b : [objective units] shape ``(n, k)``
+    a : np.ndarray
+        [objective units] shape ``(m, k)``
+    b : np.ndarray
+        [objective units] shape ``(n, k)``
 
     Returns
     -------
-    Boolean array of shape ``(m, n)``.
+    np.ndarray
+        Boolean array of shape ``(m, n)``.
     """
     out = np.ones((len(a), len(b)), dtype=bool)
     for j in range(np.shape(a)[1]):  # one objective at a time: no (m, n, k) temporary
@@ -67,13 +70,17 @@ def pareto_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray,
 
     Parameters
     ----------
-    archive_f : [objective units] archived objectives, shape ``(m, k)``
-    new_f : [objective units] candidate objectives (feasible designs only), shape ``(n, k)``
+    archive_f : np.ndarray
+        [objective units] archived objectives, shape ``(m, k)``
+    new_f : np.ndarray
+        [objective units] candidate objectives (feasible designs only), shape ``(n, k)``
 
     Returns
     -------
-    keep : boolean ``(m,)``, archived designs that stay
-    accept : boolean ``(n,)``, candidates that enter
+    keep : np.ndarray
+        boolean ``(m,)``, archived designs that stay
+    accept : np.ndarray
+        boolean ``(n,)``, candidates that enter
     """
     accept = non_dominated_mask(new_f)
     if len(archive_f) and accept.any():
@@ -92,11 +99,15 @@ class Archive:
 
     Attributes
     ----------
-    x : [variable units] designs, shape ``(m, n_var)``
-    f : [objective units] objectives, shape ``(m, n_obj)``
-    q : [physical units] every evaluated quantity (objectives, then constraint-only
+    x : np.ndarray
+        [variable units] designs, shape ``(m, n_var)``
+    f : np.ndarray
+        [objective units] objectives, shape ``(m, n_obj)``
+    q : np.ndarray
+        [physical units] every evaluated quantity (objectives, then constraint-only
         quantities), shape ``(m, n_q)``
-    ids : [-] evaluation ids (position in the run's evaluation history), ascending, ``(m,)``
+    ids : np.ndarray
+        [-] evaluation ids (position in the run's evaluation history), ascending, ``(m,)``
     """
 
     x: np.ndarray
@@ -117,9 +128,12 @@ class Archive:
 
         Parameters
         ----------
-        x, f, q : [physical units] the batch, shapes ``(n, n_var)``, ``(n, n_obj)``, ``(n, n_q)``
-        ids : [-] evaluation ids of the batch, all greater than the archived ones, ``(n,)``
-        feasible : [-] designs eligible for the archive (valid and meeting all constraints)
+        x, f, q : np.ndarray
+            [physical units] the batch, shapes ``(n, n_var)``, ``(n, n_obj)``, ``(n, n_q)``
+        ids : np.ndarray
+            [-] evaluation ids of the batch, all greater than the archived ones, ``(n,)``
+        feasible : np.ndarray
+            [-] designs eligible for the archive (valid and meeting all constraints)
         """
         sel = np.asarray(feasible, dtype=bool)
         keep, accept = pareto_update(self.f, f[sel])

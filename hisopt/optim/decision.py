@@ -57,8 +57,10 @@ def grid_designs(lower: np.ndarray, upper: np.ndarray, max_designs: int = 1000) 
 
     Parameters
     ----------
-    lower, upper : [variable units] box bounds, shape ``(n_var,)``
-    max_designs : [-] ``levels = max(2, floor(max_designs ** (1 / n_var)))``
+    lower, upper : np.ndarray
+        [variable units] box bounds, shape ``(n_var,)``
+    max_designs : int, optional
+        [-] ``levels = max(2, floor(max_designs ** (1 / n_var)))``
     """
     n_var = len(lower)
     levels = max(2, int(np.floor(max_designs ** (1.0 / n_var) + 1e-9)))
@@ -126,8 +128,10 @@ def hypervolume(f: np.ndarray, reference_log: np.ndarray) -> float:
 
     Parameters
     ----------
-    f : [objective units] objective vectors (any set; dominated ones add nothing)
-    reference_log : [decades] reference point from :func:`reference_point`, ``(k,)``
+    f : np.ndarray
+        [objective units] objective vectors (any set; dominated ones add nothing)
+    reference_log : np.ndarray
+        [decades] reference point from :func:`reference_point`, ``(k,)``
     """
     if len(f) == 0:
         return 0.0
@@ -187,10 +191,14 @@ def asf_index(
 
     Parameters
     ----------
-    f : [objective units] front, shape ``(n, k)``
-    reference : [objective units] aspiration point, shape ``(k,)``; default the front's ideal
-    weights : [-] positive weights, shape ``(k,)``; default all 1
-    rho : [-] augmentation factor (keeps the pick Pareto-optimal, not weakly)
+    f : np.ndarray
+        [objective units] front, shape ``(n, k)``
+    reference : np.ndarray | None, optional
+        [objective units] aspiration point, shape ``(k,)``; default the front's ideal
+    weights : np.ndarray | None, optional
+        [-] positive weights, shape ``(k,)``; default all 1
+    rho : float, optional
+        [-] augmentation factor (keeps the pick Pareto-optimal, not weakly)
 
     Raises
     ------

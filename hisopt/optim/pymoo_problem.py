@@ -30,8 +30,10 @@ def objective_matrix(quantities: dict[str, np.ndarray], names: tuple[str, ...]) 
 
     Parameters
     ----------
-    quantities : [physical units] evaluator output, each ``(n,)``, with boolean ``"valid"``
-    names : [-] objective names, in column order
+    quantities : dict[str, np.ndarray]
+        [physical units] evaluator output, each ``(n,)``, with boolean ``"valid"``
+    names : tuple[str, ...]
+        [-] objective names, in column order
     """
     valid = np.asarray(quantities["valid"], dtype=bool)
     f = np.column_stack([np.asarray(quantities[name], dtype=float) for name in names])
@@ -48,9 +50,12 @@ def constraint_matrix(
 
     Parameters
     ----------
-    quantities : [physical units] evaluator output, each ``(n,)``, with boolean ``"valid"``
-    names : [-] constraint quantity names
-    limits : [physical units] upper limits, one per name (all > 0)
+    quantities : dict[str, np.ndarray]
+        [physical units] evaluator output, each ``(n,)``, with boolean ``"valid"``
+    names : tuple[str, ...]
+        [-] constraint quantity names
+    limits : tuple[float, ...]
+        [physical units] upper limits, one per name (all > 0)
     """
     valid = np.asarray(quantities["valid"], dtype=bool)
     n = valid.size
@@ -73,7 +78,8 @@ class HisoptPymooProblem(PymooProblem):
 
     Parameters
     ----------
-    problem : [-] the hisopt problem (variables, objectives, constraints)
+    problem : Problem
+        [-] the hisopt problem (variables, objectives, constraints)
     """
 
     def __init__(self, problem: Problem):

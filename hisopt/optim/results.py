@@ -23,13 +23,20 @@ class GenerationStats:
 
     Attributes
     ----------
-    generation : [-] generations completed (1 = initial population)
-    generations : [-] generations of the whole run
-    evaluations : [-] designs evaluated so far
-    feasible_share : [-] share of this generation's designs that are feasible
-    front_size : [-] designs in the archive (the non-dominated feasible set)
-    hypervolume : [decades^n_obj] hypervolume of the archive in log10 space
-    elapsed_s : [s] wall time of the run so far (all sessions)
+    generation : int
+        [-] generations completed (1 = initial population)
+    generations : int
+        [-] generations of the whole run
+    evaluations : int
+        [-] designs evaluated so far
+    feasible_share : float
+        [-] share of this generation's designs that are feasible
+    front_size : int
+        [-] designs in the archive (the non-dominated feasible set)
+    hypervolume : float
+        [decades^n_obj] hypervolume of the archive in log10 space
+    elapsed_s : float
+        [s] wall time of the run so far (all sessions)
     """
 
     generation: int
@@ -47,19 +54,29 @@ class OptimizationResult:
 
     Attributes
     ----------
-    problem : the optimised problem
-    settings : algorithm settings of the run
-    front : [physical units] non-dominated feasible designs of all evaluations: variable
+    problem : Problem
+        the optimised problem
+    settings : RunSettings
+        algorithm settings of the run
+    front : pd.DataFrame
+        [physical units] non-dominated feasible designs of all evaluations: variable
         columns, objective columns, constraint-only quantity columns (sorted by the first
         objective)
-    history : [physical units] every evaluated design: ``evaluation``, ``generation``,
+    history : pd.DataFrame
+        [physical units] every evaluated design: ``evaluation``, ``generation``,
         variables, quantities, ``valid``, ``feasible``
-    generations : per-generation statistics (:class:`GenerationStats` fields)
-    hypervolume : [decades^n_obj] hypervolume of the front in log10 space
-    reference_point : [decades] the fixed hypervolume reference point (log10 of objectives)
-    wall_time_s : [s] wall time of the run (all sessions)
-    run_dir : the run directory (None for a run without one)
-    completed : [-] False when the algorithm stopped early (no new offspring possible)
+    generations : pd.DataFrame
+        per-generation statistics (:class:`GenerationStats` fields)
+    hypervolume : float
+        [decades^n_obj] hypervolume of the front in log10 space
+    reference_point : np.ndarray
+        [decades] the fixed hypervolume reference point (log10 of objectives)
+    wall_time_s : float
+        [s] wall time of the run (all sessions)
+    run_dir : Path | None
+        the run directory (None for a run without one)
+    completed : bool
+        [-] False when the algorithm stopped early (no new offspring possible)
     """
 
     problem: Problem
@@ -112,9 +129,11 @@ class OptimizationResult:
 
         Parameters
         ----------
-        reference : [objective units] aspiration value per objective (by name or in
+        reference : Mapping[str, float] | Sequence[float] | None, optional
+            [objective units] aspiration value per objective (by name or in
             objective order); default the front's ideal point; names left out take it too
-        weights : [-] positive weight per objective (by name or in order); default 1 each;
+        weights : Mapping[str, float] | Sequence[float] | None, optional
+            [-] positive weight per objective (by name or in order); default 1 each;
             a larger weight pulls that objective closer to the reference
         """
         f = self.objectives.to_numpy()

@@ -106,15 +106,22 @@ def optimize(
 
     Parameters
     ----------
-    problem : [-] a :class:`~hisopt.problem.Problem` or the path of a problem file
-    out : [-] run directory (created; must not hold a run yet); None keeps the run in
+    problem : Problem | str | Path
+        [-] a :class:`~hisopt.problem.Problem` or the path of a problem file
+    out : str | Path | None, optional
+        [-] run directory (created; must not hold a run yet); None keeps the run in
         memory (no files, no checkpoints, not resumable)
-    seed : [-] random seed; default the problem file's
-    pop_size : [-] population size; default the problem file's (100)
-    generations : [-] generations including the initial one; default the file's (200)
-    algorithm : [-] ``"auto"`` (NSGA-III from four objectives on, else NSGA-II),
+    seed : int | None, optional
+        [-] random seed; default the problem file's
+    pop_size : int | None, optional
+        [-] population size; default the problem file's (100)
+    generations : int | None, optional
+        [-] generations including the initial one; default the file's (200)
+    algorithm : AlgorithmChoice | None, optional
+        [-] ``"auto"`` (NSGA-III from four objectives on, else NSGA-II),
         ``"nsga2"`` or ``"nsga3"``; default the file's
-    progress : [-] called with :class:`GenerationStats` after every generation
+    progress : ProgressFn | None, optional
+        [-] called with :class:`GenerationStats` after every generation
 
     Returns
     -------
@@ -168,9 +175,12 @@ class ResumePlan:
 
     Attributes
     ----------
-    state : [-] the directory's state before resuming
-    engine : [-] the engine restored from the checkpoint
-    info : [-] the parsed ``run.json``
+    state : runstate.RunState
+        [-] the directory's state before resuming
+    engine : Engine
+        [-] the engine restored from the checkpoint
+    info : dict[str, Any]
+        [-] the parsed ``run.json``
     """
 
     state: runstate.RunState
@@ -232,8 +242,10 @@ def resume(run_dir: str | Path, *, progress: ProgressFn | None = None) -> Optimi
 
     Parameters
     ----------
-    run_dir : [-] a directory written by :func:`optimize` with ``out=``
-    progress : [-] called with :class:`GenerationStats` after every generation
+    run_dir : str | Path
+        [-] a directory written by :func:`optimize` with ``out=``
+    progress : ProgressFn | None, optional
+        [-] called with :class:`GenerationStats` after every generation
 
     Raises
     ------

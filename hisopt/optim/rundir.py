@@ -85,8 +85,10 @@ def prepare_run_directory(run_dir: Path, *, fresh: bool) -> Path:
 
     Parameters
     ----------
-    run_dir : [-] the run directory
-    fresh : [-] True for a new run: refuse a directory that already holds a run
+    run_dir : Path
+        [-] the run directory
+    fresh : bool
+        [-] True for a new run: refuse a directory that already holds a run
 
     Raises
     ------

@@ -77,12 +77,18 @@ class RunState:
 
     Attributes
     ----------
-    run_dir : [-] the directory
-    status : [-] recorded status, or ``killed``
-    generation : [-] generations saved in the checkpoint
-    generations : [-] generations of the whole run
-    info : [-] the parsed ``run.json``
-    alive : [-] whether the recorded process runs (None: recorded on another host)
+    run_dir : Path
+        [-] the directory
+    status : str
+        [-] recorded status, or ``killed``
+    generation : int
+        [-] generations saved in the checkpoint
+    generations : int
+        [-] generations of the whole run
+    info : dict[str, Any]
+        [-] the parsed ``run.json``
+    alive : bool | None
+        [-] whether the recorded process runs (None: recorded on another host)
     """
 
     run_dir: Path

@@ -26,10 +26,14 @@ class RunSettings:
 
     Attributes
     ----------
-    algorithm : [-] ``"nsga2"`` or ``"nsga3"`` (``"auto"`` already resolved)
-    pop_size : [-] population size (and offspring per generation)
-    generations : [-] generations including the initial one
-    seed : [-] random seed of the algorithm
+    algorithm : AlgorithmName
+        [-] ``"nsga2"`` or ``"nsga3"`` (``"auto"`` already resolved)
+    pop_size : int
+        [-] population size (and offspring per generation)
+    generations : int
+        [-] generations including the initial one
+    seed : int
+        [-] random seed of the algorithm
     """
 
     algorithm: AlgorithmName

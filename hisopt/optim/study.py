@@ -92,14 +92,22 @@ def study(
 
     Parameters
     ----------
-    problem : the problem
-    seeds : [-] one run per seed
-    out : study directory (``seed-<n>/`` run directories, merged ``front.csv``, ``runs.csv``)
-    pop_size, generations : [-] overrides of the problem file's optimizer settings
-    backend : where to run (default in-process, one seed after the other)
-    progress : called as each run finishes with its summary (:data:`SUMMARY_COLUMNS`: seed,
+    problem : Problem
+        the problem
+    seeds : list[int]
+        [-] one run per seed
+    out : str | Path | None, optional
+        study directory (``seed-<n>/`` run directories, merged ``front.csv``, ``runs.csv``)
+    pop_size, generations : int | None, optional
+        [-] overrides of the problem file's optimizer settings
+    backend : Backend | None, optional
+        where to run (default in-process, one seed after the other)
+    progress : Callable[[dict[str, Any]], None] | None, optional
+        called as each run finishes with its summary (:data:`SUMMARY_COLUMNS`: seed,
         evaluations, hypervolume [decades^k], wall_time_s [s], front_size)
 
+    Notes
+    -----
     The merged front is the non-dominated set of the union of the runs' fronts (of equal
     objective vectors the one of the lowest seed), by :func:`hisopt.optim.archive.non_dominated_mask`
     in ``O(n log^2 n)`` time and ``O(n)`` memory for ``n`` designs in the union.

@@ -27,17 +27,28 @@ class RefineSettings:
 
     Attributes
     ----------
-    trust_radius : [-] initial trust-region radius in scaled design units (bounds = [0, 1])
-    min_radius : [-] stop once the radius falls below this
-    rounds : [-] most NLP solves per start design
-    rho : [-] ASF augmentation: weight of the summed improvement beside the worst one
-    margin : [-] initial least improvement demanded of every objective (weighted log10)
-    min_gain : [-] stop once a round lowers the merit by less than this
-    peak_share : [-] local PSD peaks at least this share of the maximum get a node cluster
-    node_share : [-] a maximum's epigraph also uses nodes with PSD at least this share of it
-    cluster_offsets : [-] cluster nodes each side of a peak, in half-power half-widths
-    max_iter : [-] IPOPT iterations per solve
-    tol : [-] IPOPT convergence tolerance
+    trust_radius : float
+        [-] initial trust-region radius in scaled design units (bounds = [0, 1])
+    min_radius : float
+        [-] stop once the radius falls below this
+    rounds : int
+        [-] most NLP solves per start design
+    rho : float
+        [-] ASF augmentation: weight of the summed improvement beside the worst one
+    margin : float
+        [-] initial least improvement demanded of every objective (weighted log10)
+    min_gain : float
+        [-] stop once a round lowers the merit by less than this
+    peak_share : float
+        [-] local PSD peaks at least this share of the maximum get a node cluster
+    node_share : float
+        [-] a maximum's epigraph also uses nodes with PSD at least this share of it
+    cluster_offsets : tuple[float, ...]
+        [-] cluster nodes each side of a peak, in half-power half-widths
+    max_iter : int
+        [-] IPOPT iterations per solve
+    tol : float
+        [-] IPOPT convergence tolerance
     """
 
     trust_radius: float = 0.5
@@ -60,8 +71,10 @@ class NodePlan:
 
     Attributes
     ----------
-    fs : the frequency set (quadrature weights, per-node parameters)
-    max_nodes : node indices of each band-maximum quantity's epigraph
+    fs : FrequencySet
+        the frequency set (quadrature weights, per-node parameters)
+    max_nodes : dict[str, np.ndarray]
+        node indices of each band-maximum quantity's epigraph
     """
 
     fs: FrequencySet
@@ -74,8 +87,10 @@ def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, st
 
     Parameters
     ----------
-    frf : output FRF function of one design, as :class:`hisopt.evaluation.channels.DirectOutputs`
-    ev : the problem's evaluator (for its road spectra)
+    frf : Any
+        output FRF function of one design, as :class:`hisopt.evaluation.channels.DirectOutputs`
+    ev : Any
+        the problem's evaluator (for its road spectra)
     """
     from hisopt.evaluation.peaks import refine_maximum
 
@@ -136,10 +151,14 @@ class SolveOutcome:
 
     Attributes
     ----------
-    u : [-] scaled design found, ``(n_var,)``
-    status : [-] IPOPT return status
-    iterations : [-] IPOPT iterations
-    gap : [-] the model's weighted log10 change of each objective against the reference
+    u : np.ndarray
+        [-] scaled design found, ``(n_var,)``
+    status : str
+        [-] IPOPT return status
+    iterations : int
+        [-] IPOPT iterations
+    gap : np.ndarray
+        [-] the model's weighted log10 change of each objective against the reference
     """
 
     u: np.ndarray
@@ -173,12 +192,18 @@ def solve_asf(
 
     Parameters
     ----------
-    parts : the load cases with their nodes at ``u_c`` (one for a single-case problem)
-    u_c : [-] current design scaled to [0, 1] over the bounds, ``(n_var,)``
-    ref_log : [decades] reference point, ``log10`` of the start's objectives, ``(n_obj,)``
-    weights : [1/decade] ASF weights, ``(n_obj,)``
-    radius : [-] trust-region radius in scaled units
-    margin : [-] least weighted log10 improvement demanded of each objective, ``(n_obj,)``
+    parts : list[Part]
+        the load cases with their nodes at ``u_c`` (one for a single-case problem)
+    u_c : np.ndarray
+        [-] current design scaled to [0, 1] over the bounds, ``(n_var,)``
+    ref_log : np.ndarray
+        [decades] reference point, ``log10`` of the start's objectives, ``(n_obj,)``
+    weights : np.ndarray
+        [1/decade] ASF weights, ``(n_obj,)``
+    radius : float
+        [-] trust-region radius in scaled units
+    margin : np.ndarray
+        [-] least weighted log10 improvement demanded of each objective, ``(n_obj,)``
     """
     import casadi as ca
 

@@ -72,11 +72,15 @@ class FrequencySet:
 
     Attributes
     ----------
-    f_hz : [Hz] nodes, shape ``(F,)``
-    weight_hz : [Hz] quadrature weights, shape ``(F,)`` (0 for nodes used only by maxima)
-    params : [mixed SI] per-node parameters of :meth:`CasadiModel.psd_function`,
+    f_hz : np.ndarray
+        [Hz] nodes, shape ``(F,)``
+    weight_hz : np.ndarray
+        [Hz] quadrature weights, shape ``(F,)`` (0 for nodes used only by maxima)
+    params : np.ndarray
+        [mixed SI] per-node parameters of :meth:`CasadiModel.psd_function`,
         shape ``(n_par, F)``
-    comfort_weight : [Hz] ``weight * |W(f)|^2`` per comfort output (its weighting), dict of ``(F,)``
+    comfort_weight : dict[str, np.ndarray]
+        [Hz] ``weight * |W(f)|^2`` per comfort output (its weighting), dict of ``(F,)``
     """
 
     f_hz: np.ndarray
@@ -145,13 +149,17 @@ class CasadiModel:
 
     Parameters
     ----------
-    problem : any problem the evaluator accepts (any layout, pipes lumped or distributed)
-    compile : compile the per-node functions the refinement evaluates (:func:`compiled`)
+    problem : Problem
+        any problem the evaluator accepts (any layout, pipes lumped or distributed)
+    compile : bool, optional
+        compile the per-node functions the refinement evaluates (:func:`compiled`)
 
     Attributes
     ----------
-    outputs : the evaluator's outputs, in its order (``Evaluator.outputs``)
-    names : objective and constraint names, each once
+    outputs : dict[str, Output]
+        the evaluator's outputs, in its order (``Evaluator.outputs``)
+    names : tuple[str, ...]
+        objective and constraint names, each once
     """
 
     def __init__(self, problem: Problem, compile: bool = True):
@@ -308,8 +316,10 @@ class CasadiModel:
 
         Parameters
         ----------
-        x : [variable units] design, CasADi column ``(n_var, 1)``
-        params : per-node parameters ``(n_par, F)`` (:attr:`FrequencySet.params`)
+        x : ca.MX
+            [variable units] design, CasADi column ``(n_var, 1)``
+        params : ca.MX | np.ndarray
+            per-node parameters ``(n_par, F)`` (:attr:`FrequencySet.params`)
         """
         n = params.shape[1]
         if n not in self._mapped:
@@ -427,9 +437,12 @@ class SpectraCallback(ca.Callback):
 
     Parameters
     ----------
-    model : the CasADi model
-    fs : the frequency nodes
-    lower, span : [variable units] scaling of the design, shape ``(n_var,)``
+    model : CasadiModel
+        the CasADi model
+    fs : FrequencySet
+        the frequency nodes
+    lower, span : np.ndarray
+        [variable units] scaling of the design, shape ``(n_var,)``
     """
 
     def __init__(self, model: CasadiModel, fs: FrequencySet, lower: np.ndarray, span: np.ndarray):

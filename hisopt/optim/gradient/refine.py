@@ -72,16 +72,26 @@ class PointResult:
 
     Attributes
     ----------
-    source_index : [-] row of the front the refinement started from
-    x : [variable units] final design (the start when nothing better was found), ``(n_var,)``
-    quantities : [physical units] the final design's objectives and constraints (evaluator)
-    accepted : [-] the final design weakly dominates the start and is better somewhere
-    asf : [-] worst weighted log10 change of an objective against the start (<= 0)
-    merit : [-] the NLP objective of the final design (0 for the start)
-    rounds : [-] NLP solves performed
-    iterations : [-] IPOPT iterations over all rounds
-    seconds : [s] wall time of this point
-    status : [-] IPOPT return status of the last solve
+    source_index : int
+        [-] row of the front the refinement started from
+    x : np.ndarray
+        [variable units] final design (the start when nothing better was found), ``(n_var,)``
+    quantities : dict[str, float]
+        [physical units] the final design's objectives and constraints (evaluator)
+    accepted : bool
+        [-] the final design weakly dominates the start and is better somewhere
+    asf : float
+        [-] worst weighted log10 change of an objective against the start (<= 0)
+    merit : float
+        [-] the NLP objective of the final design (0 for the start)
+    rounds : int
+        [-] NLP solves performed
+    iterations : int
+        [-] IPOPT iterations over all rounds
+    seconds : float
+        [s] wall time of this point
+    status : str
+        [-] IPOPT return status of the last solve
     """
 
     source_index: int
@@ -102,12 +112,17 @@ class RefineResult:
 
     Attributes
     ----------
-    front : [physical units] the refined front (module docstring)
-    points : one row per start design: ``source_index``, ``accepted``, ``asf``, ``merit``,
+    front : pd.DataFrame
+        [physical units] the refined front (module docstring)
+    points : pd.DataFrame
+        one row per start design: ``source_index``, ``accepted``, ``asf``, ``merit``,
         ``rounds``, ``iterations``, ``seconds``, ``status``, the final variables and quantities
-    hypervolume_before, hypervolume_after : [decades^n_obj] of the input and refined fronts
-    reference_point : [decades] hypervolume reference point (log10 of the objectives)
-    wall_time_s : [s] wall time of the whole refinement (worker start-up included)
+    hypervolume_before, hypervolume_after : float
+        [decades^n_obj] of the input and refined fronts
+    reference_point : np.ndarray
+        [decades] hypervolume reference point (log10 of the objectives)
+    wall_time_s : float
+        [s] wall time of the whole refinement (worker start-up included)
     """
 
     front: pd.DataFrame
@@ -215,10 +230,14 @@ def refine_point(
 
     Parameters
     ----------
-    source_index : [-] the design's row in the front (recorded only)
-    x0 : [variable units] start design, ``(n_var,)``
-    f0 : [objective units] the start's objectives as the front records them, ``(n_obj,)``
-    weights : [1/decade] ASF weights, ``(n_obj,)``
+    source_index : int
+        [-] the design's row in the front (recorded only)
+    x0 : np.ndarray
+        [variable units] start design, ``(n_var,)``
+    f0 : np.ndarray
+        [objective units] the start's objectives as the front records them, ``(n_obj,)``
+    weights : np.ndarray
+        [1/decade] ASF weights, ``(n_obj,)``
     """
     from hisopt.optim.decision import log_objectives
 
@@ -272,8 +291,10 @@ def constrained_problem(problem: Problem, objective: str, limits: dict[str, floa
 
     Parameters
     ----------
-    objective : [-] quantity to minimise, e.g. ``"sigma_aw"``
-    limits : [quantity units] upper limit per quantity, e.g. ``{"roll_gradient": 0.03}``
+    objective : str
+        [-] quantity to minimise, e.g. ``"sigma_aw"``
+    limits : dict[str, float]
+        [quantity units] upper limit per quantity, e.g. ``{"roll_gradient": 0.03}``
     """
     from hisopt.problem import problem_from_dict
 
@@ -303,8 +324,10 @@ def refine_constrained(
 
     Parameters
     ----------
-    x0 : [variable units] a start design meeting every limit, ``(n_var,)``
-    objective, limits : as :func:`constrained_problem`
+    x0 : np.ndarray
+        [variable units] a start design meeting every limit, ``(n_var,)``
+    objective, limits
+        as :func:`constrained_problem`
     """
     sub = constrained_problem(problem, objective, limits)
     # The CasADi model does not depend on the limits (they enter the NLP's bounds): one per
@@ -367,17 +390,25 @@ def refine_front(
 
     Parameters
     ----------
-    problem : the problem the front belongs to
-    front : [physical units] the front: the variable columns and objective columns (and any
+    problem : Problem
+        the problem the front belongs to
+    front : pd.DataFrame
+        [physical units] the front: the variable columns and objective columns (and any
         constraint columns), one row per design, as ``front.csv``
-    max_points : [-] most start designs
-    settings : refinement settings (default :class:`RefineSettings`)
-    backend : where the NLPs run: this process (default) or a Dask cluster
+    max_points : int, optional
+        [-] most start designs
+    settings : RefineSettings | None, optional
+        refinement settings (default :class:`RefineSettings`)
+    backend : Backend | None, optional
+        where the NLPs run: this process (default) or a Dask cluster
         (:func:`hisopt.evaluation.parallel.open_backend`), one task per start design
-    reference_log : [decades] hypervolume reference point; default the problem's
+    reference_log : np.ndarray | None, optional
+        [decades] hypervolume reference point; default the problem's
         (:func:`hisopt.optim.decision.reference_point`)
-    progress : called with each finished :class:`PointResult` (in completion order)
-    source : [-] where the front comes from (named in errors), e.g. its file
+    progress : Callable[[PointResult], None] | None, optional
+        called with each finished :class:`PointResult` (in completion order)
+    source : str, optional
+        [-] where the front comes from (named in errors), e.g. its file
 
     Raises
     ------
@@ -498,8 +529,10 @@ def refine_run(
 
     Parameters
     ----------
-    run_dir : [-] a directory written by :func:`hisopt.optim.run.optimize` (``out=``)
-    max_points, settings, backend, progress : as :func:`refine_front`
+    run_dir : str | Path
+        [-] a directory written by :func:`hisopt.optim.run.optimize` (``out=``)
+    max_points, settings, backend, progress
+        as :func:`refine_front`
 
     Raises
     ------

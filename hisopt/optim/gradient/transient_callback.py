@@ -50,9 +50,12 @@ class TransientCallback(ca.Callback):
 
     Parameters
     ----------
-    problem : the single-case problem (a scenario's, for a load case)
-    names : transient quantity names, in output order
-    lower, span : [variable units] scaling of the design, shape ``(n_var,)``
+    problem : DesignSpace
+        the single-case problem (a scenario's, for a load case)
+    names : Sequence[str]
+        transient quantity names, in output order
+    lower, span : np.ndarray
+        [variable units] scaling of the design, shape ``(n_var,)``
     """
 
     def __init__(self, problem: DesignSpace, names: Sequence[str], lower: np.ndarray, span: np.ndarray):
