@@ -92,7 +92,8 @@ def repair_poles(model: CoupledModel, lam: np.ndarray, f_hi_hz: float) -> tuple[
 
     Parameters
     ----------
-    model : the designs' models; ``lam`` their state matrices' eigenvalues ``(n, k)``
+    model : CoupledModel
+        the designs' models; ``lam`` their state matrices' eigenvalues ``(n, k)``
     """
     from hisopt.coupled.modal import refine_roots
 

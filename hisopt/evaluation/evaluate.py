@@ -67,16 +67,24 @@ class Evaluator:
 
     Parameters
     ----------
-    problem : the problem (vehicle, HIS, road, band, comfort, objectives, constraints); of a
+    problem : DesignSpace
+        the problem (vehicle, HIS, road, band, comfort, objectives, constraints); of a
         problem with ``[[scenarios]]``, its ``[road]`` without a scenario's payload, each
         objective and constrained quantity under its plain name
         (:class:`~hisopt.evaluation.scenarios.ScenarioEvaluator` evaluates the load cases)
-    chunk_size : designs per vectorised batch (bounds memory for any number of designs)
-    order : Gauss-Legendre nodes per panel
-    peak_steps : new samples of each PSD maximum (:func:`hisopt.evaluation.peaks.refine_maximum`)
-    base_panels : log- and linearly spaced panels over the band (each)
-    pole_ratio : growth of the panel breakpoints' distance from each resonance
+    chunk_size : int, optional
+        designs per vectorised batch (bounds memory for any number of designs)
+    order : int, optional
+        Gauss-Legendre nodes per panel
+    peak_steps : int, optional
+        new samples of each PSD maximum (:func:`hisopt.evaluation.peaks.refine_maximum`)
+    base_panels
+        log- and linearly spaced panels over the band (each)
+    pole_ratio
+        growth of the panel breakpoints' distance from each resonance
 
+    Notes
+    -----
     The defaults keep every quantity within 1e-3 of a converged reference over the whole
     design box (tests check 0.5 %); ``benchmarks/bench_evaluate.py`` prints the errors.
     """
@@ -447,12 +455,17 @@ class Samples:
 
     Attributes
     ----------
-    f, w, psd : the pole-aware panels' nodes, weights (0 where the panel was split) and PSDs
+    f, w, psd : np.ndarray
+        the pole-aware panels' nodes, weights (0 where the panel was split) and PSDs
         (sorted by frequency)
-    totals : ``(n, R)`` the quadrature sum of each integral (:attr:`Evaluator.integrals`)
-    f_split, w_split, psd_split : the nodes of the panels split for the delay ripple
-    f_peak : the maxima's extra samples (band limits, damped frequencies)
-    psd_all : the PSDs at ``f`` then ``f_peak``
+    totals : np.ndarray
+        ``(n, R)`` the quadrature sum of each integral (:attr:`Evaluator.integrals`)
+    f_split, w_split, psd_split : np.ndarray
+        the nodes of the panels split for the delay ripple
+    f_peak : np.ndarray
+        the maxima's extra samples (band limits, damped frequencies)
+    psd_all : np.ndarray
+        the PSDs at ``f`` then ``f_peak``
     """
 
     f: np.ndarray

@@ -136,18 +136,25 @@ def channel_psd(
 
     Parameters
     ----------
-    f_hz : ``(n, F)`` frequencies per design (a node equal to the one before it is copied)
-    tau : ``(R,)`` [s] rear-wheel delay on each road
-    coherence : ``(R, n, F)`` left-right coherence, or ``(0, 0, 0)`` for independent tracks
-    sym, anti : each road channel's ``(lam_pair, alpha, beta, lam_single, rho_single.real,
+    f_hz : np.ndarray
+        ``(n, F)`` frequencies per design (a node equal to the one before it is copied)
+    tau : np.ndarray
+        ``(R,)`` [s] rear-wheel delay on each road
+    coherence : np.ndarray
+        ``(R, n, F)`` left-right coherence, or ``(0, 0, 0)`` for independent tracks
+    sym, anti : tuple[np.ndarray, ...]
+        each road channel's ``(lam_pair, alpha, beta, lam_single, rho_single.real,
         rho_single.imag, poly, column)``: :func:`hisopt.evaluation.pole_residue.conjugate_pairs` of its
         ``C`` columns that are not zero by structure, polynomial terms ``(n, P, C)`` and
         ``column`` ``(2, O)``, the column of each (front or rear axle, output), ``C`` for
         none (a zero column)
-    output_of : ``(F,)`` the one output wanted at each column (``-1``: all; the others are
+    output_of : np.ndarray
+        ``(F,)`` the one output wanted at each column (``-1``: all; the others are
         left as zeros)
-    road : ``(R, 2)`` each road PSD's power law (:func:`hisopt.standards.iso_8608_2016.temporal_power_law`)
-    out : ``(R, O, n, F)`` result, written in place
+    road : np.ndarray
+        ``(R, 2)`` each road PSD's power law (:func:`hisopt.standards.iso_8608_2016.temporal_power_law`)
+    out : np.ndarray
+        ``(R, O, n, F)`` result, written in place
     """
     n, nf = f_hz.shape
     n_road, n_out = out.shape[0], out.shape[1]
@@ -212,14 +219,18 @@ def panel_edges(f_lo: float, f_hi: float, forced: np.ndarray, singularities: np.
 
     Parameters
     ----------
-    forced : [Hz] sorted breakpoints every design keeps (e.g. the comfort bands' edges)
-    singularities : ``(n, S)`` [Hz] complex singularities of the integrand (NaN: unused)
-    out : ``(n, E)`` breakpoints written in place, each row NaN after its last up to the
+    forced : np.ndarray
+        [Hz] sorted breakpoints every design keeps (e.g. the comfort bands' edges)
+    singularities : np.ndarray
+        ``(n, S)`` [Hz] complex singularities of the integrand (NaN: unused)
+    out : np.ndarray
+        ``(n, E)`` breakpoints written in place, each row NaN after its last up to the
         longest row; a row needing more than ``E - 1`` panels ends with one wide last panel
 
     Returns
     -------
-    The most breakpoints of a row (the columns of ``out`` in use).
+    int
+        The most breakpoints of a row (the columns of ``out`` in use).
     """
     n, e = out.shape
     scale = 2.0 / (kappa * kappa - 1.0)
@@ -302,16 +313,24 @@ def weighted_sums(
 
     Parameters
     ----------
-    f_hz, w_hz : ``(n, F)`` nodes and weights
-    psd : ``(O, n, F)`` the base outputs' PSDs
-    gains : ``(W, n, F)`` squared weightings at the nodes, used when ``gain_num`` has no rows
-    gain_num, gain_den : ``(W, D)`` else the weightings as rational functions of ``f^2``
+    f_hz, w_hz : np.ndarray
+        ``(n, F)`` nodes and weights
+    psd : np.ndarray
+        ``(O, n, F)`` the base outputs' PSDs
+    gains : np.ndarray
+        ``(W, n, F)`` squared weightings at the nodes, used when ``gain_num`` has no rows
+    gain_num, gain_den : np.ndarray
+        ``(W, D)`` else the weightings as rational functions of ``f^2``
         (ascending coefficients, zero-padded: :func:`hisopt.standards.iso_2631_1_1997.weighting_gain_squared`)
-    base, power, scale2, gain_of : ``(R,)`` each integral's base output, power of
+    base, power, scale2, gain_of : np.ndarray
+        ``(R,)`` each integral's base output, power of
         ``omega^2``, squared scale and weighting
-    panel_size : nodes per panel of the first ``panel_sum.shape[1] * panel_size`` nodes
-    totals : ``(n, R)`` ``sum w g``, written in place
-    panel_abs, panel_sum : ``(n, P, R)`` ``sum |w g|`` and ``sum w g`` per panel, written
+    panel_size : int
+        nodes per panel of the first ``panel_sum.shape[1] * panel_size`` nodes
+    totals : np.ndarray
+        ``(n, R)`` ``sum w g``, written in place
+    panel_abs, panel_sum : np.ndarray
+        ``(n, P, R)`` ``sum |w g|`` and ``sum w g`` per panel, written
     """
     n, nf = f_hz.shape
     n_int = base.shape[0]
@@ -376,11 +395,16 @@ def modal_terms(
 
     Parameters
     ----------
-    lam, vec, w_inv : ``(n, k)`` poles, ``(n, k, k)`` right eigenvectors and their inverse
-    bp, pos : ``(n, k, m)`` input map ``B'``, ``(n, 7, k)`` the DOFs from the states
-    c : ``(O, 7)`` each output's DOF combination
-    columns : ``(C, 2)`` the input and output of each column
-    lam_p, alpha, beta, lam_1, r_re, r_im : results (pairs ``(n, P)``, ``(n, P, C)``;
+    lam, vec, w_inv : np.ndarray
+        ``(n, k)`` poles, ``(n, k, k)`` right eigenvectors and their inverse
+    bp, pos : np.ndarray
+        ``(n, k, m)`` input map ``B'``, ``(n, 7, k)`` the DOFs from the states
+    c : np.ndarray
+        ``(O, 7)`` each output's DOF combination
+    columns : np.ndarray
+        ``(C, 2)`` the input and output of each column
+    lam_p, alpha, beta, lam_1, r_re, r_im : np.ndarray
+        results (pairs ``(n, P)``, ``(n, P, C)``;
         other poles ``(n, S)``, ``(n, S, C)``), padded with a pole at -1 of zero residue
     """
     n, k = lam.shape
@@ -506,18 +530,24 @@ def lay_nodes(
 
     Parameters
     ----------
-    poles : ``(n, k)`` [rad/s] the designs' poles (singularities at ``(Im - j Re) / 2 pi``,
+    poles : np.ndarray
+        ``(n, k)`` [rad/s] the designs' poles (singularities at ``(Im - j Re) / 2 pi``,
         undamped ones moved off the axis by ``1e-9 |f|``; non-finite ones ignored)
-    fixed : ``(S,)`` [Hz] singularities of every design (upper half plane)
-    forced, f_lo, f_hi, kappa : as :func:`panel_edges`
-    gl_x, gl_w : Gauss-Legendre nodes and weights on [-1, 1]
-    max_panels : panels per design at most
+    fixed : np.ndarray
+        ``(S,)`` [Hz] singularities of every design (upper half plane)
+    forced, f_lo, f_hi, kappa
+        as :func:`panel_edges`
+    gl_x, gl_w : np.ndarray
+        Gauss-Legendre nodes and weights on [-1, 1]
+    max_panels : int
+        panels per design at most
 
     Returns
     -------
-    edges ``(n, P + 1)`` (NaN after each row's last), nodes and weights ``(n, P order)``
-    (unused panels: nodes at ``f_hi``, weight 0), peak samples ``(n, k + 2)`` (the band
-    limits and every in-band damped frequency, ``f_hi`` for the others; sorted).
+    tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+        edges ``(n, P + 1)`` (NaN after each row's last), nodes and weights ``(n, P order)``
+        (unused panels: nodes at ``f_hi``, weight 0), peak samples ``(n, k + 2)`` (the band
+        limits and every in-band damped frequency, ``f_hi`` for the others; sorted).
     """
     n, k = poles.shape
     sing = np.empty((n, k + fixed.shape[0]), dtype=np.complex128)

@@ -50,13 +50,18 @@ def refine_maximum(
 
     Parameters
     ----------
-    values_at : the function at frequencies ``(n, m)`` [Hz] -> ``(n, m)``
-    f_hz, values : nodes ``(r, F)`` and values ``(n, F)``, ``n`` a multiple of ``r`` (row
+    values_at : Callable[[np.ndarray], np.ndarray]
+        the function at frequencies ``(n, m)`` [Hz] -> ``(n, m)``
+    f_hz, values : np.ndarray
+        nodes ``(r, F)`` and values ``(n, F)``, ``n`` a multiple of ``r`` (row
         ``i`` of the values sampled at the nodes of row ``i % r``); a node of value ``-inf``
         is never chosen
-    steps : new samples per candidate
-    candidates : local maxima followed per row (1 or 2)
-    starts : ``(n, 2)`` those maxima's columns (:func:`hisopt.evaluation.kernels.local_maxima`), if
+    steps : int
+        new samples per candidate
+    candidates : int, optional
+        local maxima followed per row (1 or 2)
+    starts : np.ndarray | None, optional
+        ``(n, 2)`` those maxima's columns (:func:`hisopt.evaluation.kernels.local_maxima`), if
         found already
     """
     n, size = values.shape

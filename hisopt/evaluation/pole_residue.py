@@ -37,7 +37,8 @@ def balance(a: np.ndarray, sweeps: int = BALANCE_SWEEPS) -> np.ndarray:
 
     Parameters
     ----------
-    a : ``(n, m, m)`` state matrices
+    a : np.ndarray
+        ``(n, m, m)`` state matrices
     """
     from hisopt.evaluation.kernels import balance as compiled
 
@@ -49,11 +50,16 @@ class PoleResidue:
 
     Parameters
     ----------
-    a : ``(n, k, k)`` state matrix (batched over ``n`` designs)
-    inputs : ``(n, k, m)`` input map ``B' = B0 + A B1`` of the inputs
-    positions : ``(7, k)`` or ``(n, 7, k)``: the DOFs ``X = P x``
-    outputs : the outputs (their road feedthrough ``d`` already mapped to the ``m`` inputs)
-    feedthrough : per output, ``(P, m)`` road terms ``d_p`` on the ``m`` inputs
+    a : np.ndarray
+        ``(n, k, k)`` state matrix (batched over ``n`` designs)
+    inputs : np.ndarray
+        ``(n, k, m)`` input map ``B' = B0 + A B1`` of the inputs
+    positions : np.ndarray
+        ``(7, k)`` or ``(n, 7, k)``: the DOFs ``X = P x``
+    outputs : Sequence[Output]
+        the outputs (their road feedthrough ``d`` already mapped to the ``m`` inputs)
+    feedthrough : Sequence[np.ndarray]
+        per output, ``(P, m)`` road terms ``d_p`` on the ``m`` inputs
     """
 
     def __init__(
@@ -165,12 +171,15 @@ def conjugate_pairs(lam: np.ndarray, rho: np.ndarray) -> tuple[np.ndarray, ...]:
 
     Parameters
     ----------
-    lam : ``(n, k)`` poles, real ones with imaginary part exactly 0 (as LAPACK returns them)
-    rho : ``(n, k, C)`` residues
+    lam : np.ndarray
+        ``(n, k)`` poles, real ones with imaginary part exactly 0 (as LAPACK returns them)
+    rho : np.ndarray
+        ``(n, k, C)`` residues
 
     Returns
     -------
-    lam_pair, alpha, beta : ``(n, P)`` one pole of each pair (``Im > 0``) and ``(n, P, C)``
+    lam_pair, alpha, beta : tuple[np.ndarray, ...]
+        ``(n, P)`` one pole of each pair (``Im > 0``) and ``(n, P, C)``
         its terms; lam_single, rho_single : ``(n, S)``, ``(n, S, C)`` the other poles (real,
         or left unpaired) as they are. Rows are padded with a pole at -1 of zero residue.
     """

@@ -47,10 +47,13 @@ def channel_power(sym: tuple[Pair, Pair], anti: tuple[Pair, Pair], cos_t: Any, s
 
     Parameters
     ----------
-    sym, anti : [output unit / m] each channel's FRF of the front-axle and rear-axle inputs,
+    sym, anti : tuple[Pair, Pair]
+        [output unit / m] each channel's FRF of the front-axle and rear-axle inputs,
         as ((re, im), (re, im))
-    cos_t, sin_t : [-] ``cos(omega tau)``, ``sin(omega tau)``
-    coherence : [-] left-right coherence ``g(f)`` or None (independent tracks)
+    cos_t, sin_t : Any
+        [-] ``cos(omega tau)``, ``sin(omega tau)``
+    coherence : Any, optional
+        [-] left-right coherence ``g(f)`` or None (independent tracks)
     """
 
     # Each channel: front + e rear, e = cos - j sin (written out: numba compiles this).
@@ -101,8 +104,10 @@ def reduce_metrics(
 
     Parameters
     ----------
-    weighting_of : the ISO 2631-1 weighting of a comfort output (``"Wk"``, ``"Wd"``)
-    integral, maximum, static, transient : the engine's reductions (see :data:`Integral`)
+    weighting_of : Callable[[str], str]
+        the ISO 2631-1 weighting of a comfort output (``"Wk"``, ``"Wd"``)
+    integral, maximum, static, transient
+        the engine's reductions (see :data:`Integral`)
     """
     out: dict[str, Any] = {}
     for m in metrics:
@@ -129,7 +134,8 @@ def roll_gradient(stiffness: Any, vehicle: VehicleParams) -> Any:
 
     Parameters
     ----------
-    stiffness : [N/m, N m/rad] static stiffness ``K + G^T K_his G`` (numpy ``B + (7, 7)`` or
+    stiffness : Any
+        [N/m, N m/rad] static stiffness ``K + G^T K_his G`` (numpy ``B + (7, 7)`` or
         a CasADi matrix)
     """
     load = np.zeros(7)

@@ -59,10 +59,12 @@ def singularities(poles: np.ndarray, fixed_hz: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    poles : [rad/s] eigenvalues ``(n, k)``: ``H(j 2 pi f)`` is singular at
+    poles : np.ndarray
+        [rad/s] eigenvalues ``(n, k)``: ``H(j 2 pi f)`` is singular at
         ``f = (Im lambda - j Re lambda) / 2 pi``, and ``|H|^2`` at its conjugate too (the same
         ellipses); an undamped pole is moved off the axis by ``1e-9 |f|``
-    fixed_hz : [Hz] singularities of every design (the road's at 0, the weighting's poles)
+    fixed_hz : np.ndarray
+        [Hz] singularities of every design (the road's at 0, the weighting's poles)
     """
     f = poles / (2 * np.pi)
     height = np.maximum(np.abs(f.real), 1e-9 * np.abs(f))
@@ -79,8 +81,10 @@ def panels(f_lo_hz: float, f_hi_hz: float, forced_hz: np.ndarray, sing_hz: np.nd
 
     Parameters
     ----------
-    forced_hz : [Hz] breakpoints every design keeps (the comfort bands' edges, say)
-    sing_hz : :func:`singularities`
+    forced_hz : np.ndarray
+        [Hz] breakpoints every design keeps (the comfort bands' edges, say)
+    sing_hz : np.ndarray
+        :func:`singularities`
     """
     from hisopt.evaluation.kernels import panel_edges
 
@@ -97,12 +101,15 @@ def panel_nodes(edges: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
 
     Parameters
     ----------
-    edges : [Hz] breakpoints per design, ``(n, K)``, sorted, NaN after each row's last
-    order : [-] nodes per panel
+    edges : np.ndarray
+        [Hz] breakpoints per design, ``(n, K)``, sorted, NaN after each row's last
+    order : int
+        [-] nodes per panel
 
     Returns
     -------
-    f_hz, w_hz : ``(n, (K - 1) order)``, panel by panel (so sorted); unused panels have width
+    f_hz, w_hz : np.ndarray
+        ``(n, (K - 1) order)``, panel by panel (so sorted); unused panels have width
         zero: their nodes sit at the row's last breakpoint with weight 0.
     """
     top = np.nanmax(edges, axis=1, keepdims=True)
@@ -157,8 +164,10 @@ def ripple_splits(half_width: np.ndarray, share: np.ndarray, tau: float, order: 
 
     Parameters
     ----------
-    half_width : [Hz] panel half-widths
-    share : [-] each panel's ``sum |w g| / |sum w g|`` (largest over the integrals)
+    half_width : np.ndarray
+        [Hz] panel half-widths
+    share : np.ndarray
+        [-] each panel's ``sum |w g| / |sum w g|`` (largest over the integrals)
     """
     allowed = np.log(tolerance / np.maximum(share, 1e-300))
 

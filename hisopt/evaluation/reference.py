@@ -54,7 +54,8 @@ def grid_quantities(problem: DesignSpace, designs: Any, f_hz: np.ndarray, chunk_
 
     Parameters
     ----------
-    f_hz : [Hz] grid, shape ``(F,)`` shared by all designs or ``(n, F)`` per design, sorted
+    f_hz : np.ndarray
+        [Hz] grid, shape ``(F,)`` shared by all designs or ``(n, F)`` per design, sorted
     """
     ev = Evaluator(problem)
     x = problem.design_matrix(designs)

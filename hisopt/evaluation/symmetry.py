@@ -76,9 +76,12 @@ class Half:
 
     Attributes
     ----------
-    a : ``(n, m, m)`` state matrix of the half
-    inputs : ``(n, m, 2)`` the half's road channel (front axle, rear axle), ``B' = B0 + A B1``
-    positions : ``(7, m)`` the DOFs ``X`` from the half's states
+    a : np.ndarray
+        ``(n, m, m)`` state matrix of the half
+    inputs : np.ndarray
+        ``(n, m, 2)`` the half's road channel (front axle, rear axle), ``B' = B0 + A B1``
+    positions : np.ndarray
+        ``(7, m)`` the DOFs ``X`` from the half's states
     """
 
     a: np.ndarray
@@ -113,8 +116,10 @@ def split(ss: StateSpace, mirror: tuple[np.ndarray, np.ndarray] | None) -> dict[
 
     Parameters
     ----------
-    ss : a batch of state spaces, ``a`` of shape ``(n, m, m)``
-    mirror : :func:`state_mirror` of the model
+    ss : StateSpace
+        a batch of state spaces, ``a`` of shape ``(n, m, m)``
+    mirror : tuple[np.ndarray, np.ndarray] | None
+        :func:`state_mirror` of the model
     """
     if mirror is None:
         return None

@@ -80,8 +80,10 @@ def roll_moment_input(vehicle: VehicleParams, n_states: int) -> np.ndarray:
 
     Parameters
     ----------
-    vehicle : the car (``m_s`` [kg], ``h_0s`` [m], ``I_x`` [kg m^2])
-    n_states : [-] size of the state space
+    vehicle : VehicleParams
+        the car (``m_s`` [kg], ``h_0s`` [m], ``I_x`` [kg m^2])
+    n_states : int
+        [-] size of the state space
     """
     b = np.zeros(n_states)
     b[7 + ROLL] = vehicle.m_s * vehicle.h_0s / vehicle.I_x
@@ -162,9 +164,12 @@ def modal_form(a: np.ndarray, b: np.ndarray, static: np.ndarray) -> tuple[ModalF
 
     Parameters
     ----------
-    a : [1/s] state matrices ``(n, N, N)``
-    b : [rad/s^2 per m/s^2] input columns ``(n, N)`` (:func:`roll_moment_input`)
-    static : [rad per m/s^2] ``H(0)`` by a static solve ``(n,)``
+    a : np.ndarray
+        [1/s] state matrices ``(n, N, N)``
+    b : np.ndarray
+        [rad/s^2 per m/s^2] input columns ``(n, N)`` (:func:`roll_moment_input`)
+    static : np.ndarray
+        [rad per m/s^2] ``H(0)`` by a static solve ``(n,)``
     """
     d = balance(a)  # A_b = D^-1 A D: better conditioned eigenvectors
     a_bal = a * d[:, None, :] / d[:, :, None]
@@ -199,7 +204,8 @@ def time_grid(lam: np.ndarray, res: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    lam, res : [rad/s], [rad/s per m/s^2] poles and residues ``(n, K)`` (``res`` only ranks
+    lam, res : np.ndarray
+        [rad/s], [rad/s per m/s^2] poles and residues ``(n, K)`` (``res`` only ranks
         the modes: any consistent amplitude will do)
     """
     sigma, omega = -lam.real, lam.imag
@@ -283,9 +289,12 @@ def step_response_peaks(form: TimeForm, step_g: float, t: np.ndarray | None = No
 
     Parameters
     ----------
-    form : the response per unit ``a_y`` (:class:`ModalForm`)
-    step_g : [g] size of the step
-    t : [s] the search grid ``(n, P)`` (default :func:`time_grid` of a modal form)
+    form : TimeForm
+        the response per unit ``a_y`` (:class:`ModalForm`)
+    step_g : float
+        [g] size of the step
+    t : np.ndarray | None, optional
+        [s] the search grid ``(n, P)`` (default :func:`time_grid` of a modal form)
     """
     a_y = step_g * G_MPS2
     grid = time_grid(form.lam, form.res) if t is None else t  # type: ignore[attr-defined]
@@ -319,8 +328,10 @@ def roll_gain_peak(
 
     Parameters
     ----------
-    gain_at : ``|H|`` [rad per m/s^2] at frequencies ``(n, F)`` [Hz]
-    lam : [rad/s] poles ``(n, K)`` (only their damped frequencies are used)
+    gain_at : Callable[[np.ndarray], np.ndarray]
+        ``|H|`` [rad per m/s^2] at frequencies ``(n, F)`` [Hz]
+    lam : np.ndarray
+        [rad/s] poles ``(n, K)`` (only their damped frequencies are used)
     """
     f = gain_nodes(lam, f_lo_hz, f_hi_hz)
     power = lambda x: np.square(gain_at(np.clip(x, f_lo_hz, f_hi_hz)))  # noqa: E731
@@ -335,11 +346,15 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
 
     Parameters
     ----------
-    model : a :class:`~hisopt.coupled.model.CoupledModel` (designs sharing one pattern of shorted
+    model : CoupledModel | StateSpace
+        a :class:`~hisopt.coupled.model.CoupledModel` (designs sharing one pattern of shorted
         valves, as :meth:`~hisopt.coupled.model.CoupledModel.groups` gives them) or its state space
-    vehicle : the car (``m_s``, ``h_0s``, ``I_x``)
-    names : quantities from :data:`NAMES`
-    step_g : [g] lateral-acceleration step of the step quantities
+    vehicle : VehicleParams
+        the car (``m_s``, ``h_0s``, ``I_x``)
+    names : Sequence[str]
+        quantities from :data:`NAMES`
+    step_g : float
+        [g] lateral-acceleration step of the step quantities
     """
     from hisopt.coupled.model import CoupledModel
 
