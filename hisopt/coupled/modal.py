@@ -110,13 +110,16 @@ def motion_coordinates(shapes: np.ndarray, mass_diag: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    shapes : [m, rad] mode shapes over ``DOF_NAMES`` (displacements or velocities), ``(7, m)``
-    mass_diag : [kg, kg m^2] diagonal of the mass matrix, ``(7,)``
+    shapes : np.ndarray
+        [m, rad] mode shapes over ``DOF_NAMES`` (displacements or velocities), ``(7, m)``
+    mass_diag : np.ndarray
+        [kg, kg m^2] diagonal of the mass matrix, ``(7,)``
 
     Returns
     -------
-    ``(7, m)`` complex: bounce, roll, pitch, front hop, front tramp, rear hop, rear tramp;
-    ``|u|^2`` per coordinate is the kinetic energy of that motion (for velocity shapes).
+    np.ndarray
+        ``(7, m)`` complex: bounce, roll, pitch, front hop, front tramp, rear hop, rear tramp;
+        ``|u|^2`` per coordinate is the kinetic energy of that motion (for velocity shapes).
     """
     return _MOTION_BASIS @ (np.sqrt(mass_diag)[:, None] * shapes)
 
@@ -154,13 +157,16 @@ def name_modes(u: np.ndarray, total_energy: np.ndarray) -> list[str | None]:
 
     Parameters
     ----------
-    u : [sqrt(kg) m/s] velocity shapes in motion coordinates (:func:`motion_coordinates`),
+    u : np.ndarray
+        [sqrt(kg) m/s] velocity shapes in motion coordinates (:func:`motion_coordinates`),
         ``(7, m)``
-    total_energy : [J] kinetic energy of each mode including fluid inertance, ``(m,)``
+    total_energy : np.ndarray
+        [J] kinetic energy of each mode including fluid inertance, ``(m,)``
 
     Returns
     -------
-    A name of :data:`MODE_NAMES` or ``None`` per mode (``m`` entries).
+    list[str | None]
+        A name of :data:`MODE_NAMES` or ``None`` per mode (``m`` entries).
     """
     energy = np.abs(u) ** 2
     slots = [(g, k) for g in _GROUPS for k in range(len(g.names))]
@@ -303,9 +309,11 @@ def mechanical_mode_shapes(model: CoupledModel, tol: float = 1e-8) -> tuple[np.n
 
     Returns
     -------
-    roots : [rad/s] ``(7,)`` in :data:`MODE_NAMES` order (of the lumped realisation; NaN where
+    roots : np.ndarray
+        [rad/s] ``(7,)`` in :data:`MODE_NAMES` order (of the lumped realisation; NaN where
         a mode is overdamped)
-    shapes : [sqrt(kg) m/s] mass-weighted velocity shapes in motion coordinates
+    shapes : np.ndarray
+        [sqrt(kg) m/s] mass-weighted velocity shapes in motion coordinates
         (:func:`motion_coordinates`), ``(7, 7)``, column ``j`` mode ``MODE_NAMES[j]`` (NaN if absent)
     """
     a, weights = _state(model)
@@ -337,7 +345,8 @@ def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -
 
     Parameters
     ----------
-    roots : ``(R,)`` roots of a one-design model, or ``(n, R)``, row ``i`` design ``i``'s
+    roots : np.ndarray
+        ``(R,)`` roots of a one-design model, or ``(n, R)``, row ``i`` design ``i``'s
     """
     s = np.asarray(roots, dtype=complex).copy()
     for _ in range(iterations):
@@ -356,14 +365,18 @@ def modal_analysis(problem: Any, design: Any = None, his: bool = True) -> pd.Dat
 
     Parameters
     ----------
-    problem : a :class:`hisopt.problem.Problem`
-    design : dict of variable names (missing ones take the baseline), a sequence in the
+    problem : Any
+        a :class:`hisopt.problem.Problem`
+    design : Any, optional
+        dict of variable names (missing ones take the baseline), a sequence in the
         problem's variable order, or ``None`` for the baseline design
-    his : ``False`` gives the reference vehicle without HIS
+    his : bool, optional
+        ``False`` gives the reference vehicle without HIS
 
     Returns
     -------
-    The :func:`modal_table` of the design: one row per mode, named by its shape.
+    pd.DataFrame
+        The :func:`modal_table` of the design: one row per mode, named by its shape.
     """
     x = problem.design_matrix(problem.baseline if design is None else design)
     if x.shape[0] != 1:
@@ -377,7 +390,8 @@ def mac(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    u, v : mass-weighted shapes (e.g. :func:`motion_coordinates`), ``(7, m)`` and ``(7, k)``
+    u, v : np.ndarray
+        mass-weighted shapes (e.g. :func:`motion_coordinates`), ``(7, m)`` and ``(7, k)``
     """
     num = np.abs(u.conj().T @ v) ** 2
     den = np.outer(np.sum(np.abs(u) ** 2, 0), np.sum(np.abs(v) ** 2, 0))
@@ -430,20 +444,27 @@ def track_modes(
 
     Parameters
     ----------
-    problem : a :class:`hisopt.problem.Problem`
-    designs : ``n`` designs along the path, as :meth:`hisopt.problem.Problem.design_matrix`
+    problem : Any
+        a :class:`hisopt.problem.Problem`
+    designs : Any
+        ``n`` designs along the path, as :meth:`hisopt.problem.Problem.design_matrix`
         accepts (consecutive designs should be close, e.g. a sweep's grid)
-    anchor : [-] index of the design whose names the curves take
-    his : ``False`` gives the reference vehicle without HIS
-    min_mac : [-] smallest MAC accepted between a mode and its successor without bisection
-    max_depth : [-] most halvings of one step
+    anchor : int, optional
+        [-] index of the design whose names the curves take
+    his : bool, optional
+        ``False`` gives the reference vehicle without HIS
+    min_mac : float, optional
+        [-] smallest MAC accepted between a mode and its successor without bisection
+    max_depth : int, optional
+        [-] most halvings of one step
 
     Returns
     -------
-    One row per design and mode (``n * 7`` rows, designs in order, modes in
-    :data:`MODE_NAMES` order): ``design`` (index into ``designs``), ``mode``,
-    ``frequency_hz``, ``damped_frequency_hz``, ``damping_ratio`` and ``motion_share`` (as
-    in :func:`modal_table`; NaN where a mode is overdamped).
+    pd.DataFrame
+        One row per design and mode (``n * 7`` rows, designs in order, modes in
+        :data:`MODE_NAMES` order): ``design`` (index into ``designs``), ``mode``,
+        ``frequency_hz``, ``damped_frequency_hz``, ``damping_ratio`` and ``motion_share`` (as
+        in :func:`modal_table`; NaN where a mode is overdamped).
     """
     x = problem.design_matrix(designs)
     if not 0 <= anchor < len(x):

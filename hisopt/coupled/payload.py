@@ -213,14 +213,18 @@ def static_pressure_rise(vehicle: VehicleParams, payload: Payload, his: Hydrauli
 
     Parameters
     ----------
-    vehicle : the unladen car (``X`` about its CG)
-    payload : the payload
-    his : [-] the HIS at its unladen operating point (numpy batch ``B`` or CasADi symbols)
+    vehicle : VehicleParams
+        the unladen car (``X`` about its CG)
+    payload : Payload
+        the payload
+    his : HydraulicSystem
+        [-] the HIS at its unladen operating point (numpy batch ``B`` or CasADi symbols)
 
     Returns
     -------
-    numpy ``B + (n_circuits,)`` (NaN for a design whose solve did not converge, see
-    :data:`NEWTON_TOLERANCE`) or a CasADi column ``(n_circuits, 1)``.
+    numpy.ndarray or CasADi column
+        [Pa] numpy ``B + (n_circuits,)`` (NaN for a design whose solve did not converge, see
+        :data:`NEWTON_TOLERANCE`) or a CasADi column ``(n_circuits, 1)``.
     """
     k = stiffness_matrix(vehicle)
     g = stroke_matrix(vehicle)
@@ -253,8 +257,10 @@ def static_deflection(vehicle: VehicleParams, payload: Payload, his: HydraulicSy
 
     Parameters
     ----------
-    his : the unladen HIS, or None for the car without HIS
-    dp : [Pa] :func:`static_pressure_rise` (computed when None)
+    his : HydraulicSystem | None
+        the unladen HIS, or None for the car without HIS
+    dp : Any, optional
+        [Pa] :func:`static_pressure_rise` (computed when None)
     """
     k = stiffness_matrix(vehicle)
     q = payload_force(payload)

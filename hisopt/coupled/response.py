@@ -32,8 +32,10 @@ class Output:
 
         Parameters
         ----------
-        h_x : X / z_g, shape ``(..., F, 7, 4)``
-        s : [rad/s] Laplace variable, shape ``(..., F)``
+        h_x : np.ndarray
+            X / z_g, shape ``(..., F, 7, 4)``
+        s : np.ndarray
+            [rad/s] Laplace variable, shape ``(..., F)``
         """
         out = np.zeros(np.broadcast_shapes(h_x.shape[:-2], s.shape) + (4,), dtype=np.result_type(h_x, s))
         for p in range(self.c.shape[0]):
