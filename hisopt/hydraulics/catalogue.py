@@ -108,10 +108,14 @@ class CatalogueEntry:
 
     Attributes
     ----------
-    name, summary, description, source : [-] texts of the data file
-    parameters : [SI] defaults of the extra parameters the layout's elements read
-    base : the layout without pipes and chamber volumes
-    variables : [SI] bounds of the extra parameters a layout study varies (``[variables]``
+    name, summary, description, source : str
+        [-] texts of the data file
+    parameters : Mapping[str, float]
+        [SI] defaults of the extra parameters the layout's elements read
+    base : Layout
+        the layout without pipes and chamber volumes
+    variables : Mapping[str, ParameterBounds]
+        [SI] bounds of the extra parameters a layout study varies (``[variables]``
         of the data file, a problem file's syntax; the others stay at their defaults)
     """
 

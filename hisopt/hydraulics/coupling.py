@@ -49,8 +49,10 @@ class HydraulicSystem:
 
     Attributes
     ----------
-    network : the compiled structure
-    params : every parameter the layout refers to, the fluid (``rho``, ``mu``, ``beta``) and
+    network : Network
+        the compiled structure
+    params : Mapping[str, Any]
+        every parameter the layout refers to, the fluid (``rho``, ``mu``, ``beta``) and
         the cylinder geometry (``dA``, ``lam``, ``dA_rear``, ``lam_rear``)
     """
 

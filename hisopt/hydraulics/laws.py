@@ -29,12 +29,15 @@ def cylinder_areas(dA: Any, lam: Any) -> tuple[Any, Any]:
 
     Parameters
     ----------
-    dA : [m^2] bore minus annulus area, > 0
-    lam : [-] annulus over bore area, in (0, 1)
+    dA : Any
+        [m^2] bore minus annulus area, > 0
+    lam : Any
+        [-] annulus over bore area, in (0, 1)
 
     Returns
     -------
-    (A_t, A_b) : [m^2]
+    A_t, A_b : Any
+        [m^2]
     """
     a_b = dA / (1.0 - lam)
     return lam * a_b, a_b
@@ -61,10 +64,14 @@ def gas_pressure_rise(dv: Any, v0: Any, p_abs0: Any, gamma: Any) -> Any:
 
     Parameters
     ----------
-    dv : [m^3] oil stored (gas volume lost), < V0
-    v0 : [m^3] gas volume at the operating point
-    p_abs0 : [Pa] absolute gas pressure at the operating point
-    gamma : [-] polytropic exponent
+    dv : Any
+        [m^3] oil stored (gas volume lost), < V0
+    v0 : Any
+        [m^3] gas volume at the operating point
+    p_abs0 : Any
+        [Pa] absolute gas pressure at the operating point
+    gamma : Any
+        [-] polytropic exponent
     """
     return p_abs0 * ((v0 / (v0 - dv)) ** gamma - 1.0)
 
@@ -106,9 +113,12 @@ def valve_pressure_drop(q: Any, r: Any, kq: Any = 0.0) -> Any:
 
     Parameters
     ----------
-    q : [m^3/s] flow in the direction of the drop
-    r : [Pa s m^-3] linear (laminar) coefficient; 0 is a short
-    kq : [Pa s^2 m^-6] orifice coefficient; a sharp-edged orifice of area ``A_o`` and
+    q : Any
+        [m^3/s] flow in the direction of the drop
+    r : Any
+        [Pa s m^-3] linear (laminar) coefficient; 0 is a short
+    kq : Any, optional
+        [Pa s^2 m^-6] orifice coefficient; a sharp-edged orifice of area ``A_o`` and
         discharge coefficient ``C_d`` has ``K_q = rho / (2 C_d^2 A_o^2)``
     """
     return r * q + kq * q * bk.fabs(q)
@@ -131,9 +141,12 @@ def orifice_equivalent_resistance(r: Any, kq: Any, q_rms: Any) -> Any:
 
     Parameters
     ----------
-    r : [Pa s m^-3] laminar (linear) coefficient
-    kq : [Pa s^2 m^-6] quadratic coefficient
-    q_rms : [m^3/s] RMS flow through the orifice at which to linearise
+    r : Any
+        [Pa s m^-3] laminar (linear) coefficient
+    kq : Any
+        [Pa s^2 m^-6] quadratic coefficient
+    q_rms : Any
+        [m^3/s] RMS flow through the orifice at which to linearise
     """
     return r + 2.0 * math.sqrt(2.0 / math.pi) * kq * q_rms
 
@@ -181,7 +194,8 @@ def line_transfer_matrix(z: Any, y: Any, length: Any) -> tuple[Any, Any, Any, An
 
     Returns
     -------
-    (T11, T12, T21, T22), complex
+    T11, T12, T21, T22 : complex
+        The entries of ``T``.
     """
     gamma = bk.sqrt(z * y) * length
     zc = bk.sqrt(z / y)

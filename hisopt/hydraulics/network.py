@@ -60,16 +60,24 @@ class Network:
 
     Attributes
     ----------
-    layout, fidelity : what was compiled
-    labels : ``"<circuit>:p[<node>]"`` or ``"<circuit>:q[<a>-><b>]"`` per unknown
-    is_flow : [-] per unknown, shape ``(n,)``
-    circuit : [-] circuit index per unknown, ``(n,)``
-    dynamic : [-] unknowns with storage in the lumped model (nodes with a compliance, pipe
+    layout, fidelity
+        what was compiled
+    labels : tuple[str, ...]
+        ``"<circuit>:p[<node>]"`` or ``"<circuit>:q[<a>-><b>]"`` per unknown
+    is_flow : np.ndarray
+        [-] per unknown, shape ``(n,)``
+    circuit : np.ndarray
+        [-] circuit index per unknown, ``(n,)``
+    dynamic : np.ndarray
+        [-] unknowns with storage in the lumped model (nodes with a compliance, pipe
         flows with inertance), ``(n,)``; the rest are algebraic
-    elements : ``(circuit index, element)`` for every element, circuit by circuit
-    element_rows : unknown rows of each element: ``(node,)`` for shunts, ``(a, b, q)`` for
+    elements : tuple[tuple[int, Element], ...]
+        ``(circuit index, element)`` for every element, circuit by circuit
+    element_rows : tuple[tuple[int, ...], ...]
+        unknown rows of each element: ``(node,)`` for shunts, ``(a, b, q)`` for
         valves and lumped pipes, ``(a, b, q1, q2)`` for distributed pipes
-    ports : every port, circuit by circuit; ``port_rows`` its node's row; ``port_circuit``
+    ports : tuple[Port, ...]
+        every port, circuit by circuit; ``port_rows`` its node's row; ``port_circuit``
     """
 
     layout: Layout
@@ -449,7 +457,8 @@ def static_stiffness(network: Network, values: ElementValues, n_ports: Any) -> A
 
     Parameters
     ----------
-    n_ports : [m^2] incidence ``N`` from :func:`incidence`
+    n_ports : Any
+        [m^2] incidence ``N`` from :func:`incidence`
     """
     total: Any = 0.0
     for c in range(network.n_circuits):
@@ -481,7 +490,8 @@ def mirror_unknowns(network: Network) -> np.ndarray | None:
 
     Returns
     -------
-    ndarray of int, shape ``(n,)``: unknown ``i`` maps to unknown ``out[i]`` (an involution)
+    ndarray of int, shape ``(n,)``, or None
+        Unknown ``i`` maps to unknown ``out[i]`` (an involution).
     """
     by_chamber = {(port.wheel, port.chamber): int(row) for port, row in zip(network.ports, network.port_rows, strict=True)}
     node_map: dict[int, int] = {}
@@ -552,7 +562,8 @@ def low_frequency_damping(network: Network, values: ElementValues, n_ports: Any)
 
     Parameters
     ----------
-    n_ports : [m^2] incidence ``N`` from :func:`incidence`, numpy ``B + (n_ports, 4)``
+    n_ports : Any
+        [m^2] incidence ``N`` from :func:`incidence`, numpy ``B + (n_ports, 4)``
 
     Returns
     -------

@@ -35,13 +35,19 @@ class Descriptor:
 
     Attributes
     ----------
-    e : storage coefficients, ``B + (n,)`` (0 on algebraic unknowns)
-    a : ``B + (n, n)``
-    b0, b1 : input maps, ``(n, m)`` or ``B + (n, m)``; zero on algebraic rows
-    dynamic : [-] unknowns with storage, ``(n,)``
-    invariants : per conserved quantity ``(pivot, c)``: unknown index of the state to drop
+    e : np.ndarray
+        storage coefficients, ``B + (n,)`` (0 on algebraic unknowns)
+    a : np.ndarray
+        ``B + (n, n)``
+    b0, b1 : np.ndarray
+        input maps, ``(n, m)`` or ``B + (n, m)``; zero on algebraic rows
+    dynamic : np.ndarray
+        [-] unknowns with storage, ``(n,)``
+    invariants : tuple[tuple[int, np.ndarray], ...]
+        per conserved quantity ``(pivot, c)``: unknown index of the state to drop
         and the coefficients ``c`` over all unknowns, ``B + (n,)`` (zero on algebraic ones)
-    labels : name per unknown
+    labels : tuple[str, ...]
+        name per unknown
     """
 
     e: np.ndarray
@@ -59,12 +65,18 @@ class Realisation:
 
     Attributes
     ----------
-    a : ``B + (n_x, n_x)``; ``b0``, ``b1``: ``B + (n_x, m)``
-    labels : the kept unknowns' labels, ``(n_x,)``
-    kept : unknown index of each state, ``(n_x,)``
-    expand : ``T``, dynamic unknowns from states, ``B + (n_d, n_x)``
-    recover : ``S``, algebraic unknowns from dynamic ones, ``B + (n_a, n_d)``
-    dynamic_index, algebraic_index : unknown indices of the dynamic and algebraic unknowns
+    a : np.ndarray
+        ``B + (n_x, n_x)``; ``b0``, ``b1``: ``B + (n_x, m)``
+    labels : tuple[str, ...]
+        the kept unknowns' labels, ``(n_x,)``
+    kept : np.ndarray
+        unknown index of each state, ``(n_x,)``
+    expand : np.ndarray
+        ``T``, dynamic unknowns from states, ``B + (n_d, n_x)``
+    recover : np.ndarray
+        ``S``, algebraic unknowns from dynamic ones, ``B + (n_a, n_d)``
+    dynamic_index, algebraic_index : np.ndarray
+        unknown indices of the dynamic and algebraic unknowns
     """
 
     a: np.ndarray
