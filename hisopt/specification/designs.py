@@ -69,9 +69,12 @@ def read_designs(path: str | Path, names: Sequence[str], units: Mapping[str, str
 
     Parameters
     ----------
-    path : [-] the CSV file
-    names : [-] the problem's design variable names, in order
-    units : [-] the SI unit of each name (:func:`hisopt.units.variable_units`); a units row
+    path : str | Path
+        [-] the CSV file
+    names : Sequence[str]
+        [-] the problem's design variable names, in order
+    units : Mapping[str, str] | None, optional
+        [-] the SI unit of each name (:func:`hisopt.units.variable_units`); a units row
         converts the columns to them. None: a units row is not read
 
     Returns

@@ -98,11 +98,16 @@ class Rule:
 
     Attributes
     ----------
-    name : [-] parameter name
-    lower : [parameter unit] lower end (None: unbounded)
-    lower_closed : [-] True for ``>=``, False for ``>``
-    upper : [parameter unit] upper end (None: unbounded)
-    upper_closed : [-] True for ``<=``, False for ``<``
+    name : str
+        [-] parameter name
+    lower : float | None
+        [parameter unit] lower end (None: unbounded)
+    lower_closed : bool
+        [-] True for ``>=``, False for ``>``
+    upper : float | None
+        [parameter unit] upper end (None: unbounded)
+    upper_closed : bool
+        [-] True for ``<=``, False for ``<``
     """
 
     name: str
@@ -331,13 +336,16 @@ def design_matrix(problem: DesignSpace, designs: Any, source: str | None = None)
 
     Parameters
     ----------
-    problem : the problem (its variable names and baseline)
-    designs : [variable units] an array ``(n, n_var)`` or one design ``(n_var,)``; a DataFrame
+    problem : DesignSpace
+        the problem (its variable names and baseline)
+    designs : Any
+        [variable units] an array ``(n, n_var)`` or one design ``(n_var,)``; a DataFrame
         with the variable columns (other columns are ignored; ``P0`` is taken for ``p0`` when
         no column is exactly ``p0``; a column whose ``attrs["units"]`` names another unit, e.g.
         ``MPa`` from a units row read by :func:`hisopt.io.read_csv`, is converted); a dict of names to values or arrays (missing names take
         the baseline); or a list of such dicts, one per design
-    source : [-] where the designs come from (named in errors), e.g. a file name
+    source : str | None, optional
+        [-] where the designs come from (named in errors), e.g. a file name
 
     Returns
     -------
@@ -413,9 +421,12 @@ class DesignCheck:
 
     Attributes
     ----------
-    status : [-] ``(n,)`` one of ``ok``, ``out_of_bounds``, ``invalid``
-    reason : [-] ``(n,)`` why a row is flagged (empty for ``ok``) and what happens to it
-    detail : [-] ``(n,)`` the reason without what happens to the row
+    status : np.ndarray
+        [-] ``(n,)`` one of ``ok``, ``out_of_bounds``, ``invalid``
+    reason : np.ndarray
+        [-] ``(n,)`` why a row is flagged (empty for ``ok``) and what happens to it
+    detail : np.ndarray
+        [-] ``(n,)`` the reason without what happens to the row
     """
 
     status: np.ndarray
@@ -596,9 +607,12 @@ def read_file(path: str | Path, what: str, missing_error: type[Exception] = Conf
 
     Parameters
     ----------
-    path : [-] the file
-    what : [-] what the file should be, for the messages, e.g. ``"a TOML problem file"``
-    missing_error : [-] the error type for a path that does not exist
+    path : str | Path
+        [-] the file
+    what : str
+        [-] what the file should be, for the messages, e.g. ``"a TOML problem file"``
+    missing_error : type[Exception], optional
+        [-] the error type for a path that does not exist
 
     Raises
     ------

@@ -43,9 +43,12 @@ class LayoutCase:
 
     Attributes
     ----------
-    name : [-] catalogue name, or the stem of the custom layout's problem file
-    problem : the study problem with this layout and its design variables
-    source : [-] ``"catalogue"`` or the custom problem file's path
+    name : str
+        [-] catalogue name, or the stem of the custom layout's problem file
+    problem : Problem
+        the study problem with this layout and its design variables
+    source : str
+        [-] ``"catalogue"`` or the custom problem file's path
     """
 
     name: str

@@ -100,10 +100,14 @@ class Normalisation:
 
     Attributes
     ----------
-    objectives : [-] objective names, in order
-    ideal_log, reference_log : [decades] ``(n_obj,)``
-    handling : [-] the handling quantity
-    plane_ideal_log, plane_reference_log : [decades] of ``(sigma_aw, handling)``, ``(2,)``
+    objectives : tuple[str, ...]
+        [-] objective names, in order
+    ideal_log, reference_log : np.ndarray
+        [decades] ``(n_obj,)``
+    handling : str
+        [-] the handling quantity
+    plane_ideal_log, plane_reference_log : np.ndarray
+        [decades] of ``(sigma_aw, handling)``, ``(2,)``
     """
 
     objectives: tuple[str, ...]
@@ -206,11 +210,15 @@ class Attainment:
 
     Attributes
     ----------
-    surfaces : [-] rows ``(sigma_aw_norm, handling_norm, percentile)``: the EAF's attainment
+    surfaces : np.ndarray
+        [-] rows ``(sigma_aw_norm, handling_norm, percentile)``: the EAF's attainment
         surfaces at :data:`ATTAINMENT_LEVELS` (the best, median and worst seed)
-    vorobev_threshold_pct : [%] Vorob'ev threshold
-    vorobev_expectation : [-] the expectation's points, ``(m, 2)``
-    vorobev_deviation : [-] Vorob'ev deviation (unit square)
+    vorobev_threshold_pct : float
+        [%] Vorob'ev threshold
+    vorobev_expectation : np.ndarray
+        [-] the expectation's points, ``(m, 2)``
+    vorobev_deviation : float
+        [-] Vorob'ev deviation (unit square)
     """
 
     surfaces: np.ndarray
@@ -224,7 +232,8 @@ def attainment(sets: list[np.ndarray]) -> Attainment:
 
     Parameters
     ----------
-    sets : [-] per seed, its normalised plane points ``(n_i, 2)``; points not below the
+    sets : list[np.ndarray]
+        [-] per seed, its normalised plane points ``(n_i, 2)``; points not below the
         reference ``(1, 1)`` are dropped, and a seed left with none attains only the reference
         corner (so it still counts as a seed)
     """

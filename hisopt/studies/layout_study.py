@@ -211,20 +211,30 @@ class LayoutStudyResult:
 
     Attributes
     ----------
-    table : one row per layout (``layouts.csv``, :data:`TABLE_DOC`)
-    runs : one row per layout and seed: ``layout``, ``seed``, ``hypervolume`` [-],
+    table : pd.DataFrame
+        one row per layout (``layouts.csv``, :data:`TABLE_DOC`)
+    runs : pd.DataFrame
+        one row per layout and seed: ``layout``, ``seed``, ``hypervolume`` [-],
         ``front_size``, ``evaluations``, ``feasible_designs``
-    fronts : each seed's front: ``layout``, ``seed``, objectives [physical units] and
+    fronts : pd.DataFrame
+        each seed's front: ``layout``, ``seed``, objectives [physical units] and
         ``<objective>_norm`` [-]
-    curve : the trade-off staircase: ``layout``, ``source`` (sampled or refined), ``seed``,
+    curve : pd.DataFrame
+        the trade-off staircase: ``layout``, ``source`` (sampled or refined), ``seed``,
         the handling quantity and ``sigma_aw`` [physical units]
-    attainment : ``layout``, ``kind`` (``eaf`` or ``vorobev``), ``percentile`` [%],
+    attainment : pd.DataFrame
+        ``layout``, ``kind`` (``eaf`` or ``vorobev``), ``percentile`` [%],
         ``sigma_aw`` and the handling quantity [physical units]
-    cases : the layouts
-    normalisation : the shared normalisation
-    handling : [-] the handling quantity
-    handling_limit : [quantity unit] the limit of the equal-handling comparison
-    out : the study directory (None: nothing written)
+    cases : list[LayoutCase]
+        the layouts
+    normalisation : Normalisation
+        the shared normalisation
+    handling : str
+        [-] the handling quantity
+    handling_limit : float
+        [quantity unit] the limit of the equal-handling comparison
+    out : Path | None
+        the study directory (None: nothing written)
     """
 
     table: pd.DataFrame
@@ -295,17 +305,26 @@ def run_layout_study(
 
     Parameters
     ----------
-    problem : the study problem (its layout is replaced by each layout's)
-    layouts : [-] catalogue names and custom layouts' problem files, as a list or
+    problem : Problem
+        the study problem (its layout is replaced by each layout's)
+    layouts : str | Sequence[str] | None, optional
+        [-] catalogue names and custom layouts' problem files, as a list or
         comma-separated; default the whole catalogue; ``roll_plane`` is always included
-    seeds : [-] one run per layout and seed, e.g. ``"1-3"``
-    out : study directory (module docstring); None keeps everything in memory
-    pop_size, generations : [-] the budget of every run (default the problem's ``[optimizer]``)
-    handling : [-] the quantity held equal (default :func:`default_handling_quantity`)
-    handling_limit : [quantity unit] its limit (default its value at the baseline design on
+    seeds : str | Sequence[int], optional
+        [-] one run per layout and seed, e.g. ``"1-3"``
+    out : str | Path | None, optional
+        study directory (module docstring); None keeps everything in memory
+    pop_size, generations : int | None, optional
+        [-] the budget of every run (default the problem's ``[optimizer]``)
+    handling : str | None, optional
+        [-] the quantity held equal (default :func:`default_handling_quantity`)
+    handling_limit : float | None, optional
+        [quantity unit] its limit (default its value at the baseline design on
         the roll-plane layout)
-    backend : where runs and refinements go (default this process; Dask: one task per run)
-    progress : called with ``{"layout", "seed", "evaluations", "feasible_designs"}`` as each run ends
+    backend : Backend | None, optional
+        where runs and refinements go (default this process; Dask: one task per run)
+    progress : Callable[[dict[str, Any]], None] | None, optional
+        called with ``{"layout", "seed", "evaluations", "feasible_designs"}`` as each run ends
 
     Raises
     ------

@@ -59,14 +59,20 @@ def assemble(
 
     Parameters
     ----------
-    cases : the layouts, roll-plane first
-    runs : per (layout, seed) task, in that order: ``layout``, ``seed``, ``front``
+    cases : list[LayoutCase]
+        the layouts, roll-plane first
+    runs : list[dict[str, Any]]
+        per (layout, seed) task, in that order: ``layout``, ``seed``, ``front``
         (variables and objectives), ``designs`` (every feasible design: ``evaluation``,
         variables, ``sigma_aw``, the handling quantity), ``evaluations``
-    norm : the shared normalisation
-    handling : [-] the handling quantity; limit : [its unit] the equal-handling limit
-    backend : where the refinements run
-    curve_refined : [-] refined points per layout on the trade-off curve
+    norm : Normalisation
+        the shared normalisation
+    handling : str
+        [-] the handling quantity; limit : [its unit] the equal-handling limit
+    backend : Backend
+        where the refinements run
+    curve_refined : int, optional
+        [-] refined points per layout on the trade-off curve
     """
     problems = {c.name: c.problem for c in cases}
     objectives = list(norm.objectives)

@@ -86,7 +86,8 @@ def mode_stiffness(problem: DesignSpace | None = None) -> pd.DataFrame:
 
     Parameters
     ----------
-    problem : the problem whose ``[his]`` values (the baseline design) are used; None: the
+    problem : DesignSpace | None, optional
+        the problem whose ``[his]`` values (the baseline design) are used; None: the
         default problem's (docs/model.md §3.6)
     """
     from hisopt.hydraulics.roll_plane import RollPlaneHIS

@@ -104,18 +104,25 @@ def response_peaks(
 
     Parameters
     ----------
-    problem : the problem (vehicle, HIS, road, band)
-    designs : designs, as :meth:`hisopt.problem.Problem.design_matrix` accepts, ``n`` rows
-    outputs : names of :func:`hisopt.coupled.response.standard_outputs`
-    centers_hz : [Hz] per output, a frequency per design, shape ``(n,)``: the maximum is then
+    problem : Problem
+        the problem (vehicle, HIS, road, band)
+    designs : Any
+        designs, as :meth:`hisopt.problem.Problem.design_matrix` accepts, ``n`` rows
+    outputs : tuple[str, ...]
+        names of :func:`hisopt.coupled.response.standard_outputs`
+    centers_hz : Mapping[str, np.ndarray] | None, optional
+        [Hz] per output, a frequency per design, shape ``(n,)``: the maximum is then
         sought within ``[center / window, center * window]`` (a mode's own peak, not another
         mode's); outputs without a centre use the whole band
-    window : [-] frequency ratio of the search window each side of a centre
-    steps : new samples of each maximum (:func:`hisopt.evaluation.peaks.refine_maximum`)
+    window : float, optional
+        [-] frequency ratio of the search window each side of a centre
+    steps : int, optional
+        new samples of each maximum (:func:`hisopt.evaluation.peaks.refine_maximum`)
 
     Returns
     -------
-    dict name -> ``(f_peak_hz (n,), psd_peak (n,))``
+    dict[str, tuple[np.ndarray, np.ndarray]]
+        name -> ``(f_peak_hz (n,), psd_peak (n,))``
     """
     from hisopt.evaluation.channels import DirectOutputs
     from hisopt.evaluation.evaluate import Evaluator, poles
@@ -156,19 +163,27 @@ class SweepResult:
 
     Attributes
     ----------
-    problem_name : the problem's name
-    variable : the swept design variable
-    unit : its unit (SI)
-    frame : one row per value: the variable, then ``<mode>_frequency_hz``,
+    problem_name : str
+        the problem's name
+    variable : str
+        the swept design variable
+    unit : str
+        its unit (SI)
+    frame : pd.DataFrame
+        one row per value: the variable, then ``<mode>_frequency_hz``,
         ``<mode>_damping_ratio``, ``<mode>_motion_share`` (share of the mode's kinetic energy
         in the motion its name says, :func:`hisopt.coupled.modal.modal_table`), ``<mode>_peak_hz`` and
         ``<mode>_peak_psd`` for roll, pitch and bounce (each mode followed continuously,
         named as at the grid point nearest the baseline), ``tire_peak_hz`` and
         ``tire_peak_psd`` for the FL tyre force
-    responses : response of each key (:data:`SWEEP_RESPONSES`)
-    units : PSD unit of each key
-    baseline : the fixed values of the other variables
-    baseline_units : their units
+    responses : dict[str, str]
+        response of each key (:data:`SWEEP_RESPONSES`)
+    units : dict[str, str]
+        PSD unit of each key
+    baseline : dict[str, float]
+        the fixed values of the other variables
+    baseline_units : dict[str, str]
+        their units
     """
 
     problem_name: str
@@ -263,13 +278,18 @@ def sweep(
 
     Parameters
     ----------
-    problem : the problem (its variables' bounds, baseline design, vehicle, road, band)
-    vary : a design variable of the problem
-    points : [-] values, evenly spaced between the bounds (both included)
-    responses : response per key (``roll``, ``pitch``, ``bounce``, ``tire``); default
+    problem : Problem
+        the problem (its variables' bounds, baseline design, vehicle, road, band)
+    vary : str
+        a design variable of the problem
+    points : int, optional
+        [-] values, evenly spaced between the bounds (both included)
+    responses : Mapping[str, str] | None, optional
+        response per key (``roll``, ``pitch``, ``bounce``, ``tire``); default
         :data:`SWEEP_RESPONSES`; e.g. ``{"roll": "roll"}`` for the roll angle; a key that
         is a mode name (:data:`hisopt.coupled.modal.MODE_NAMES`) gets that mode's modal columns
-    backend : where to compute (default in-process; a Dask backend splits the points into
+    backend : Backend | None, optional
+        where to compute (default in-process; a Dask backend splits the points into
         chunks of :data:`hisopt.evaluation.parallel.DEFAULT_CHUNK`)
 
     Raises
@@ -318,17 +338,27 @@ class RegionsResult:
 
     Attributes
     ----------
-    problem_name : the problem's name
-    pair : the two varied design variables (x axis, y axis)
-    units : their units
-    grid_x, grid_y : [variable units] grid values, shapes ``(n_x,)``, ``(n_y,)``
-    values : [physical units] each indicator and constraint quantity, shape ``(n_y, n_x)``
-    valid : the model could be evaluated, shape ``(n_y, n_x)``
-    thresholds : [physical units] upper limit per quantity (value <= limit is acceptable)
-    threshold_source : ``"constraints"`` (the problem's) or ``"baseline"`` (the baseline
+    problem_name : str
+        the problem's name
+    pair : tuple[str, str]
+        the two varied design variables (x axis, y axis)
+    units : tuple[str, str]
+        their units
+    grid_x, grid_y : np.ndarray
+        [variable units] grid values, shapes ``(n_x,)``, ``(n_y,)``
+    values : dict[str, np.ndarray]
+        [physical units] each indicator and constraint quantity, shape ``(n_y, n_x)``
+    valid : np.ndarray
+        the model could be evaluated, shape ``(n_y, n_x)``
+    thresholds : dict[str, float]
+        [physical units] upper limit per quantity (value <= limit is acceptable)
+    threshold_source : Literal['constraints', 'baseline']
+        ``"constraints"`` (the problem's) or ``"baseline"`` (the baseline
         design's indicator values, for a problem without constraints)
-    baseline : the fixed values of the other variables
-    baseline_units : their units
+    baseline : dict[str, float]
+        the fixed values of the other variables
+    baseline_units : dict[str, str]
+        their units
     """
 
     problem_name: str
@@ -445,10 +475,14 @@ def regions(problem: Problem, pair: tuple[str, str], points: int = 41, backend: 
 
     Parameters
     ----------
-    problem : the problem (bounds, baseline design, constraints)
-    pair : two different design variables: x axis, y axis
-    points : [-] grid values per variable, evenly spaced between its bounds
-    backend : where to evaluate the grid (default in-process; Dask for large grids)
+    problem : Problem
+        the problem (bounds, baseline design, constraints)
+    pair : tuple[str, str]
+        two different design variables: x axis, y axis
+    points : int, optional
+        [-] grid values per variable, evenly spaced between its bounds
+    backend : Backend | None, optional
+        where to evaluate the grid (default in-process; Dask for large grids)
 
     Raises
     ------
