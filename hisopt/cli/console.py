@@ -57,11 +57,16 @@ def run_with_console(
 
     Parameters
     ----------
-    start : [-] starts or resumes the run with the given progress callback
-    total : [-] generations of the run
-    done : [-] generations already completed
-    run_dir : [-] the run directory (for the resume hint)
-    debug : [-] re-raise an internal error (for its traceback) instead of reporting it
+    start : Callable[[ProgressFn], OptimizationResult]
+        [-] starts or resumes the run with the given progress callback
+    total : int
+        [-] generations of the run
+    done : int
+        [-] generations already completed
+    run_dir : Path
+        [-] the run directory (for the resume hint)
+    debug : bool, optional
+        [-] re-raise an internal error (for its traceback) instead of reporting it
 
     Returns
     -------

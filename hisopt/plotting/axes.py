@@ -71,11 +71,15 @@ def log_axis(values: ArrayLike, pad: float = 0.05, digits: int = 3, max_ticks: i
 
     Parameters
     ----------
-    values : [axis unit] the data on the axis (non-positive and non-finite values ignored)
-    pad : [-] margin beyond the data at each end, as a share of the span in decades
+    values : ArrayLike
+        [axis unit] the data on the axis (non-positive and non-finite values ignored)
+    pad : float, optional
+        [-] margin beyond the data at each end, as a share of the span in decades
         (at least 0.02 decade)
-    digits : [-] significant figures of the tick labels
-    max_ticks : [-] most ticks of 1-2-5, 1-3 or decade steps
+    digits : int, optional
+        [-] significant figures of the tick labels
+    max_ticks : int, optional
+        [-] most ticks of 1-2-5, 1-3 or decade steps
     """
     x = _finite_positive(values)
     if x.size == 0:

@@ -73,9 +73,12 @@ def html_table(
 
     Parameters
     ----------
-    shown : cells as text (e.g. :func:`hisopt.units.display_frame`)
-    text_columns : left-aligned columns (labels); numbers are right-aligned
-    wrap_columns : columns whose long text wraps
+    shown : pd.DataFrame
+        cells as text (e.g. :func:`hisopt.units.display_frame`)
+    text_columns : tuple[str, ...], optional
+        left-aligned columns (labels); numbers are right-aligned
+    wrap_columns : tuple[str, ...], optional
+        columns whose long text wraps
     """
 
     def header(col: str) -> str:
@@ -181,8 +184,10 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
 
     Parameters
     ----------
-    color_by : objective colouring the parallel coordinates (default: the first objective)
-    design : design whose spectra and modes are shown: ``knee``, ``asf`` or a front row index
+    color_by : str | None, optional
+        objective colouring the parallel coordinates (default: the first objective)
+    design : str, optional
+        design whose spectra and modes are shown: ``knee``, ``asf`` or a front row index
     """
     import plotly.offline
 

@@ -112,9 +112,12 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
 
     Parameters
     ----------
-    layout : the circuits (e.g. :meth:`hisopt.specification.design_space.DesignSpace.layout`)
-    values : [SI] parameter values shown on hover (e.g. the baseline's), None: names only
-    title : figure title (default names the layout)
+    layout : Layout
+        the circuits (e.g. :meth:`hisopt.specification.design_space.DesignSpace.layout`)
+    values : Mapping[str, Any] | None, optional
+        [SI] parameter values shown on hover (e.g. the baseline's), None: names only
+    title : str | None, optional
+        figure title (default names the layout)
     """
     import plotly.graph_objects as go
 
