@@ -34,7 +34,8 @@ class Interrupted(KeyboardInterrupt):
 
     Attributes
     ----------
-    signum : [-] the signal number
+    signum : int
+        [-] the signal number
     """
 
     def __init__(self, signum: int):

@@ -191,11 +191,14 @@ def given_warnings(spec: Any, given: Mapping[str, Any], precharges: Collection[s
 
     Parameters
     ----------
-    spec : the validated problem (:class:`hisopt.specification.config.ProblemSpec`: the values judged)
-    given : the problem's raw data as the user wrote it, or the part given (``{"his": {"p0":
+    spec : Any
+        the validated problem (:class:`hisopt.specification.config.ProblemSpec`: the values judged)
+    given : Mapping[str, Any]
+        the problem's raw data as the user wrote it, or the part given (``{"his": {"p0":
         5e4}}`` for ``--set p0=5e4``): a value is judged only where it was given, and a roll
         limit warns only when given as a bare number (read in rad)
-    precharges : the parameter names the problem's layout reads as an accumulator precharge
+    precharges : Collection[str]
+        the parameter names the problem's layout reads as an accumulator precharge
     """
     out: list[tuple[str, str]] = []
     his = _given(given, "his")

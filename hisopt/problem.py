@@ -45,10 +45,14 @@ class Problem(DesignSpace):
 
         Parameters
         ----------
-        designs : [variable units] any form :func:`hisopt.specification.validation.design_matrix` accepts
-        backend : [-] a :class:`hisopt.evaluation.parallel.Backend` (Dask) or None for this process
-        source : [-] where the designs come from (named in the messages)
-        log : [-] log the warning line (the CLI prints it itself)
+        designs : Any
+            [variable units] any form :func:`hisopt.specification.validation.design_matrix` accepts
+        backend : Backend | None, optional
+            [-] a :class:`hisopt.evaluation.parallel.Backend` (Dask) or None for this process
+        source : str | None, optional
+            [-] where the designs come from (named in the messages)
+        log : bool, optional
+            [-] log the warning line (the CLI prints it itself)
         """
         from hisopt.evaluation.parallel import evaluate_designs
 

@@ -62,9 +62,12 @@ def cvar(values: np.ndarray, weights: Sequence[float], alpha: float) -> np.ndarr
 
     Parameters
     ----------
-    values : [quantity unit] shape ``(n, S)``
-    weights : [-] relative weight of each scenario, ``(S,)``
-    alpha : [-] level in ``[0, 1)``
+    values : np.ndarray
+        [quantity unit] shape ``(n, S)``
+    weights : Sequence[float]
+        [-] relative weight of each scenario, ``(S,)``
+    alpha : float
+        [-] level in ``[0, 1)``
     """
     if values.shape[1] == 1:
         return values[:, 0].copy()

@@ -266,8 +266,10 @@ def display_frame(frame: pd.DataFrame, units: Mapping[str, str] | None = None, d
 
     Parameters
     ----------
-    frame : [SI] the table; ``units`` default ``frame.attrs["units"]``
-    digits : [-] significant figures
+    frame : pd.DataFrame
+        [SI] the table; ``units`` default ``frame.attrs["units"]``
+    digits : int, optional
+        [-] significant figures
     """
     units = dict(frame.attrs.get("units", {}) if units is None else units)
     out = {}
