@@ -198,6 +198,7 @@ def droptest(
 
     from hisopt.errors import ConfigError
     from hisopt.io import write_csv
+    from hisopt.plotting.theme import write_html
     from hisopt.quantities import to_si
     from hisopt.simulation.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure, unpaired_notes
     from hisopt.units import display_for, format_number
@@ -229,7 +230,7 @@ def droptest(
     try:
         out.mkdir(parents=True, exist_ok=True)
         write_csv(frame, out / "droptest.csv")
-        spectra_figure(tests).write_html(out / "droptest.html", include_plotlyjs=True)
+        write_html(spectra_figure(tests), out / "droptest.html")
     except OSError as exc:
         raise ConfigError(f"cannot write the results ({exc.strerror}); expected a writable directory", key="--out") from exc
 

@@ -6,13 +6,15 @@ Quantities are plotted in engineering units (:func:`hisopt.units.display_for`: `
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from hisopt.plotting.theme import COLORS, template
+from hisopt.robust import scenario_column
 from hisopt.units import Display, display_for, hypervolume_unit
 
 if TYPE_CHECKING:
@@ -36,6 +38,53 @@ def _hover(frame: pd.DataFrame, shown: Mapping[str, Display]) -> list[str]:
     return ["<br>".join(f"{c} = {d(v)}" for (c, d), v in zip(shown.items(), row, strict=True)) for row in rows]
 
 
+@dataclass(frozen=True)
+class _View:
+    """One set of axes over the designs in a scatter matrix: a colour and legend entry each."""
+
+    dims: Callable[[pd.DataFrame], list[dict]]  # the panels' axes of some designs
+    hover: Callable[[pd.DataFrame], list[str]]  # their hover texts
+    name: str
+    refined_name: str
+    colour: str
+    refined_colour: str
+    group: str | None = None  # legend group; None: traces ungrouped and highlights shown once each
+
+
+def _scatter_matrix(
+    views: Sequence[_View],
+    front: pd.DataFrame,
+    refined: pd.DataFrame | None,
+    highlights: Mapping[str, pd.Series] | None,
+    n_axes: int,
+    title: str,
+) -> go.Figure:
+    """Scatter matrix (lower half) of the front, the refined front and highlighted designs, in every view."""
+    import plotly.graph_objects as go
+
+    def splom(view: _View, df: pd.DataFrame, **trace) -> go.Splom:
+        return go.Splom(dimensions=view.dims(df), text=view.hover(df), hoverinfo="text", diagonal_visible=False, showupperhalf=False, **trace)
+
+    fig = go.Figure()
+    for view in views:
+        group = {} if view.group is None else {"legendgroup": view.group}
+        fig.add_trace(splom(view, front, name=view.name, marker={"size": 5, "color": view.colour, "opacity": 0.6}, **group))
+        if refined is not None and len(refined):
+            fig.add_trace(splom(view, refined, name=view.refined_name, marker={"size": 6, "color": view.refined_colour, "symbol": "triangle-up"},
+                                **group))
+    for label, row in (highlights or {}).items():
+        one = row.to_frame().T
+        style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
+        for k, view in enumerate(views):  # the same design in every view: one legend entry
+            legend: dict[str, Any] = {} if view.group is None else {"legendgroup": label, "showlegend": k == 0}
+            fig.add_trace(splom(view, one, name=label, marker={**style, "line": {"width": 1, "color": "black"}}, **legend))
+    n = max(n_axes - 1, 1)
+    fig.update_layout(template=template(), title=title, height=170 + 230 * n, dragmode="select", margin={"t": 60, "b": 110})
+    # Side by side the columns' x ticks meet at the seams; three at most keeps them apart.
+    fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, n_axes + 1)})
+    return fig
+
+
 def front_scatter_matrix(
     front: pd.DataFrame,
     objectives: Sequence[str],
@@ -45,35 +94,13 @@ def front_scatter_matrix(
     units: Mapping[str, str] | None = None,
 ) -> go.Figure:
     """Scatter matrix of the objectives; hovering a point shows its whole design."""
-    import plotly.graph_objects as go
-
     shown = displays(front, list(variables) + list(objectives), units)
-    dims = lambda df: [{"label": shown[o].label(o), "values": shown[o].values(df[o])} for o in objectives]  # noqa: E731
-    fig = go.Figure()
-    fig.add_trace(
-        go.Splom(dimensions=dims(front), text=_hover(front, shown), hoverinfo="text", name="front",
-                 marker={"size": 5, "color": COLORS[0], "opacity": 0.6}, diagonal_visible=False, showupperhalf=False)
+    view = _View(
+        dims=lambda df: [{"label": shown[o].label(o), "values": shown[o].values(df[o])} for o in objectives],
+        hover=lambda df: _hover(df, shown),
+        name="front", refined_name="refined front", colour=COLORS[0], refined_colour="#66a182",
     )
-    if refined is not None and len(refined):
-        fig.add_trace(
-            go.Splom(dimensions=dims(refined), text=_hover(refined, shown), hoverinfo="text", name="refined front",
-                     marker={"size": 6, "color": "#66a182", "symbol": "triangle-up"}, diagonal_visible=False, showupperhalf=False)
-        )
-    for label, row in (highlights or {}).items():
-        one = row.to_frame().T
-        style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
-        fig.add_trace(
-            go.Splom(dimensions=dims(one), text=_hover(one, shown), hoverinfo="text", name=label,
-                     marker={**style, "line": {"width": 1, "color": "black"}}, diagonal_visible=False, showupperhalf=False)
-        )
-    n = max(len(objectives) - 1, 1)
-    fig.update_layout(
-        template=template(), title="Pareto front: objectives (hover for the design)", height=170 + 230 * n,
-        dragmode="select", margin={"t": 60, "b": 110},
-    )
-    # Side by side the columns' x ticks meet at the seams; three at most keeps them apart.
-    fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, len(objectives) + 1)})
-    return fig
+    return _scatter_matrix([view], front, refined, highlights, len(objectives), "Pareto front: objectives (hover for the design)")
 
 
 def scenario_scatter_matrix(
@@ -93,10 +120,6 @@ def scenario_scatter_matrix(
     off. Each quantity's axis has one unit across its scenarios; hovering a point shows its
     design and that scenario's values.
     """
-    import plotly.graph_objects as go
-
-    from hisopt.robust import scenario_column
-
     units = dict(front.attrs.get("units", {}) if units is None else units)
     columns = {q: [scenario_column(q, s) for s in scenarios] for q in quantities}
     tables = [front] + ([refined] if refined is not None and len(refined) else []) + [r.to_frame().T for r in (highlights or {}).values()]
@@ -104,36 +127,20 @@ def scenario_scatter_matrix(
              for q, cols in columns.items()}
     design = displays(front, variables, units)
 
-    def dims(df: pd.DataFrame, s: str) -> list[dict]:
-        return [{"label": shown[q].label(q), "values": shown[q].values(df[scenario_column(q, s)])} for q in quantities]
+    def view(k: int, s: str) -> _View:
+        def dims(df: pd.DataFrame) -> list[dict]:
+            return [{"label": shown[q].label(q), "values": shown[q].values(df[scenario_column(q, s)])} for q in quantities]
 
-    def hover(df: pd.DataFrame, s: str) -> list[str]:
-        both = {v: design[v] for v in variables} | {scenario_column(q, s): shown[q] for q in quantities}
-        return [f"load case {s}<br>{text}" for text in _hover(df, both)]
+        def hover(df: pd.DataFrame) -> list[str]:
+            both = {v: design[v] for v in variables} | {scenario_column(q, s): shown[q] for q in quantities}
+            return [f"load case {s}<br>{text}" for text in _hover(df, both)]
 
-    fig = go.Figure()
-    for k, s in enumerate(scenarios):
         colour = COLORS[k % len(COLORS)]
-        fig.add_trace(go.Splom(dimensions=dims(front, s), text=hover(front, s), hoverinfo="text", name=s, legendgroup=s,
-                               marker={"size": 5, "color": colour, "opacity": 0.6}, diagonal_visible=False, showupperhalf=False))
-        if refined is not None and len(refined):
-            fig.add_trace(go.Splom(dimensions=dims(refined, s), text=hover(refined, s), hoverinfo="text", name=f"{s}: refined",
-                                   legendgroup=s, marker={"size": 6, "color": colour, "symbol": "triangle-up"},
-                                   diagonal_visible=False, showupperhalf=False))
-    for label, row in (highlights or {}).items():
-        one = row.to_frame().T
-        style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
-        for k, s in enumerate(scenarios):  # the same design in every load case: one legend entry
-            fig.add_trace(go.Splom(dimensions=dims(one, s), text=hover(one, s), hoverinfo="text", name=label, legendgroup=label,
-                                   showlegend=k == 0, marker={**style, "line": {"width": 1, "color": "black"}},
-                                   diagonal_visible=False, showupperhalf=False))
-    n = max(len(quantities) - 1, 1)
-    fig.update_layout(
-        template=template(), title="Pareto front in each load case (colour; hover for the design)", height=170 + 230 * n,
-        dragmode="select", margin={"t": 60, "b": 110},
-    )
-    fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, len(quantities) + 1)})
-    return fig
+        return _View(dims, hover, name=s, refined_name=f"{s}: refined", colour=colour, refined_colour=colour, group=s)
+
+    views = [view(k, s) for k, s in enumerate(scenarios)]
+    title = "Pareto front in each load case (colour; hover for the design)"
+    return _scatter_matrix(views, front, refined, highlights, len(quantities), title)
 
 
 def parallel_coordinates(

@@ -70,8 +70,7 @@ from hisopt.simulation.timedomain import SimulationMode, TimeResponse, simulate
 from hisopt.units import attach_units, display_for
 
 if TYPE_CHECKING:
-    import plotly.graph_objects as go
-
+    from hisopt.plotting import Figure
     from hisopt.problem import Problem
 
 DropCase = Literal["front_axle", "left_side", "all_wheels"]
@@ -339,26 +338,16 @@ class DropTest:
         body = pd.DataFrame(self.body, columns=[f"a_{c}" for c in BODY_COORDINATES])
         return pd.concat([self.signals.reset_index(drop=True), body], axis=1)
 
-    def plot_spectrum(self, fig: go.Figure | None = None, row: int | None = None) -> go.Figure:
-        """Response spectrum of the test's body coordinate (paper Fig. 13), one trace."""
-        import plotly.graph_objects as go
-
-        from hisopt.plotting.theme import template
-
-        fig = go.Figure(layout={"template": template()}) if fig is None else fig
+    def _spectrum_data(self) -> dict[str, Any]:
+        """What a figure of the spectrum needs (:mod:`hisopt.plotting.droptest`)."""
         f, mag = self.spectrum()
-        keep = f <= 10.0
-        dash = "dash" if self.source == "measured" else "solid"
-        fig.add_scatter(
-            x=f[keep],
-            y=mag[keep],
-            name=f"p0 = {self.p0_pa / 1e6:g} MPa ({self.source})",
-            line={"dash": dash},
-            legendgroup=self.case,
-            legendgrouptitle_text=f"{self.case} drop ({self.mode})",
-            **({"row": row, "col": 1} if row is not None else {}),
-        )
-        return fig
+        return {"case": self.case, "p0_pa": self.p0_pa, "source": self.source, "mode": self.mode, "f_hz": f, "magnitude": mag}
+
+    def plot_spectrum(self, fig: Figure | None = None, row: int | None = None) -> Figure:
+        """Response spectrum of the test's body coordinate (paper Fig. 13), one trace (:func:`hisopt.plotting.droptest.drop_spectrum_figure`)."""
+        from hisopt.plotting.droptest import drop_spectrum_figure
+
+        return drop_spectrum_figure(self._spectrum_data(), fig, row)
 
 
 def _case(case: str) -> DropCaseSpec:
@@ -573,30 +562,11 @@ def measured_drop_test(
     return process_record(problem, case, p0_pa, record, "measured", window_s)
 
 
-def spectra_figure(tests: Sequence[DropTest]) -> go.Figure:
-    """Response spectra of the drop tests, one panel per body mode (paper Fig. 13)."""
-    from plotly.subplots import make_subplots
+def spectra_figure(tests: Sequence[DropTest]) -> Figure:
+    """Response spectra of the drop tests, one panel per body mode (paper Fig. 13; :func:`hisopt.plotting.droptest.drop_spectra_figure`)."""
+    from hisopt.plotting.droptest import drop_spectra_figure
 
-    from hisopt.plotting.theme import template
-
-    order = ("left_side", "front_axle", "all_wheels")
-    present = [c for c in order if any(t.case == c for t in tests)]
-    titles = [f"{DROP_CASES[c].mode} response ({c.replace('_', ' ')} drop)" for c in present]
-    fig = make_subplots(rows=max(len(present), 1), cols=1, subplot_titles=titles, vertical_spacing=0.08)
-    units = {"bounce": "m/s", "roll": "rad/s", "pitch": "rad/s"}
-    for row, case in enumerate(present, start=1):
-        for test in (t for t in tests if t.case == case):
-            test.plot_spectrum(fig, row=row)
-        mode = DROP_CASES[case].mode
-        fig.update_yaxes(title_text=f"|{mode} acc.| [{units[mode]}]", row=row, col=1)
-    fig.update_xaxes(title_text="frequency [Hz]", row=len(present), col=1)
-    fig.update_layout(
-        template=template(),
-        title="Drop-test response spectra (20 Hz low-pass, free decay)",
-        height=320 * max(len(present), 1) + 120,
-        legend={"groupclick": "toggleitem"},
-    )
-    return fig
+    return drop_spectra_figure([t._spectrum_data() for t in tests], {case: spec.mode for case, spec in DROP_CASES.items()})
 
 
 __all__ = [

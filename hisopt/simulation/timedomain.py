@@ -38,7 +38,7 @@ from hisopt.simulation.nonlinear_model import GAS_VOLUME_LIMIT, NonlinearModel, 
 from hisopt.vehicle import body_to_corners, road_damping_input, road_stiffness_input, stroke_matrix
 
 if TYPE_CHECKING:
-    import plotly.graph_objects as go
+    from hisopt.plotting import Figure
 
 SimulationMode = Literal["linear", "nonlinear"]
 """``"linear"``: exact lumped state space; ``"nonlinear"``: gas law, orifices, tyre lift-off."""
@@ -148,9 +148,11 @@ class TimeResponse:
         return frame
 
     def plot_signals(
-        self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: go.Figure | None = None
-    ) -> go.Figure:
+        self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: Figure | None = None
+    ) -> Figure:
         """Stacked time histories of columns of :meth:`to_frame`, one panel each.
+
+        Drawn by :func:`hisopt.plotting.timeseries.signals_figure`.
 
         Parameters
         ----------
@@ -160,38 +162,21 @@ class TimeResponse:
             Figure to add the traces to (its subplot grid must have ``len(columns)`` rows);
             ``None`` makes a new one.
         """
-        from plotly.subplots import make_subplots
-
         frame = self.to_frame()
         unknown = [c for c in columns if c not in frame.columns]
         if unknown:
             raise ConfigError(
                 f"unknown signal(s) {unknown}; expected columns of to_frame(), e.g. {list(frame.columns[:8])}"
             )
-        from hisopt.plotting.theme import template
+        from hisopt.plotting.timeseries import signals_figure
 
-        units = frame.attrs["units"]
-        if fig is None:
-            fig = make_subplots(rows=len(columns), cols=1, shared_xaxes=True, subplot_titles=list(columns))
-            fig.update_layout(template=template())
-        for row, col in enumerate(columns, start=1):
-            fig.add_scatter(x=frame["time"], y=frame[col], name=f"{col} ({self.mode})", row=row, col=1)
-            fig.update_yaxes(title_text=f"{col} [{units[col]}]", row=row, col=1)
-        fig.update_xaxes(title_text="time [s]", row=len(columns), col=1)
-        return fig
+        return signals_figure(frame, columns, frame.attrs["units"], self.mode, fig)
 
-    def plot_pressures(self, fig: go.Figure | None = None) -> go.Figure:
-        """Gauge accumulator pressures [MPa] against time."""
-        import plotly.graph_objects as go
+    def plot_pressures(self, fig: Figure | None = None) -> Figure:
+        """Gauge accumulator pressures [MPa] against time (:func:`hisopt.plotting.timeseries.pressures_figure`)."""
+        from hisopt.plotting.timeseries import pressures_figure
 
-        from hisopt.plotting.theme import template
-
-        fig = go.Figure(layout={"template": template()}) if fig is None else fig
-        for i, name in enumerate(self.accumulator_names):
-            pressure_mpa = self.accumulator_pressure_pa[:, i] / 1e6
-            fig.add_scatter(x=self.t_s, y=pressure_mpa, name=f"accumulator {name} ({self.mode})")
-        fig.update_layout(xaxis_title="time [s]", yaxis_title="gauge pressure [MPa]")
-        return fig
+        return pressures_figure(self.t_s, self.accumulator_pressure_pa, self.accumulator_names, self.mode, fig)
 
 
 def signal_unit(column: str) -> str:

@@ -13,8 +13,7 @@ from hisopt.evaluation.evaluate import Evaluator
 from hisopt.units import psd_unit, variable_units, with_units
 
 if TYPE_CHECKING:
-    import plotly.graph_objects as go
-
+    from hisopt.plotting import Figure
     from hisopt.problem import Problem
 
 FIG4_OUTPUTS = ("acc_z", "acc_roll", "acc_pitch", "tire_load_fl")
@@ -48,36 +47,11 @@ class ResponseSpectra:
     design: dict[str, float]
     design_units: dict[str, str] = field(default_factory=dict)
 
-    def plot(self, fig: go.Figure | None = None) -> go.Figure:
-        """Log-log PSDs with and without HIS, one panel per output (plotly)."""
-        from plotly.subplots import make_subplots
+    def plot(self, fig: Figure | None = None) -> Figure:
+        """Log-log PSDs with and without HIS, one panel per output (:func:`hisopt.plotting.spectra.response_spectra_figure`)."""
+        from hisopt.plotting.spectra import response_spectra_figure
 
-        from hisopt.plotting.axes import log_axis
-        from hisopt.plotting.theme import WITH_HIS, WITHOUT_HIS, template
-        from hisopt.units import format_design
-
-        cols = 2
-        rows = (len(self.outputs) + 1) // cols
-        titles = [f"{o}: {OUTPUT_LABELS.get(o, o)}" for o in self.outputs]
-        fig = fig or make_subplots(rows=rows, cols=cols, subplot_titles=titles, vertical_spacing=0.3 / rows, horizontal_spacing=0.1)
-        f = self.frame["f_hz"]
-        x_axis = log_axis(f, pad=0.0, max_ticks=8)
-        for k, name in enumerate(self.outputs):
-            r, c = k // cols + 1, k % cols + 1
-            for suffix, label, dash, color in (("his", "with HIS", "solid", WITH_HIS), ("ref", "without HIS", "dash", WITHOUT_HIS)):
-                fig.add_scatter(
-                    x=f, y=self.frame[f"{name}_{suffix}"], name=label, legendgroup=label, showlegend=k == 0,
-                    line={"dash": dash, "color": color, "width": 1.6}, row=r, col=c,
-                )
-            psd = self.frame[[f"{name}_his", f"{name}_ref"]].to_numpy()
-            fig.update_xaxes(title_text="frequency [Hz]", row=r, col=c, **x_axis)
-            fig.update_yaxes(title_text=f"PSD [{psd_unit(self.units[name])}]", row=r, col=c, **log_axis(psd))
-        design = format_design(self.design, self.design_units)
-        fig.update_layout(
-            template=template(), title=f"Response spectra with and without HIS<br><sup>{design}</sup>",
-            height=130 + 360 * rows, margin={"t": 90, "b": 70},
-        )
-        return fig
+        return response_spectra_figure(self.frame, self.outputs, self.units, self.design, self.design_units, OUTPUT_LABELS, fig)
 
 
 def frequency_grid(models: list[Any], f_lo_hz: float, f_hi_hz: float, n: int = 1500, per_mode: int = 60) -> np.ndarray:

@@ -25,7 +25,7 @@ thresholds (the region then holds the designs no worse than the baseline in any 
 and the figure says so.
 
 Both return result objects with ``to_frame()`` (SI units, Hz for frequencies) and ``plot()``
-(a plotly figure).
+(a figure drawn by :mod:`hisopt.plotting.sweeps`).
 """
 
 from __future__ import annotations
@@ -40,9 +40,8 @@ import pandas as pd
 from hisopt.errors import ConfigError
 
 if TYPE_CHECKING:
-    import plotly.graph_objects as go
-
     from hisopt.evaluation.parallel import Backend
+    from hisopt.plotting import Figure
     from hisopt.problem import Problem
 
 SweepKey = Literal["roll", "pitch", "bounce", "tire"]
@@ -202,42 +201,12 @@ class SweepResult:
         peaks = {f"{key}_peak_psd": unit for key, unit in self.units.items()}
         return attach_units(self.frame.copy(), extra={self.variable: self.unit} | peaks)
 
-    def plot(self, fig: go.Figure | None = None) -> go.Figure:
-        """Frequency (left axis) and peak PSD (right axis, log) against the variable, per mode."""
-        from plotly.subplots import make_subplots
+    def plot(self, fig: Figure | None = None) -> Figure:
+        """Frequency (left axis) and peak PSD (right axis, log) against the variable, per mode (:func:`hisopt.plotting.sweeps.sweep_figure`)."""
+        from hisopt.plotting.sweeps import sweep_figure
 
-        from hisopt.plotting.axes import log_axis
-        from hisopt.plotting.theme import COLORS, template
-        from hisopt.units import display_for, format_design
-
-        keys = list(self.responses)
-        titles = [f"{_LABELS.get(k, k)}: {self.responses[k]}" for k in keys]
-        rows = (len(keys) + 1) // 2
-        fig = fig or make_subplots(rows=rows, cols=2, subplot_titles=titles, specs=[[{"secondary_y": True}] * 2] * rows,
-                                   horizontal_spacing=0.16, vertical_spacing=0.3 / rows)
-        shown = display_for(self.unit, self.frame[self.variable].to_numpy())
-        x = shown.values(self.frame[self.variable])
-        for n, key in enumerate(keys):
-            r, c = n // 2 + 1, n % 2 + 1
-            first = n == 0
-            if f"{key}_frequency_hz" in self.frame:
-                fig.add_scatter(x=x, y=self.frame[f"{key}_frequency_hz"], name="modal frequency", legendgroup="f",
-                                showlegend=first, line={"color": COLORS[0]}, row=r, col=c, secondary_y=False)
-            fig.add_scatter(x=x, y=self.frame[f"{key}_peak_hz"], name="frequency of the PSD peak", legendgroup="fp",
-                            showlegend=first, line={"color": COLORS[0], "dash": "dot"}, row=r, col=c, secondary_y=False)
-            fig.add_scatter(x=x, y=self.frame[f"{key}_peak_psd"], name="peak PSD (right axis)", legendgroup="a", showlegend=first,
-                            line={"color": COLORS[1]}, row=r, col=c, secondary_y=True)
-            fig.update_xaxes(title_text=shown.label(self.variable), row=r, col=c)
-            fig.update_yaxes(title_text="frequency [Hz]", row=r, col=c, secondary_y=False)
-            fig.update_yaxes(title_text=f"peak PSD [{self.units[key]}]", row=r, col=c, secondary_y=True, showgrid=False,
-                             title_font={"color": COLORS[1]}, tickfont={"color": COLORS[1]},
-                             **log_axis(self.frame[f"{key}_peak_psd"]))
-        fixed = format_design(self.baseline, self.baseline_units) or "no other variables"
-        fig.update_layout(
-            template=template(), title=f"{self.problem_name}: sweep of {self.variable}<br><sup>{fixed}</sup>",
-            height=130 + 360 * rows, margin={"t": 90, "b": 70},
-        )
-        return fig
+        return sweep_figure(self.problem_name, self.variable, self.unit, self.frame, self.responses, self.units, self.baseline,
+                            self.baseline_units, _LABELS, fig)
 
 
 def _sweep_modes(problem: Problem, x: np.ndarray, anchor: int, keys: list[str]) -> pd.DataFrame:
@@ -396,66 +365,12 @@ class RegionsResult:
         frame["feasible"] = self.feasible.ravel()
         return attach_units(frame, extra=dict(zip(self.pair, self.units, strict=True)))
 
-    def plot(self, fig: go.Figure | None = None) -> go.Figure:
-        """Contours of log10 of each indicator; thresholds dashed, the infeasible set shaded."""
-        from plotly.subplots import make_subplots
+    def plot(self, fig: Figure | None = None) -> Figure:
+        """Contours of log10 of each indicator; thresholds dashed, the infeasible set shaded (:func:`hisopt.plotting.sweeps.regions_figure`)."""
+        from hisopt.plotting.sweeps import regions_figure
 
-        from hisopt.metrics import METRICS
-        from hisopt.plotting.axes import log_ticks, tick_label
-        from hisopt.plotting.theme import template
-        from hisopt.units import display_for, format_design, format_quantity
-
-        titles = [f"{n} (log colour scale)" for n in INDICATORS]
-        fig = fig or make_subplots(rows=2, cols=2, subplot_titles=titles, horizontal_spacing=0.2, vertical_spacing=0.16)
-        feasible = self.feasible.astype(float)
-        dashes = ["dash", "dot", "dashdot", "longdash", "longdashdot"]
-        sx, sy = (display_for(u, g) for u, g in zip(self.units, (self.grid_x, self.grid_y), strict=True))
-        gx, gy = sx.values(self.grid_x), sy.values(self.grid_y)
-        for n, name in enumerate(INDICATORS):
-            r, c = n // 2 + 1, n % 2 + 1
-            values = np.where(self.valid, self.values[name], np.nan)
-            finite = values[np.isfinite(values) & (values > 0)]
-            ticks = log_ticks(float(finite.min()), float(finite.max()), 5) if finite.size else []
-            scientific = not all(1e-2 <= t < 1e4 for t in ticks)
-            cell = fig.get_subplot(r, c)
-            x_dom, y_dom = cell.xaxis.domain, cell.yaxis.domain
-            fig.add_contour(
-                x=gx, y=gy, z=np.log10(values), colorscale="Viridis", ncontours=18, showlegend=False, name=name,
-                colorbar={"len": y_dom[1] - y_dom[0], "thickness": 12, "x": x_dom[1] + 0.015, "xanchor": "left",
-                          "y": (y_dom[0] + y_dom[1]) / 2, "yanchor": "middle", "title": {"text": f"[{METRICS[name].unit}]", "side": "top"},
-                          "tickvals": np.log10(ticks) if ticks else None, "ticktext": [tick_label(t, scientific) for t in ticks] or None},
-                contours={"showlabels": False}, hovertemplate=f"{name} = 10^%{{z:.3f}} {METRICS[name].unit}<extra></extra>",
-                row=r, col=c,
-            )
-            fig.add_contour(  # shades where the feasibility indicator is below 1/2
-                x=gx, y=gy, z=feasible, contours={"type": "constraint", "operation": ">=", "value": 0.5},
-                fillcolor="rgba(60,60,60,0.35)", line={"width": 0}, hoverinfo="skip", name="infeasible",
-                legendgroup="infeasible", showlegend=n == 0, row=r, col=c,
-            )
-            for k, (q, limit) in enumerate(self.thresholds.items()):
-                if np.all(np.isnan(np.where(self.valid, self.values[q], np.nan))):
-                    continue
-                fig.add_contour(
-                    x=gx, y=gy, z=np.where(self.valid, self.values[q], np.nan), showscale=False,
-                    contours={"start": limit, "end": limit, "size": 1.0, "coloring": "lines"},
-                    line={"color": "black", "dash": dashes[k % len(dashes)], "width": 2},
-                    colorscale=[[0, "black"], [1, "black"]], name=f"{q} <= {format_quantity(limit, METRICS[q].unit)}",
-                    legendgroup=q, showlegend=n == 0, hoverinfo="skip", row=r, col=c,
-                )
-            fig.update_xaxes(title_text=sx.label(self.pair[0]), row=r, col=c)
-            fig.update_yaxes(title_text=sy.label(self.pair[1]), row=r, col=c)
-        fixed = format_design(self.baseline, self.baseline_units)
-        source = (
-            "thresholds: the problem's constraints"
-            if self.threshold_source == "constraints"
-            else "no constraints: thresholds are the baseline design's values"
-        )
-        subtitle = "; ".join(part for part in (fixed, source, "shaded: infeasible") if part)
-        fig.update_layout(
-            template=template(), title=f"{self.problem_name}: feasible region over {self.pair[0]}, {self.pair[1]}<br><sup>{subtitle}</sup>",
-            height=900, margin={"t": 90, "b": 80, "r": 110},
-        )
-        return fig
+        return regions_figure(self.problem_name, self.pair, self.units, self.grid_x, self.grid_y, self.values, self.valid,
+                              self.feasible, self.thresholds, self.threshold_source, INDICATORS, self.baseline, self.baseline_units, fig)
 
 
 def indicator_problem(problem: Problem) -> Problem:
