@@ -31,9 +31,12 @@ def drop_spectrum_figure(test: Mapping[str, Any], fig: go.Figure | None = None, 
 
     Parameters
     ----------
-    test : the test's spectrum (module docstring)
-    fig : figure to add the trace to; ``None`` makes a new one
-    row : subplot row of ``fig`` (column 1); ``None`` for a figure without subplots
+    test
+        the test's spectrum (module docstring)
+    fig
+        figure to add the trace to; ``None`` makes a new one
+    row
+        subplot row of ``fig`` (column 1); ``None`` for a figure without subplots
     """
     import plotly.graph_objects as go
 
@@ -58,8 +61,10 @@ def drop_spectra_figure(tests: Sequence[Mapping[str, Any]], case_modes: Mapping[
 
     Parameters
     ----------
-    tests : each test's spectrum (module docstring)
-    case_modes : the body mode (``bounce``, ``roll``, ``pitch``) each case is meant to excite
+    tests
+        each test's spectrum (module docstring)
+    case_modes
+        the body mode (``bounce``, ``roll``, ``pitch``) each case is meant to excite
     """
     from plotly.subplots import make_subplots
 

@@ -30,12 +30,18 @@ def response_spectra_figure(
     ----------
     frame : ``f_hz`` [Hz] and, per output, ``<output>_his`` and ``<output>_ref``
         [(output unit)^2/Hz]
-    outputs : the outputs, in panel order
-    units : each output's own unit
-    design : the design's values (subtitle)
-    design_units : their units
-    labels : what each output is, for panel titles (default: the name alone)
-    fig : figure with a subplot grid to draw into; ``None`` makes one
+    outputs
+        the outputs, in panel order
+    units
+        each output's own unit
+    design
+        the design's values (subtitle)
+    design_units
+        their units
+    labels
+        what each output is, for panel titles (default: the name alone)
+    fig
+        figure with a subplot grid to draw into; ``None`` makes one
     """
     from plotly.subplots import make_subplots
 

@@ -34,17 +34,26 @@ def sweep_figure(
 
     Parameters
     ----------
-    problem_name : the problem's name (title)
-    variable : the swept variable, a column of ``frame``
-    unit : its unit (SI)
+    problem_name
+        the problem's name (title)
+    variable
+        the swept variable, a column of ``frame``
+    unit
+        its unit (SI)
     frame : per key of ``responses``: ``<key>_peak_hz`` [Hz], ``<key>_peak_psd`` and, for a
         mode, ``<key>_frequency_hz`` [Hz]
-    responses : response of each key
-    units : PSD unit of each key
-    baseline : the fixed values of the other variables (subtitle)
-    baseline_units : their units
-    labels : what each key is, for panel titles (default: the key)
-    fig : figure with a ``secondary_y`` subplot grid to draw into; ``None`` makes one
+    responses
+        response of each key
+    units
+        PSD unit of each key
+    baseline
+        the fixed values of the other variables (subtitle)
+    baseline_units
+        their units
+    labels
+        what each key is, for panel titles (default: the key)
+    fig
+        figure with a ``secondary_y`` subplot grid to draw into; ``None`` makes one
     """
     from plotly.subplots import make_subplots
 
@@ -99,21 +108,32 @@ def regions_figure(
 
     Parameters
     ----------
-    problem_name : the problem's name (title)
-    pair : the two varied variables (x axis, y axis)
-    units : their units
-    grid_x, grid_y : [variable units] grid values, shapes ``(n_x,)``, ``(n_y,)``
+    problem_name
+        the problem's name (title)
+    pair
+        the two varied variables (x axis, y axis)
+    units
+        their units
+    grid_x, grid_y
+        [variable units] grid values, shapes ``(n_x,)``, ``(n_y,)``
     values : [physical units] each indicator and threshold quantity (names of
         :data:`hisopt.metrics.METRICS`), shape ``(n_y, n_x)``
-    valid : the model could be evaluated, shape ``(n_y, n_x)``
-    feasible : every threshold met, shape ``(n_y, n_x)``
-    thresholds : [physical units] upper limit per quantity (a dashed contour each)
+    valid
+        the model could be evaluated, shape ``(n_y, n_x)``
+    feasible
+        every threshold met, shape ``(n_y, n_x)``
+    thresholds
+        [physical units] upper limit per quantity (a dashed contour each)
     threshold_source : ``"constraints"`` (the problem's) or ``"baseline"`` (the baseline
         design's values), said in the subtitle
-    indicators : the quantities drawn, one panel each
-    baseline : the fixed values of the other variables (subtitle)
-    baseline_units : their units
-    fig : figure with a 2 x 2 subplot grid to draw into; ``None`` makes one
+    indicators
+        the quantities drawn, one panel each
+    baseline
+        the fixed values of the other variables (subtitle)
+    baseline_units
+        their units
+    fig
+        figure with a 2 x 2 subplot grid to draw into; ``None`` makes one
     """
     from plotly.subplots import make_subplots
 

@@ -21,10 +21,14 @@ def signals_figure(
 
     Parameters
     ----------
-    frame : ``time`` [s] and the signals
-    columns : the signals drawn, one panel each, in order
-    units : unit of each column (axis titles)
-    label : the traces' legend suffix (e.g. the simulation mode)
+    frame
+        ``time`` [s] and the signals
+    columns
+        the signals drawn, one panel each, in order
+    units
+        unit of each column (axis titles)
+    label
+        the traces' legend suffix (e.g. the simulation mode)
     fig : figure whose subplot grid has ``len(columns)`` rows to add the traces to; ``None``
         makes a new one
     """
@@ -47,11 +51,16 @@ def pressures_figure(
 
     Parameters
     ----------
-    t_s : [s] sample times, shape ``(n_t,)``
-    pressure_pa : [Pa] gauge pressure of each accumulator, shape ``(n_t, len(names))``
-    names : the accumulators' names
-    label : the traces' legend suffix (e.g. the simulation mode)
-    fig : figure to add the traces to; ``None`` makes a new one
+    t_s
+        [s] sample times, shape ``(n_t,)``
+    pressure_pa
+        [Pa] gauge pressure of each accumulator, shape ``(n_t, len(names))``
+    names
+        the accumulators' names
+    label
+        the traces' legend suffix (e.g. the simulation mode)
+    fig
+        figure to add the traces to; ``None`` makes a new one
     """
     import plotly.graph_objects as go
 
