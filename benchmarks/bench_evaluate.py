@@ -7,10 +7,11 @@ pole-clustered grid, :mod:`hisopt.evaluation.reference`) on random designs and b
 
 - **new**: :class:`hisopt.evaluation.evaluate.Evaluator` (symmetric halves, compiled pole-residue
   kernel, error-controlled panels, parabolic peak search);
-- **today's**: ``benchmarks/legacy_evaluate.py``, the evaluator before this work, kept as the
-  reference path; also shown with the memory allocator primed as the new evaluator primes it
-  (one 16 MB block freed at start, :func:`hisopt.evaluation.evaluate._prime_allocator`), to show how much
-  of the difference that alone makes;
+- **today's**: ``benchmarks/legacy_evaluate.py``, the evaluator before this work, frozen (it
+  imports nothing from hisopt; benchmarks/README.md says what it shares with the new one);
+  also shown with the memory allocator primed as the new evaluator primes it (one 16 MB block
+  freed at start, :func:`hisopt.evaluation.evaluate._prime_allocator`), to show how much of the
+  difference that alone makes;
 - **plain baseline**: the batched direct solve on a 1000-point log grid with trapezoid
   integrals and sample maxima (:func:`hisopt.evaluation.reference.grid_quantities`).
 

@@ -1,12 +1,21 @@
-"""Today's evaluator, as it was before the speed work (issue 17), kept as the benchmark's
-reference path: ``benchmarks/bench_evaluate.py`` runs it side by side with the new one.
+"""The evaluator as it was before the speed work (issue 17), frozen: the "before" of
+``benchmarks/bench_evaluate.py``, which runs it side by side with today's.
 
 Algorithm: one eigendecomposition of the full 14-state matrix per design, pole-residue
 FRFs by batched real matrix products, PSDs by numpy over arrays of designs x nodes x
 outputs, fixed panels (8 log + 8 linear over the band) plus geometric clusters around every
 pole, 4 Gauss-Legendre nodes per panel, peaks by five 7-point zoom steps. Copied from
-hisopt/evaluation/evaluate.py and hisopt/evaluation/quadrature.py at commit 5653c0c (with the two helpers that
-moved since, ``track_power`` and ``zoom_maximum``, inlined); it runs on today's models.
+hisopt/evaluation/evaluate.py and hisopt/evaluation/quadrature.py at commit 5653c0c (with
+the two helpers that moved since, ``track_power`` and ``zoom_maximum``, inlined).
+
+Frozen: it imports nothing from hisopt at run time. The helpers it used to import (linear
+algebra, outputs, quantity registry, ISO 2631-1 weightings, ISO 8608 road PSD, coherence,
+the metric dispatch, the parameter-rule check) are copied into ``legacy_helpers.py`` as they
+were at commit abd5bcd. What it still takes from today's hisopt is its input, the same input
+the new evaluator takes: the problem (its settings, ``design_matrix``, ``parameter_rule``)
+and the coupled models ``problem.model(x)`` builds (``state_space()``, ``stiffness()`` and,
+for distributed pipes, ``frequency_response(s)``). A change to the model moves both sides of
+the benchmark alike; a change to the evaluator's numerics moves only the new side.
 Not part of the package.
 """
 
@@ -16,19 +25,26 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from legacy_helpers import (
+    COMFORT_OUTPUTS,
+    METRICS,
+    Output,
+    bmm,
+    cbmm,
+    class_gd_n0,
+    cmul,
+    comfort_gain_squared,
+    isotropic_coherence,
+    one_blas_thread,
+    reduce_metrics,
+    split,
+    standard_outputs,
+    temporal_psd,
+    third_octave_bands,
+)
+from legacy_helpers import roll_gradient as roll_gradient_of_stiffness
 
-from hisopt.coupled.response import Output, standard_outputs
-from hisopt.errors import ModelError
-from hisopt.evaluation import psd as psd_kernels
-from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
-from hisopt.linalg import bmm, cbmm, cmul, one_blas_thread, split
-from hisopt.metrics import COMFORT_OUTPUTS, METRICS
-from hisopt.road.spectra import isotropic_coherence
-from hisopt.specification.validation import admissible
-from hisopt.standards import iso_2631_1_1997 as iso2631
-from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
-
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the inputs: today's problem and its models (see the module docstring)
     from hisopt.coupled.model import CoupledModel
     from hisopt.specification.design_space import DesignSpace
 
@@ -86,7 +102,7 @@ class Evaluator:
         self.tau = spec.vehicle.wheelbase / self.speed
         extra = None
         if spec.comfort.method == "band":
-            bands = iso2631.third_octave_bands(self.f_lo, self.f_hi)
+            bands = third_octave_bands(self.f_lo, self.f_hi)
             extra = np.r_[bands.lower_hz, bands.upper_hz]
         self.base_edges = base_edges(self.f_lo, self.f_hi, base_panels, base_panels, extra_hz=extra)
         self.pole_ratio = pole_ratio
@@ -111,7 +127,7 @@ class Evaluator:
             for rows, model in self.problem.model(x[valid]).groups():
                 try:
                     values, ok = self._solve(model)
-                except (np.linalg.LinAlgError, ModelError):
+                except (np.linalg.LinAlgError, ValueError):  # hisopt's ModelError is a ValueError
                     values, ok = self._one_by_one(x[valid][rows])
                 for name in self.names:
                     out[name][idx[rows]] = np.where(ok, values[name], np.nan)
@@ -163,7 +179,7 @@ class Evaluator:
         """One-sided PSDs of the outputs at ``f_hz`` (n, F) from their FRFs (n, F, 4, n_out),
         complex or as (real, imag) parts.
 
-        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`hisopt.evaluation.psd.track_power`).
+        Returns shape ``(n, F, n_out)`` (paper Eq. 24, :func:`track_power`).
         """
         re, im = h_out if isinstance(h_out, tuple) else split(h_out)
         phase = 2 * np.pi * f_hz * self.tau
@@ -208,7 +224,7 @@ class Evaluator:
         return scale**2 * (2 * np.pi * f_hz) ** (2 * power) * base_psd
 
     def _refined_max(self, name: str, f: np.ndarray, psd: np.ndarray, frf: FrfFn) -> np.ndarray:
-        """Continuous maximum of output ``name``'s PSD (:func:`hisopt.evaluation.psd.zoom_maximum`)."""
+        """Continuous maximum of output ``name``'s PSD (:func:`zoom_maximum`)."""
         base = self.derived[name][0]
 
         def values_at(pts: np.ndarray) -> np.ndarray:
@@ -321,6 +337,16 @@ class DirectOutputs:
         return np.stack([o.frf(h_x, s) for o in chosen], axis=-1)
 
 
+def admissible(problem: DesignSpace, x: np.ndarray) -> np.ndarray:
+    """[-] Rows whose every value is finite and obeys its parameter's rule, ``(n,)``
+    (``hisopt/specification/validation.py`` at abd5bcd; the rules are the problem's)."""
+    x = np.asarray(x, dtype=float)
+    ok = np.ones(x.shape[0], dtype=bool)
+    for j, name in enumerate(problem.variable_names):
+        ok &= problem.parameter_rule(name).holds(x[:, j])
+    return ok
+
+
 def _total(terms: np.ndarray) -> np.ndarray:
     """Row sums in sequential order (zero-weight padding nodes add exact zeros)."""
     return np.cumsum(terms, axis=1)[:, -1]
@@ -378,8 +404,8 @@ def poles(model: CoupledModel) -> np.ndarray:
 
 
 def roll_gradient(model: CoupledModel) -> np.ndarray:
-    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
-    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
+    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`legacy_helpers.roll_gradient`)."""
+    return roll_gradient_of_stiffness(model.stiffness(), model.vehicle)
 
 
 def track_power(fl, fr, rl, rr, cos_t, sin_t, coherence=None):
