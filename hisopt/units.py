@@ -35,14 +35,11 @@ import math
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
-
-if TYPE_CHECKING:
-    from hisopt.specification.design_space import DesignSpace
 
 NO_UNIT = "-"
 """Unit of ratios, counts, flags and labels."""
@@ -84,6 +81,17 @@ _PREFIXES = (("shape_", NO_UNIT),)  # mode shapes, normalised to a largest entry
 
 
 # --- units of columns ------------------------------------------------------------------------
+class VariableSpace(Protocol):
+    """What the unit helpers read of a problem (:class:`hisopt.specification.design_space.DesignSpace`):
+    its variables' units and its objectives; a protocol, so this leaf imports nothing above it."""
+
+    @property
+    def variable_units(self) -> Mapping[str, str]: ...
+
+    @property
+    def objective_names(self) -> tuple[str, ...]: ...
+
+
 def psd_unit(unit: str) -> str:
     """Unit of the PSD of a signal in ``unit``: ``m`` -> ``m^2/Hz``, ``m/s^2`` -> ``(m/s^2)^2/Hz``."""
     simple = re.fullmatch(r"[A-Za-zµ]+", unit) is not None
@@ -100,14 +108,10 @@ def hypervolume_unit(n_objectives: int) -> str:
     return f"decades^{n_objectives}"
 
 
-def variable_units(problem: DesignSpace) -> dict[str, str]:
-    """Unit of each design variable: the SI unit its ``[his]`` field declares, else that of the
-    element field the layout reads it as (a layout's extra parameter;
-    :func:`hisopt.specification.validation.variable_si_units`), else the problem file's ``unit`` label."""
-    from hisopt.specification.validation import variable_si_units
-
-    declared = variable_si_units(problem)
-    return {name: declared[name] or problem.spec.variables[name].unit for name in problem.variable_names}
+def variable_units(problem: VariableSpace) -> dict[str, str]:
+    """Unit of each design variable of ``problem``: its ``variable_units``
+    (:attr:`hisopt.specification.design_space.DesignSpace.variable_units`)."""
+    return dict(problem.variable_units)
 
 
 def column_unit(name: str) -> str:
@@ -134,14 +138,14 @@ def column_unit(name: str) -> str:
     return ""
 
 
-def column_units(columns: Iterable[Any], problem: DesignSpace | None = None, extra: Mapping[str, str] | None = None) -> dict[str, str]:
+def column_units(columns: Iterable[Any], problem: VariableSpace | None = None, extra: Mapping[str, str] | None = None) -> dict[str, str]:
     """Unit of every column: ``extra`` first, then the problem's variables, then :func:`column_unit`.
 
     With a problem, ``hypervolume`` is in ``decades^n_obj``.
     """
     known: dict[str, str] = {}
     if problem is not None:
-        known |= variable_units(problem)
+        known |= problem.variable_units
         known["hypervolume"] = hypervolume_unit(len(problem.objective_names))
     known |= dict(extra or {})
     return {str(c): known[str(c)] if str(c) in known else column_unit(str(c)) for c in columns}
@@ -153,7 +157,7 @@ def with_units(frame: pd.DataFrame, units: Mapping[str, str]) -> pd.DataFrame:
     return frame
 
 
-def attach_units(frame: pd.DataFrame, problem: DesignSpace | None = None, extra: Mapping[str, str] | None = None) -> pd.DataFrame:
+def attach_units(frame: pd.DataFrame, problem: VariableSpace | None = None, extra: Mapping[str, str] | None = None) -> pd.DataFrame:
     """:func:`with_units` with :func:`column_units` of the frame's columns (in place); returns ``frame``."""
     return with_units(frame, column_units(frame.columns, problem, extra))
 

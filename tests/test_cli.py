@@ -191,6 +191,54 @@ def test_set_help_names_every_key_set_accepts(problem):
         assert problem.with_values(**{key: value}).spec.his.model_dump()[key] == value
 
 
+def test_set_keys_are_derived_from_the_his_model(tmp_path, monkeypatch):
+    """SET_KEYS is read from RollPlaneHIS's source: today's keys (written out once here), each a
+    field of the imported model; and the reading follows a model it has never seen (a new
+    scalar field becomes a key, sub-tables of every kind do not), compared with pydantic's own
+    field list of that model imported."""
+    from pydantic import BaseModel
+
+    from hisopt.cli.app import SET_KEYS
+    from hisopt.cli.usage import scalar_fields
+    from hisopt.hydraulics.roll_plane import RollPlaneHIS
+
+    today = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "pipe_model", "layout")
+    assert SET_KEYS == today
+    assert set(SET_KEYS) <= set(RollPlaneHIS.model_fields)
+
+    (tmp_path / "set_keys_probe.py").write_text(
+        "from typing import Literal\n"
+        "from pydantic import BaseModel\n"
+        "from hisopt.hydraulics.fluid import Fluid\n"
+        "from hisopt.hydraulics.network import PipeModel\n"
+        "Mode = Literal['a', 'b']\n"
+        "class Sub(BaseModel):\n"
+        "    x: float = 1.0\n"
+        "class Probe(BaseModel):\n"
+        "    a: float = 1.0\n"
+        "    fluid: Fluid = Fluid()\n"
+        "    sub: Sub | None = None\n"
+        "    b: int | None = None\n"
+        "    table: dict[str, float] = {}\n"
+        "    rows: list[Sub] | None = None\n"
+        "    mode: Mode = 'a'\n"
+        "    pipe_model: PipeModel = 'lumped'\n"
+        "    new_key: str = 'x'\n",
+        encoding="utf-8",
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import set_keys_probe
+
+    def is_table(annotation) -> bool:  # the imported model's view: a container or a model
+        args = getattr(annotation, "__args__", ())
+        container = any(getattr(a, "__origin__", None) in (dict, list) for a in (annotation, *args))
+        return container or any(isinstance(a, type) and issubclass(a, BaseModel) for a in (annotation, *args))
+
+    imported = tuple(n for n, f in set_keys_probe.Probe.model_fields.items() if not is_table(f.annotation))
+    assert imported == ("a", "b", "mode", "pipe_model", "new_key")
+    assert scalar_fields("set_keys_probe", "Probe") == imported
+
+
 def test_help_and_version_import_no_numerical_stack():
     """The timing-free proxy for a fast `hisopt --help`: the CLI module and the help itself
     import none of numpy, scipy, pandas, pymoo, casadi, plotly, dask, nor pint (units are read

@@ -108,6 +108,30 @@ def test_variable_units_come_from_the_declared_field_units(problem):
     assert variable_units(bare) == variable_units(problem)  # from RollPlaneHIS's json_schema_extra={"unit": ...}
 
 
+def test_variable_units_are_the_design_space_s(problem):
+    """The units of design variables come from DesignSpace.variable_units (the [his] fields'
+    declared units, a layout parameter's element field, else the file's label); hisopt.units
+    only reads a problem's ``variable_units`` and ``objective_names``, whatever the object."""
+    from types import SimpleNamespace
+
+    assert problem.variable_units == {"p0": "Pa", "dA": "m^2", "lam": "-", "Rv": "Pa s m^-3"}  # RollPlaneHIS fields
+    assert variable_units(problem) == problem.variable_units
+    duck = SimpleNamespace(variable_units={"x": "N/m"}, objective_names=("sigma_aw", "roll_gradient"))
+    units = column_units(["x", "sigma_aw", "hypervolume", "feasible"], duck)
+    assert units == {"x": "N/m", "sigma_aw": "m/s^2", "hypervolume": "decades^2", "feasible": "-"}
+
+
+def test_units_module_imports_only_leaves():
+    """hisopt/units.py is a leaf: every import in it (also inside functions) is of a leaf module."""
+    import ast
+
+    leaves = {"hisopt.metrics", "hisopt.robust", "hisopt.constants", "hisopt.errors", "hisopt.quantities"}
+    tree = ast.parse((ROOT / "hisopt" / "units.py").read_text(encoding="utf-8"))
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    imported |= {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module}
+    assert {m for m in imported if m.split(".")[0] == "hisopt"} <= leaves
+
+
 def test_evaluate_frame_has_the_unit_of_every_column(problem):
     units = _complete(problem.evaluate(problem.baseline))
     assert units["p0"] == "Pa" and units["dA"] == "m^2" and units["sigma_aw"] == "m/s^2" and units["feasible"] == "-"

@@ -28,7 +28,7 @@ if os.path.basename(sys.argv[0]) in ("hisopt", "__main__.py"):  # the command li
 
 import typer  # noqa: E402
 
-from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, quantity  # noqa: E402
+from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, quantity, scalar_fields  # noqa: E402
 
 # Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
 app = typer.Typer(
@@ -40,9 +40,9 @@ app = typer.Typer(
     "Start with `hisopt init problem.toml`.",
 )
 
-# The scalar [his] keys --set accepts (RollPlaneHIS fields; tests/test_cli.py keeps them in step).
-# Listed here rather than read from the model so that `hisopt --help` need not import it.
-SET_KEYS = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "pipe_model", "layout")
+# The keys --set accepts: the scalar fields of the [his] table (RollPlaneHIS), read from its
+# source so that `hisopt --help` need not import the model (and numpy).
+SET_KEYS = scalar_fields("hisopt.hydraulics.roll_plane", "RollPlaneHIS")
 
 SetOpt = Annotated[
     list[str] | None,

@@ -9,8 +9,11 @@ messages are ours (``expected an integer, got 'abc'``) and not the parser's of t
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import difflib
+import importlib.util
+import re
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -47,6 +50,54 @@ def quantity(unit: str) -> Callable[[str], float]:
 
 
 # Option types several commands share (hisopt.cli.app, hisopt.cli.compare).
+def scalar_fields(module: str, model: str) -> tuple[str, ...]:
+    """The scalar fields of the pydantic model ``module.model``, in declaration order, read
+    from its source (``ast``): ``--help`` names them without importing the model, which would
+    import numpy.
+
+    A field is scalar unless its annotation names a ``dict``, a ``list`` or a class (a
+    sub-table: a class defined in ``module`` or imported into it from another module); numbers,
+    strings, booleans and ``Literal`` aliases are scalar. tests/test_cli.py checks the result
+    against the imported model's fields.
+    """
+    tree = ast.parse(_source(module))
+    classes = {node.name for node in tree.body if isinstance(node, ast.ClassDef)}
+    imported = {
+        alias.asname or alias.name: (node.module, alias.name)
+        for node in tree.body
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0
+        for alias in node.names
+    }
+
+    def is_table(annotation: ast.expr) -> bool:
+        for node in ast.walk(annotation):
+            if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name) and node.value.id in ("dict", "list"):
+                return True
+            if isinstance(node, ast.Name) and node.id in classes:
+                return True
+            if isinstance(node, ast.Name) and node.id in imported:
+                # A top-level class starts a line with "class Name"; a regex is a hundred
+                # times quicker than parsing the module (network.py) for it.
+                source, name = imported[node.id]
+                if re.search(rf"^class {re.escape(name)}\b", _source(source), re.MULTILINE):
+                    return True
+        return False
+
+    body = next(node for node in tree.body if isinstance(node, ast.ClassDef) and node.name == model).body
+    return tuple(
+        node.target.id
+        for node in body
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and not is_table(node.annotation)
+    )
+
+
+def _source(module: str) -> str:
+    spec = importlib.util.find_spec(module)
+    if spec is None or spec.origin is None:
+        raise ModuleNotFoundError(module)
+    return Path(spec.origin).read_text(encoding="utf-8")
+
+
 ProblemArg = Annotated[
     Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
 ]

@@ -8,12 +8,14 @@ batched over designs (batch shape ``B``).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from hisopt.constants import DOF_NAMES
 from hisopt.errors import ModelError
+from hisopt.hydraulics import backend as bk
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import PipeModel, singular_shorts
 from hisopt.hydraulics.realisation import Descriptor, Realisation, realise
@@ -21,12 +23,34 @@ from hisopt.linalg import bsum
 from hisopt.vehicle import (
     VehicleParams,
     damping_matrix,
+    dynamic_stiffness_matrix,
     mass_matrix,
     road_damping_input,
     road_stiffness_input,
     stiffness_matrix,
     stroke_matrix,
 )
+
+
+def coupled_stiffness(car: Any, vehicle: VehicleParams, stroke: Any) -> Any:
+    """``car + G^T stroke G``: a car matrix with the HIS's stroke stiffness acting through ``G``.
+
+    ``K + G^T K_his G`` (static) and ``s^2 M + s C + K + G^T D(s) G`` (dynamic, paper Eq. 21)
+    of the numpy model and of the CasADi model (:mod:`hisopt.optim.gradient.casadi_model`).
+
+    Parameters
+    ----------
+    car : [N/m, N m/rad] the car's matrix, numpy ``(..., 7, 7)``
+    vehicle : the car (its stroke map ``G``)
+    stroke : [N/m] the HIS's 4 x 4 stroke stiffness: numpy ``B + (..., 4, 4)`` (batched) or a
+        CasADi matrix (or :class:`~hisopt.hydraulics.backend.Complex` pair)
+
+    Returns
+    -------
+    numpy ``B + (..., 7, 7)``, or a CasADi matrix when ``stroke`` is one
+    """
+    g = stroke_matrix(vehicle)
+    return car + bk.matmul(bk.matmul(bk.transpose(g), stroke), g)
 
 
 @dataclass(frozen=True)
@@ -82,18 +106,15 @@ class CoupledModel:
         k = stiffness_matrix(self.vehicle)
         if self.his is None:
             return k
-        g = stroke_matrix(self.vehicle)
-        return k + g.T @ self.his.static_stiffness() @ g
+        return coupled_stiffness(k, self.vehicle, self.his.static_stiffness())
 
     def dynamic_stiffness(self, s: ArrayLike) -> np.ndarray:
         """``s^2 M + s C + K + G^T D(s) G``, shape ``B + (F, 7, 7)`` (paper Eq. 21)."""
         s = np.asarray(s, dtype=complex)
-        sb = s[..., None, None]
-        kdyn = sb**2 * self.mass + sb * damping_matrix(self.vehicle) + stiffness_matrix(self.vehicle)
-        if self.his is not None:
-            g = stroke_matrix(self.vehicle)
-            kdyn = kdyn + g.T @ self.his.stroke_impedance(s) @ g
-        return kdyn
+        kdyn = dynamic_stiffness_matrix(self.vehicle, s)
+        if self.his is None:
+            return kdyn
+        return coupled_stiffness(kdyn, self.vehicle, self.his.stroke_impedance(s))
 
     def road_input(self, s: ArrayLike) -> np.ndarray:
         """Generalised road force per road displacement ``K_t + s C_t`` rows, ``(F, 7, 4)``."""

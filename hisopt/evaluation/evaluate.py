@@ -39,8 +39,8 @@ from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
 from hisopt.evaluation.quadrature import (
     MAX_PANELS,
     POLE_MARGIN,
-    _legendre,
     design_rho,
+    gauss_legendre,
     panel_nodes,
     panels,
     peak_samples,
@@ -291,7 +291,7 @@ class Evaluator:
         from hisopt.evaluation.kernels import lay_nodes
 
         rho = design_rho(self.order, self.tolerance / POLE_MARGIN)
-        x, w = _legendre(self.order)
+        x, w = gauss_legendre(self.order)
         return lay_nodes(
             np.ascontiguousarray(lam, dtype=complex), self.fixed_singularities.astype(complex), self._forced, self.f_lo, self.f_hi,
             0.5 * (rho + 1.0 / rho), x, w, MAX_PANELS,

@@ -118,12 +118,13 @@ def panel_nodes(edges: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @functools.cache
-def _legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
+def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on ``[-1, 1]`` of ``order`` points (cached)."""
     return np.polynomial.legendre.leggauss(order)
 
 
 def _gauss(lo: np.ndarray, hi: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
-    x, w = _legendre(order)
+    x, w = gauss_legendre(order)
     half = 0.5 * (hi - lo)
     f = (0.5 * (hi + lo))[..., None] + half[..., None] * x
     wt = half[..., None] * w
@@ -134,7 +135,7 @@ def ripple_error(t: np.ndarray, order: int) -> np.ndarray:
     """[-] Relative Gauss-Legendre error of the delay's oscillation ``cos(2 pi f tau + phi)``
     over a panel with ``tau h = t`` (worst phase; made non-decreasing in ``t``): the error a
     smooth integrand picks up from the ripple it carries."""
-    x, w = _legendre(order)
+    x, w = gauss_legendre(order)
     k = 2 * np.pi * np.asarray(t, dtype=float)[..., None]
     exact_cos = np.where(k > 0, 2 * np.sin(k) / np.where(k > 0, k, 1.0), 2.0)[..., 0]
     err_cos = np.abs(np.sum(w * np.cos(k * x), axis=-1) - exact_cos)

@@ -31,7 +31,7 @@ from hisopt.units import (
     hypervolume_unit,
 )
 
-_CSS = """
+REPORT_CSS = """
 body{font-family:Inter,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1280px;padding:0 16px;color:#1d2330}
 h1{margin-bottom:4px} h2{margin-top:40px;margin-bottom:12px;border-bottom:1px solid #e3e6ea;padding-bottom:4px}
 .meta{color:#556;line-height:1.5}
@@ -280,7 +280,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     refined_note = "" if run["refined"] is None else f", refined front of {len(run['refined'])} designs"
     page = f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>hisopt report: {html.escape(problem.name)}</title>
-<style>{_CSS}</style>
+<style>{REPORT_CSS}</style>
 <script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
 <body><h1>hisopt report: {html.escape(problem.name)}</h1>
 <p class="meta">{html.escape(str(run_dir))}: front of {len(front)} designs{refined_note};

@@ -15,7 +15,7 @@ import numpy as np
 
 from hisopt.plotting.axes import log_axis
 from hisopt.plotting.theme import COLORS, template
-from hisopt.report.html import _CSS, html_table
+from hisopt.report.html import REPORT_CSS, html_table
 from hisopt.units import display_for, display_frame, format_quantity
 
 if TYPE_CHECKING:
@@ -165,7 +165,7 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
     notes = "".join(f'<p class="meta"><b>No design at the limit.</b> {html.escape(n)}.</p>' for n in result.limit_notes())
     page = f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>hisopt layout study: {html.escape(name)}</title>
-<style>{_CSS}{_GRID_CSS}</style>
+<style>{REPORT_CSS}{_GRID_CSS}</style>
 <script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
 <body><h1>hisopt layout study: {html.escape(name)}</h1>
 <p class="meta">{len(result.cases)} layouts, seeds {html.escape(", ".join(map(str, seeds)))}, {budget} evaluations per run;

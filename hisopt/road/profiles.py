@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hisopt.constants import WHEEL_NAMES
 from hisopt.errors import ConfigError
-from hisopt.road.spectra import Coherence, _check_coherence, isotropic_coherence
+from hisopt.road.spectra import Coherence, check_coherence, isotropic_coherence
 from hisopt.standards.iso_8608_2016 import WAVINESS, RoadClass, class_gd_n0, temporal_psd
 
 Wheel = Literal["fl", "fr", "rl", "rr"]
@@ -94,7 +94,7 @@ def random_profile(
     t, dt = _time_grid(t_s)
     if np.max(np.abs(np.diff(t) - dt)) > 1e-6 * dt:
         raise ConfigError("expected uniformly spaced t_s for random_profile; resample first")
-    _check_coherence(coherence)
+    check_coherence(coherence)
     if coherence == "isotropic" and (track_m is None or not track_m > 0.0):
         raise ConfigError(f"coherence='isotropic' needs track_m > 0, got {track_m!r}")
     gd_n0 = class_gd_n0(road) if isinstance(road, str) else float(road)

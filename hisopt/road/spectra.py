@@ -35,7 +35,8 @@ def _per_design(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return array[..., None]
 
 
-def _check_coherence(coherence: str) -> None:
+def check_coherence(coherence: str) -> None:
+    """Raise a :class:`~hisopt.errors.ConfigError` unless ``coherence`` is one of :data:`COHERENCE_MODELS`."""
     if coherence not in COHERENCE_MODELS:
         raise ConfigError(f"unknown coherence {coherence!r}; expected one of {COHERENCE_MODELS}")
 
@@ -172,7 +173,7 @@ def wheel_input_csd(
     ----------
     Paper Eq. (24); ISO 8608:2016; docs/model.md §4.4.
     """
-    _check_coherence(coherence)
+    check_coherence(coherence)
     f = np.asarray(f_hz, dtype=float)
     v = _per_design(speed_mps, "speed_mps")
     g_auto = temporal_psd(f, _per_design(gd_n0, "gd_n0"), v, waviness)
@@ -191,6 +192,7 @@ def wheel_input_csd(
 __all__ = [
     "COHERENCE_MODELS",
     "Coherence",
+    "check_coherence",
     "delay_factor",
     "isotropic_coherence",
     "track_inputs",

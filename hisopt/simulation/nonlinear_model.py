@@ -45,7 +45,7 @@ def _single(x: ArrayLike, what: str) -> float:
     return float(arr[0])
 
 
-def _single_design(a: np.ndarray, trailing: int, what: str) -> np.ndarray:
+def single_design(a: np.ndarray, trailing: int, what: str) -> np.ndarray:
     """Drop a batch axis of size 1 (one design), keeping ``trailing`` matrix axes."""
     batch = a.shape[: a.ndim - trailing]
     if int(np.prod(batch, dtype=int)) != 1:
@@ -119,9 +119,9 @@ class NonlinearModel:
         his = model.his
         net = his.network
         e_h, a_h = his.descriptor()
-        e = _single_design(np.asarray(e_h), 1, "hydraulic descriptor")
-        a = _single_design(np.asarray(a_h), 2, "hydraulic descriptor").copy()
-        n_inc = _single_design(np.asarray(his.incidence), 2, "cylinder incidence")
+        e = single_design(np.asarray(e_h), 1, "hydraulic descriptor")
+        a = single_design(np.asarray(a_h), 2, "hydraulic descriptor").copy()
+        n_inc = single_design(np.asarray(his.incidence), 2, "cylinder incidence")
         self.acc = accumulators(his)
         kq_row = np.zeros(net.size)  # quadratic coefficient of each valve flow row
         for k, _, rows in net.valves():

@@ -34,7 +34,7 @@ from hisopt.coupled.model import CoupledModel, StateSpace
 from hisopt.errors import ConfigError, ModelError
 from hisopt.hydraulics import laws
 from hisopt.road.interpolation import Interpolation, RoadInput
-from hisopt.simulation.nonlinear_model import GAS_VOLUME_LIMIT, NonlinearModel, _single_design, accumulators
+from hisopt.simulation.nonlinear_model import GAS_VOLUME_LIMIT, NonlinearModel, accumulators, single_design
 from hisopt.vehicle import body_to_corners, road_damping_input, road_stiffness_input, stroke_matrix
 
 if TYPE_CHECKING:
@@ -49,9 +49,9 @@ SolverMethod = Literal["auto", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
 
 def _linear_matrices(ss: StateSpace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return (
-        _single_design(np.asarray(ss.a), 2, "state matrix"),
-        _single_design(np.asarray(ss.b0), 2, "input matrix"),
-        _single_design(np.asarray(ss.b1), 2, "input-rate matrix"),
+        single_design(np.asarray(ss.a), 2, "state matrix"),
+        single_design(np.asarray(ss.b0), 2, "input matrix"),
+        single_design(np.asarray(ss.b1), 2, "input-rate matrix"),
     )
 
 
@@ -352,7 +352,7 @@ def _simulate_linear(
     vol = np.zeros_like(p)
     if model.his is not None and ss.realisation is not None:
         acc = accumulators(model.his)
-        full = _single_design(ss.realisation.full_map(), 2, "realisation")
+        full = single_design(ss.realisation.full_map(), 2, "realisation")
         p = full[14 + acc.rows] @ x
         vol = acc.compliance[:, None] * p  # linearised gas law
         names = acc.names
@@ -374,7 +374,7 @@ def _simulate_nonlinear(
     net = NonlinearModel(model, valve_kq, tyre_liftoff)
     a, b0, b1 = _linear_matrices(ss)
     # The nonlinear state is every dynamic unknown of the descriptor: the realisation's T.
-    expand = np.eye(a.shape[0]) if ss.realisation is None else _single_design(ss.realisation.expand, 2, "realisation")
+    expand = np.eye(a.shape[0]) if ss.realisation is None else single_design(ss.realisation.expand, 2, "realisation")
     scale = state_scales(a, b0, b1, expand) * u_scale
     # Accumulator nodes integrate volume: their typical size is compliance x pressure.
     scale[14 + net.acc_state] *= net.e_dyn[net.acc_state]

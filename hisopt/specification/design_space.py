@@ -24,7 +24,14 @@ from hisopt.hydraulics.network import compile_network
 from hisopt.plausibility import warn
 from hisopt.robust import scenario_column
 from hisopt.specification.config import ProblemSpec, implausible_values, parse_problem
-from hisopt.specification.validation import Rule, assignment_text, design_matrix, parameter_rule, require_admissible
+from hisopt.specification.validation import (
+    Rule,
+    assignment_text,
+    design_matrix,
+    parameter_rule,
+    require_admissible,
+    variable_si_units,
+)
 
 if TYPE_CHECKING:
     from hisopt.hydraulics.layout import Layout
@@ -54,6 +61,17 @@ class DesignSpace:
     @property
     def variable_names(self) -> tuple[str, ...]:
         return tuple(self.spec.variables)
+
+    @property
+    def variable_units(self) -> dict[str, str]:
+        """[-] Unit of each design variable: the SI unit its ``[his]`` field declares, else that
+        of the element field the layout reads it as (a layout's extra parameter;
+        :func:`hisopt.specification.validation.variable_si_units`), else the problem file's
+        ``unit`` label."""
+        if "variable_units" not in self._cache:
+            declared = variable_si_units(self)
+            self._cache["variable_units"] = {name: declared[name] or self.spec.variables[name].unit for name in self.variable_names}
+        return dict(self._cache["variable_units"])
 
     @property
     def lower(self) -> np.ndarray:

@@ -1,8 +1,9 @@
-"""7-DOF full car: validated parameters and its M, C, K, stroke and road-input matrices."""
+"""7-DOF full car: validated parameters and its M, C, K, D0(s), stroke and road-input matrices."""
 
 from hisopt.vehicle.full_car import (
     body_to_corners,
     damping_matrix,
+    dynamic_stiffness_matrix,
     mass_matrix,
     road_damping_input,
     road_stiffness_input,
@@ -15,6 +16,7 @@ __all__ = [
     "VehicleParams",
     "body_to_corners",
     "damping_matrix",
+    "dynamic_stiffness_matrix",
     "mass_matrix",
     "road_damping_input",
     "road_stiffness_input",

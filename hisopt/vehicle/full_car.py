@@ -7,6 +7,7 @@ State ``X = [z_s, phi, theta, z_u1..z_u4]`` (wheels FL, FR, RL, RR, z up). Suspe
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from hisopt.vehicle.parameters import VehicleParams
 
@@ -63,6 +64,18 @@ def damping_matrix(vehicle: VehicleParams) -> np.ndarray:
     c = g.T @ np.diag(_per_wheel(v.c_sf, v.c_sr)) @ g
     c[3:, 3:] += np.diag(_per_wheel(v.c_tf, v.c_tr))
     return c
+
+
+def dynamic_stiffness_matrix(vehicle: VehicleParams, s: ArrayLike) -> np.ndarray:
+    """``D0(s) = s^2 M + s C + K`` of the car without HIS (paper Eq. 21), shape ``s.shape + (7, 7)``.
+
+    Parameters
+    ----------
+    vehicle : the car
+    s : [rad/s] Laplace variable, any shape (complex)
+    """
+    sb = np.asarray(s, dtype=complex)[..., None, None]
+    return sb**2 * mass_matrix(vehicle) + sb * damping_matrix(vehicle) + stiffness_matrix(vehicle)
 
 
 def road_stiffness_input(vehicle: VehicleParams) -> np.ndarray:

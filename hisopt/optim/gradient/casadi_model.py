@@ -8,9 +8,10 @@ dynamic stiffness ``D(j omega) = j omega N^T Z_port N`` of any network, lumped o
 distributed, solved node by node; CasADi has no complex type, so every complex quantity is a
 (real, imaginary) pair (:class:`hisopt.hydraulics.backend.Complex`).
 
-The car without HIS, ``D0(s) = s^2 M + s C + K``, does not depend on the design. With the
-design-independent ``H0 = D0^-1 B``, ``R = D0^-1 G^T``, ``P = G R`` (the car's stroke
-receptance) and ``Q = G H0`` (computed once per frequency set in numpy)::
+The car without HIS, ``D0(s) = s^2 M + s C + K`` (:func:`hisopt.vehicle.dynamic_stiffness_matrix`),
+does not depend on the design. With the design-independent ``H0 = D0^-1 B``, ``R = D0^-1 G^T``,
+``P = G R`` (the car's stroke receptance) and ``Q = G H0`` (computed once per frequency set in
+numpy)::
 
     X = H0 z_g - R D delta,   delta = G X   =>   (P^-1 + D) delta = P^-1 Q z_g
 
@@ -40,14 +41,14 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
+from hisopt.coupled.model import coupled_stiffness
 from hisopt.evaluation.psd import channel_power, comfort_gain_squared, reduce_metrics, roll_gradient
 from hisopt.hydraulics import backend as bk
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
 from hisopt.road.spectra import isotropic_coherence
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_psd
 from hisopt.vehicle import (
-    damping_matrix,
-    mass_matrix,
+    dynamic_stiffness_matrix,
     road_damping_input,
     road_stiffness_input,
     stiffness_matrix,
@@ -194,7 +195,7 @@ class CasadiModel:
         veh = self.problem.vehicle
         omega = 2 * np.pi * f
         s = 1j * omega
-        d0 = (s**2)[:, None, None] * mass_matrix(veh) + s[:, None, None] * damping_matrix(veh) + stiffness_matrix(veh)
+        d0 = dynamic_stiffness_matrix(veh, s)
         b = road_stiffness_input(veh) + s[:, None, None] * road_damping_input(veh)
         g = stroke_matrix(veh)
         sol = np.linalg.solve(d0, np.concatenate([b, np.broadcast_to(g.T, d0.shape[:1] + g.T.shape)], axis=2))
@@ -332,8 +333,7 @@ class CasadiModel:
         veh = self.problem.vehicle
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
         k_his = self.problem.hydraulic_system(params).static_stiffness()
-        g = stroke_matrix(veh)
-        return roll_gradient(ca.DM(stiffness_matrix(veh)) + ca.DM(g.T) @ k_his @ ca.DM(g), veh)
+        return roll_gradient(coupled_stiffness(stiffness_matrix(veh), veh, k_his), veh)
 
     def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool, transient: Any = None) -> dict[str, ca.MX]:
         def integral(output: str, weighting: str | None) -> ca.MX:
