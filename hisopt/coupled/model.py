@@ -40,14 +40,18 @@ def coupled_stiffness(car: Any, vehicle: VehicleParams, stroke: Any) -> Any:
 
     Parameters
     ----------
-    car : [N/m, N m/rad] the car's matrix, numpy ``(..., 7, 7)``
-    vehicle : the car (its stroke map ``G``)
-    stroke : [N/m] the HIS's 4 x 4 stroke stiffness: numpy ``B + (..., 4, 4)`` (batched) or a
+    car : np.ndarray
+        [N/m, N m/rad] the car's matrix, numpy ``(..., 7, 7)``
+    vehicle : VehicleParams
+        the car (its stroke map ``G``)
+    stroke : np.ndarray or casadi matrix
+        [N/m] the HIS's 4 x 4 stroke stiffness: numpy ``B + (..., 4, 4)`` (batched) or a
         CasADi matrix (or :class:`~hisopt.hydraulics.backend.Complex` pair)
 
     Returns
     -------
-    numpy ``B + (..., 7, 7)``, or a CasADi matrix when ``stroke`` is one
+    np.ndarray or casadi matrix
+        numpy ``B + (..., 7, 7)``, or a CasADi matrix when ``stroke`` is one
     """
     g = stroke_matrix(vehicle)
     return car + bk.matmul(bk.matmul(bk.transpose(g), stroke), g)

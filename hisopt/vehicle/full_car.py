@@ -71,8 +71,10 @@ def dynamic_stiffness_matrix(vehicle: VehicleParams, s: ArrayLike) -> np.ndarray
 
     Parameters
     ----------
-    vehicle : the car
-    s : [rad/s] Laplace variable, any shape (complex)
+    vehicle : VehicleParams
+        the car
+    s : array_like
+        [rad/s] Laplace variable, any shape (complex)
     """
     sb = np.asarray(s, dtype=complex)[..., None, None]
     return sb**2 * mass_matrix(vehicle) + sb * damping_matrix(vehicle) + stiffness_matrix(vehicle)
