@@ -1,2 +1,42 @@
 """Drawing (plotly): figures of the data handed to them, theme and axis labels. A leaf layer:
-it imports nothing of hisopt above the small leaves, so any layer's ``.plot()`` may call it."""
+it imports nothing of hisopt above the small leaves, so any layer's ``.plot()`` may call it.
+
+Public API (documented sub-package): the names of ``__all__``, imported when first used.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from hisopt.plotting.figures import convergence, front_scatter_matrix, parallel_coordinates
+    from hisopt.plotting.theme import COLORS, template, write_html
+
+_LAZY = {
+    "COLORS": "hisopt.plotting.theme",
+    "template": "hisopt.plotting.theme",
+    "write_html": "hisopt.plotting.theme",
+    "convergence": "hisopt.plotting.figures",
+    "front_scatter_matrix": "hisopt.plotting.figures",
+    "parallel_coordinates": "hisopt.plotting.figures",
+}
+
+__all__ = [
+    "COLORS",
+    "convergence",
+    "front_scatter_matrix",
+    "parallel_coordinates",
+    "template",
+    "write_html",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'hisopt.plotting' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
