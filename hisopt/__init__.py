@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from hisopt.evaluation.evaluate import Evaluator, roll_gradient
     from hisopt.evaluation.parallel import open_backend
     from hisopt.hydraulics.catalogue import CATALOGUE_NAMES, catalogue, his_parameter_values
+    from hisopt.io import read_csv
     from hisopt.optim.gradient.refine import refine_front, refine_run
     from hisopt.optim.results import OptimizationResult
     from hisopt.optim.run import optimize, resume
@@ -85,6 +86,7 @@ _LAZY = {
     "compare_layouts": "hisopt.studies.layout_study",
     "run_layout_study": "hisopt.studies.layout_study",
     "display_frame": "hisopt.units",
+    "read_csv": "hisopt.io",
 }
 
 __all__ = [
@@ -114,6 +116,7 @@ __all__ = [
     "open_backend",
     "optimize",
     "problem_from_dict",
+    "read_csv",
     "refine_front",
     "refine_run",
     "regions",
