@@ -27,4 +27,4 @@ numpydoc_show_class_members = False  # autodoc's :members: documents methods onc
 numpydoc_validation_checks: set[str] = set()  # style is checked by review, not by the build
 
 html_theme = "alabaster"
-exclude_patterns = ["_build", "generated/*.rst.bak"]
+exclude_patterns = ["_build"]
