@@ -19,7 +19,6 @@ from pathlib import Path
 import numpy as np
 
 import hisopt
-from hisopt.simulation.droptest import BODY_SENSORS, SENSOR_NAMES, response_sensors, simulate_drop
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "examples" / "left_side_drop_measured.csv"
@@ -41,12 +40,13 @@ HEADER = f"""\
 def write_example(path: Path = OUT) -> Path:
     """Simulate, add noise and gravity, and write the record with its header comment."""
     problem = hisopt.load_problem(PROBLEM).with_values(p0=P0_PA)
-    record = response_sensors(simulate_drop(problem.model(), "left_side"))
-    sensors = list(SENSOR_NAMES)
-    peak = np.abs(record[list(BODY_SENSORS)].to_numpy()).max()
+    record = hisopt.response_sensors(hisopt.simulate_drop(problem.model(), "left_side"))
+    sensors = [c for c in record.columns if c != "time"]  # body_fl ... wheel_rr
+    body = [c for c in sensors if c.startswith("body_")]
+    peak = np.abs(record[body].to_numpy()).max()
     rng = np.random.default_rng(SEED)
     record[sensors] += NOISE * peak * rng.standard_normal((len(record), len(sensors)))
-    record[list(BODY_SENSORS)] += GRAVITY
+    record[body] += GRAVITY
     path.write_text(HEADER + record.to_csv(index=False, float_format="%.6g", lineterminator="\n"), encoding="utf-8")
     return path
 

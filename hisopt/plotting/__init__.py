@@ -5,11 +5,45 @@ Domain result objects gather their data and hand it to a module here, imported i
 method, so that plotly loads only when something is drawn: :mod:`.spectra` (response
 spectra), :mod:`.sweeps` (sweeps and feasible regions), :mod:`.timeseries` (time responses),
 :mod:`.droptest` (drop-test spectra), :mod:`.figures` (optimisation results).
+
+Public API (documented sub-package): the names of ``__all__``, imported when first used.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from plotly.graph_objects import Figure as Figure  # the type of every figure here, for annotations elsewhere
+
+    from hisopt.plotting.figures import convergence, front_scatter_matrix, parallel_coordinates
+    from hisopt.plotting.theme import COLORS, template, write_html
+
+_LAZY = {
+    "COLORS": "hisopt.plotting.theme",
+    "template": "hisopt.plotting.theme",
+    "write_html": "hisopt.plotting.theme",
+    "convergence": "hisopt.plotting.figures",
+    "front_scatter_matrix": "hisopt.plotting.figures",
+    "parallel_coordinates": "hisopt.plotting.figures",
+}
+
+__all__ = [
+    "COLORS",
+    "convergence",
+    "front_scatter_matrix",
+    "parallel_coordinates",
+    "template",
+    "write_html",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'hisopt.plotting' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
