@@ -13,22 +13,9 @@ import sys
 from pathlib import Path
 from typing import Annotated
 
+import typer
 
-def _quit_now(signum: int, frame: object) -> None:
-    """Ctrl-C or SIGTERM while importing, or SIGTERM in a command with nothing to save: one
-    line and the shell's exit code, not a traceback (runs install their own handlers, which
-    save a checkpoint first; files are written atomically, so none is left half written)."""
-    os.write(2, f"interrupted by {signal.Signals(signum).name}\n".encode())
-    os._exit(128 + signum)
-
-
-if os.path.basename(sys.argv[0]) in ("hisopt", "__main__.py"):  # the command line, not a library import
-    for _signal in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(_signal, _quit_now)
-
-import typer  # noqa: E402
-
-from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, quantity  # noqa: E402
+from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, quantity
 
 # Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
 app = typer.Typer(
@@ -645,14 +632,33 @@ _INTERRUPTED: list[bool] = []
 """Set by Ctrl-C outside a run: whether a command reported it (runs and savers do)."""
 
 
+def _quit_now(signum: int, frame: object) -> None:
+    """SIGTERM in a command with nothing to save: one line and the shell's exit code, not a
+    traceback (runs install their own handlers, which save a checkpoint first; files are
+    written atomically, so none is left half written)."""
+    os.write(2, f"interrupted by {signal.Signals(signum).name}\n".encode())
+    os._exit(128 + signum)
+
+
 def _keyboard_interrupt(signum: int, frame: object) -> None:
     _INTERRUPTED.append(False)
     raise KeyboardInterrupt
 
 
+def install_signal_handlers() -> None:
+    """The command line's handlers, installed by :func:`main` (never on import: a library that
+    imports :mod:`hisopt.cli` keeps its own). Ctrl-C is a KeyboardInterrupt (commands that
+    save work catch it and say so; typer turns the others into a silent exit 130, named by
+    :func:`main`); SIGTERM is a quiet exit until a run installs its own handler
+    (:mod:`hisopt.interrupt`)."""
+    signal.signal(signal.SIGINT, _keyboard_interrupt)
+    signal.signal(signal.SIGTERM, _quit_now)
+
+
 def main() -> None:
-    """Entry point: map user errors to exit code 2 and internal errors to 1; print each
-    implausible value's warning as one line and go on."""
+    """Entry point: install the signal handlers, map user errors to exit code 2 and internal
+    errors to 1; print each implausible value's warning as one line and go on."""
+    install_signal_handlers()  # first: the commands import the numerical stack when they run
     from hisopt.cli.usage import one_line_warnings
 
     with one_line_warnings():
@@ -663,10 +669,6 @@ def _main_command() -> None:
     from hisopt.cli.usage import usage_error_line
     from hisopt.errors import HisoptError
 
-    # Imports are done: Ctrl-C is a KeyboardInterrupt again (commands that save work catch it
-    # and say so; typer turns the others into a silent exit 130, named below); SIGTERM keeps
-    # the quiet exit until a run installs its own handler (hisopt.interrupt).
-    signal.signal(signal.SIGINT, _keyboard_interrupt)
     args = sys.argv[1:]
     if all(arg == "--debug" for arg in args):  # bare `hisopt`: the help, exit 0
         args = [*args, "--help"]
