@@ -173,7 +173,7 @@ def test_set_help_names_every_key_set_accepts(problem):
     [his] model; --help names each, and --set accepts each."""
     from pydantic import BaseModel
 
-    from hisopt.cli.app import SET_KEYS
+    from hisopt.cli.options import SET_KEYS
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
     def is_model(annotation) -> bool:  # tables and lists ([his.parameters], [[his.circuits]]) are not scalars

@@ -46,7 +46,7 @@ def quantity(unit: str) -> Callable[[str], float]:
     return parse
 
 
-# Option types several commands share (hisopt.cli.app, hisopt.cli.compare).
+# Option types several commands share (the hisopt.cli command modules).
 ProblemArg = Annotated[
     Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
 ]
