@@ -47,6 +47,7 @@ import io
 import json
 import platform
 import sys
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -78,6 +79,25 @@ LAYOUT_STUDY_JSON = "study.json"
 """The record of a layout study directory (:mod:`hisopt.studies.layout_study`, whose runs are
 run directories one level down): named here so that a run command given such a folder says so."""
 CHECKPOINT_FORMAT = 1
+
+
+@dataclass
+class RunDirectory:
+    """A run's directory together with its ``run.json`` record: a run keeps both or neither
+    (an in-memory run has no :class:`RunDirectory`).
+
+    Attributes
+    ----------
+    path : [-] the run directory
+    info : [-] the ``run.json`` document, updated in place and written back atomically
+    """
+
+    path: Path
+    info: dict[str, Any]
+
+    def write_info(self) -> None:
+        """Write ``info`` to ``path/run.json`` (atomically)."""
+        atomic_write_json(self.path / RUN_JSON, self.info)
 
 
 def prepare_run_directory(run_dir: Path, *, fresh: bool) -> Path:
