@@ -16,14 +16,13 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from hisopt.errors import ConfigError, HisoptError, ModelError, ProblemFileNotFoundError, RunError
+from hisopt.version import __version__ as __version__
 
 if TYPE_CHECKING:
     from hisopt.coupled.modal import modal_analysis
     from hisopt.optim.run import optimize, resume
     from hisopt.problem import Problem, load_problem
     from hisopt.studies.layout_study import compare_layouts
-
-__version__ = "0.1.0"
 
 __all__ = [
     "ConfigError",

@@ -32,7 +32,7 @@ app = typer.Typer(
 
 def _show_version(value: bool) -> None:
     if value:
-        from hisopt import __version__
+        from hisopt.version import __version__
 
         typer.echo(f"hisopt {__version__}")
         raise typer.Exit()

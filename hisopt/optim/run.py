@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hisopt import interrupt
+import hisopt.interrupt as interrupt
 from hisopt.errors import RunError
 from hisopt.optim import rundir, runstate
 from hisopt.optim.decision import reference_point

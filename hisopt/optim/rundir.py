@@ -55,7 +55,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from hisopt import interrupt
+import hisopt.interrupt as interrupt
 from hisopt.errors import ConfigError, RunError
 from hisopt.io import atomic_write_bytes, atomic_write_json, read_csv, sha256_bytes, write_csv
 from hisopt.plausibility import with_bound_column, without_bound_column
@@ -267,10 +267,10 @@ def versions() -> dict[str, str]:
     import pymoo
     import scipy
 
-    import hisopt
+    from hisopt.version import __version__
 
     return {
-        "hisopt": hisopt.__version__,
+        "hisopt": __version__,
         "python": sys.version.split()[0],
         "numpy": np.__version__,
         "scipy": scipy.__version__,
