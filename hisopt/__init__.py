@@ -25,6 +25,7 @@ from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from hisopt.errors import ConfigError, HisoptError, ModelError, PlausibilityWarning, ProblemFileNotFoundError, RunError
+from hisopt.version import __version__ as __version__
 
 if TYPE_CHECKING:
     from hisopt.coupled.modal import modal_analysis, track_modes
@@ -46,8 +47,6 @@ if TYPE_CHECKING:
     from hisopt.studies.spectra import response_spectra
     from hisopt.studies.sweeps import regions, sweep
     from hisopt.units import display_frame
-
-__version__ = "0.1.0"
 
 # The model pulls in scipy and pandas, optimisation pymoo, figures plotly: import them only
 # when a name is asked for, so that `import hisopt` (and `hisopt --help`) stays light.

@@ -173,7 +173,7 @@ def test_set_help_names_every_key_set_accepts(problem):
     [his] model; --help names each, and --set accepts each."""
     from pydantic import BaseModel
 
-    from hisopt.cli.app import SET_KEYS
+    from hisopt.cli.options import SET_KEYS
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
     def is_model(annotation) -> bool:  # tables and lists ([his.parameters], [[his.circuits]]) are not scalars
@@ -198,7 +198,7 @@ def test_set_keys_are_derived_from_the_his_model(tmp_path, monkeypatch):
     field list of that model imported."""
     from pydantic import BaseModel
 
-    from hisopt.cli.app import SET_KEYS
+    from hisopt.cli.options import SET_KEYS
     from hisopt.cli.usage import scalar_fields
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
@@ -258,6 +258,29 @@ def test_help_and_version_import_no_numerical_stack():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stderr.strip() == "[]"
+
+
+def test_importing_the_cli_leaves_the_signal_handlers_alone():
+    """Importing hisopt.cli (as the console script does, argv[0] "hisopt") changes neither the
+    SIGINT nor the SIGTERM handler; main() installs the command line's own (compared by
+    identity with what signal.getsignal returned before the import)."""
+    code = (
+        "import signal, sys\n"
+        "sys.argv = ['/usr/local/bin/hisopt', '--version']\n"
+        "before = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]\n"
+        "import hisopt.cli\n"
+        "after = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]\n"
+        "assert after == before, (before, after)\n"
+        "try:\n"
+        "    hisopt.cli.main()\n"
+        "except SystemExit as exc:\n"
+        "    assert not exc.code, exc.code\n"
+        "installed = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]\n"
+        "assert all(h is not b for h, b in zip(installed, before, strict=True)), (before, installed)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("hisopt ")
 
 
 def test_evaluate_says_when_it_shows_only_part_of_the_designs(tmp_path, problem):

@@ -59,7 +59,7 @@ def compare_layouts_command(
     """
     from rich.console import Console
 
-    from hisopt import interrupt
+    import hisopt.interrupt as interrupt
     from hisopt.evaluation.parallel import open_backend
     from hisopt.problem import load_problem
     from hisopt.report.layout_report import write_layout_report

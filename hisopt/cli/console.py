@@ -77,7 +77,7 @@ def run_with_console(
     """
     from rich.console import Console
 
-    from hisopt import interrupt
+    import hisopt.interrupt as interrupt
     from hisopt.optim import runstate
 
     display, update = console_progress(total, done)

@@ -49,7 +49,6 @@ def quantity(unit: str) -> Callable[[str], float]:
     return parse
 
 
-# Option types several commands share (hisopt.cli.app, hisopt.cli.compare).
 def scalar_fields(module: str, model: str) -> tuple[str, ...]:
     """The scalar fields of the pydantic model ``module.model``, in declaration order, read
     from its source (``ast``): ``--help`` names them without importing the model, which would
@@ -98,6 +97,7 @@ def _source(module: str) -> str:
     return Path(spec.origin).read_text(encoding="utf-8")
 
 
+# Option types several commands share (the hisopt.cli command modules).
 ProblemArg = Annotated[
     Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
 ]

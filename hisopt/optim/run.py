@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hisopt import interrupt
+import hisopt.interrupt as interrupt
 from hisopt.errors import RunError
 from hisopt.optim import rundir, runstate
 from hisopt.optim.decision import reference_point
@@ -36,60 +36,61 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
 
 
-def _drive(engine: Engine, run_dir: Path | None, info: dict[str, Any] | None, progress: ProgressFn | None) -> OptimizationResult:
-    """Run generations until done; checkpoint each; on Ctrl-C or SIGTERM save and re-raise;
-    on an error record ``failed`` in ``run.json`` and re-raise (:mod:`hisopt.optim.runstate`)."""
+def _drive(engine: Engine, run: rundir.RunDirectory | None, progress: ProgressFn | None) -> OptimizationResult:
+    """Run generations until done; with a run directory, checkpoint each; on Ctrl-C or SIGTERM
+    save and re-raise; on an error record ``failed`` in ``run.json`` and re-raise
+    (:mod:`hisopt.optim.runstate`)."""
     with interrupt.signals_as_interrupts():
-        return _drive_session(engine, run_dir, info, progress)
+        return _drive_session(engine, run, progress)
 
 
-def _drive_session(engine: Engine, run_dir: Path | None, info: dict[str, Any] | None, progress: ProgressFn | None) -> OptimizationResult:
-    keep = run_dir is not None and info is not None
+def _drive_session(engine: Engine, run: rundir.RunDirectory | None, progress: ProgressFn | None) -> OptimizationResult:
+    run_dir = None if run is None else run.path
     session: dict[str, Any] = {"started": rundir.now(), "start_generation": engine.generation} | runstate.process_identity()
-    if keep:
-        info.setdefault("sessions", []).append(session)  # type: ignore[union-attr]
-        info["status"], info["process"] = runstate.RUNNING, runstate.process_identity()  # type: ignore[index]
-        rundir.atomic_write_json(run_dir / rundir.RUN_JSON, info)  # type: ignore[operator, arg-type]
-    last = engine.snapshot() if run_dir is not None else None
+    if run is not None:
+        run.info.setdefault("sessions", []).append(session)
+        run.info["status"], run.info["process"] = runstate.RUNNING, runstate.process_identity()
+        run.write_info()
+    last = engine.snapshot() if run is not None else None
     finished = False
     try:
         while engine.generation < engine.settings.generations and not engine.exhausted:
             interrupt.hook_point(f"generation-{engine.generation + 1}")
             stats = engine.step()
-            if run_dir is not None:
+            if run is not None:
                 last = engine.snapshot()
-                rundir.save_checkpoint(run_dir / rundir.CHECKPOINT, *last)
+                rundir.save_checkpoint(run.path / rundir.CHECKPOINT, *last)
             if stats is not None and progress is not None:
                 progress(stats)
         result = engine.result(run_dir)
-        if keep:
+        if run is not None:
             with interrupt.deferred():  # a signal now waits until every file is written
-                rundir.write_outputs(run_dir, result)  # type: ignore[arg-type]
-                _record(run_dir, info, session, runstate.FINISHED, engine, result)  # type: ignore[arg-type]
+                rundir.write_outputs(run.path, result)
+                _record(run, session, runstate.FINISHED, engine, result)
                 finished = True
         return result
     except KeyboardInterrupt as exc:
-        if keep and last is not None and not finished:
+        if run is not None and last is not None and not finished:
             session["signal"] = interrupt.signal_name(exc)
             with interrupt.deferred():  # a second Ctrl-C must not cut the save short
                 clock = engine.session_start, engine.elapsed_before
                 engine.restore(*last)  # the last complete generation, whatever was cut short
                 engine.session_start, engine.elapsed_before = clock
-                rundir.save_checkpoint(run_dir / rundir.CHECKPOINT, *last)  # type: ignore[operator]
-                result = engine.result(run_dir)
-                rundir.write_outputs(run_dir, result)  # type: ignore[arg-type]
-                _record(run_dir, info, session, runstate.INTERRUPTED, engine, result)  # type: ignore[arg-type]
+                rundir.save_checkpoint(run.path / rundir.CHECKPOINT, *last)
+                result = engine.result(run.path)
+                rundir.write_outputs(run.path, result)
+                _record(run, session, runstate.INTERRUPTED, engine, result)
         raise
     except Exception as exc:
-        if keep and not finished:
+        if run is not None and not finished:
             with interrupt.deferred():
-                runstate.record_failure(info, session, exc, engine.generation + 1)  # type: ignore[arg-type]
-                rundir.atomic_write_json(run_dir / rundir.RUN_JSON, info)  # type: ignore[operator, arg-type]
+                runstate.record_failure(run.info, session, exc, engine.generation + 1)
+                run.write_info()
         raise
 
 
-def _record(run_dir: Path, info: dict[str, Any], session: dict[str, Any], status: str, engine: Engine, result: OptimizationResult) -> None:
-    rundir.update_run_json(run_dir, info, session, status, result, time.perf_counter() - engine.session_start, engine.evaluation_s)
+def _record(run: rundir.RunDirectory, session: dict[str, Any], status: str, engine: Engine, result: OptimizationResult) -> None:
+    rundir.update_run_json(run.path, run.info, session, status, result, time.perf_counter() - engine.session_start, engine.evaluation_s)
 
 
 def optimize(
@@ -149,15 +150,17 @@ def optimize(
         runstate.refuse_occupied(out)
     run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
     started = time.perf_counter()
-    info: dict[str, Any] | None = None
+    run: rundir.RunDirectory | None = None  # None: the run stays in memory
     if run_dir is not None:
         name, raw, record = rundir.problem_copy(problem)
         rundir.atomic_write_bytes(run_dir / name, raw)
-        info = {"format": "hisopt-run/1", "status": runstate.STARTING, "created": rundir.now(), "problem": record}  # written as running
+        # written by the first session, as running
+        run = rundir.RunDirectory(run_dir, {"format": "hisopt-run/1", "status": runstate.STARTING, "created": rundir.now(), "problem": record})
     reference = reference_point(problem)
     engine = Engine(problem, settings, reference)
     engine.session_start = started
-    if info is not None:
+    if run is not None:
+        info = run.info
         info["settings"] = asdict(settings) | {
             "objectives": list(problem.objective_names),
             "constraints": [{"name": c.name, "limit": c.limit} | ({"scenarios": c.scenarios} if c.scenarios else {}) for c in problem.spec.constraints],
@@ -166,7 +169,7 @@ def optimize(
         if problem.spec.scenarios:  # load cases (docs/model.md §14)
             info["settings"] |= {"scenarios": list(problem.scenario_names), "aggregate": problem.spec.robust.aggregate}
         info["versions"] = rundir.versions()
-    return _drive(engine, run_dir, info, progress)
+    return _drive(engine, run, progress)
 
 
 @dataclass
@@ -196,7 +199,7 @@ class ResumePlan:
         """Continue to the end (a finished run: its result, no file touched)."""
         if self.finished:
             return self.engine.result(self.state.run_dir)
-        return _drive(self.engine, self.state.run_dir, self.info, progress)
+        return _drive(self.engine, rundir.RunDirectory(self.state.run_dir, self.info), progress)
 
 
 def prepare_resume(run_dir: str | Path) -> ResumePlan:

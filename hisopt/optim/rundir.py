@@ -47,6 +47,7 @@ import io
 import json
 import platform
 import sys
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -54,7 +55,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from hisopt import interrupt
+import hisopt.interrupt as interrupt
 from hisopt.errors import ConfigError, RunError
 from hisopt.io import atomic_write_bytes, atomic_write_json, read_csv, sha256_bytes, write_csv
 from hisopt.plausibility import with_bound_column, without_bound_column
@@ -78,6 +79,25 @@ LAYOUT_STUDY_JSON = "study.json"
 """The record of a layout study directory (:mod:`hisopt.studies.layout_study`, whose runs are
 run directories one level down): named here so that a run command given such a folder says so."""
 CHECKPOINT_FORMAT = 1
+
+
+@dataclass
+class RunDirectory:
+    """A run's directory together with its ``run.json`` record: a run keeps both or neither
+    (an in-memory run has no :class:`RunDirectory`).
+
+    Attributes
+    ----------
+    path : [-] the run directory
+    info : [-] the ``run.json`` document, updated in place and written back atomically
+    """
+
+    path: Path
+    info: dict[str, Any]
+
+    def write_info(self) -> None:
+        """Write ``info`` to ``path/run.json`` (atomically)."""
+        atomic_write_json(self.path / RUN_JSON, self.info)
 
 
 def prepare_run_directory(run_dir: Path, *, fresh: bool) -> Path:
@@ -249,10 +269,10 @@ def versions() -> dict[str, str]:
     import pymoo
     import scipy
 
-    import hisopt
+    from hisopt.version import __version__
 
     return {
-        "hisopt": hisopt.__version__,
+        "hisopt": __version__,
         "python": sys.version.split()[0],
         "numpy": np.__version__,
         "scipy": scipy.__version__,

@@ -1,0 +1,283 @@
+"""Commands on one problem's model: ``init``, ``modes``, ``layouts``, ``droptest``,
+``evaluate`` and ``response``; :func:`register` adds them to the app."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hisopt.cli.options import ScenarioOpt, SetOpt, load
+from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, quantity
+
+PROBLEM_TEMPLATE = "roll_plane_his.toml"  # in hisopt/data/; the same file as problems/roll_plane_his.toml
+
+
+def modes(problem: ProblemArg, set_: SetOpt = None, scenario: ScenarioOpt = None) -> None:
+    """Modes without and with HIS (paper Table 1).
+
+    Natural frequency, damping ratio and motion of each mode of the baseline design, and how
+    the HIS shifts each frequency. Modes are named by their shape (the same mode has the same
+    name without and with HIS); the older wheel-mode names are listed below the table.
+    """
+    from hisopt.cli.console import print_modes
+
+    print_modes(load(problem, set_, scenario))
+
+
+def layouts(
+    problem: Annotated[
+        Path | None, typer.Argument(metavar="PROBLEM", help="problem file whose [his] values are used (default: the paper's problem)")
+    ] = None,
+    set_: SetOpt = None,
+) -> None:
+    """Catalogue of HIS layouts and what each one stiffens.
+
+    For every catalogue layout (and the problem's own custom layout), at the problem's
+    baseline values: the static stiffness it adds per unit stroke pattern (bounce 1 1 1 1,
+    roll 1 -1 1 -1, pitch 1 1 -1 -1, warp 1 -1 -1 1 for FL FR RL RR; per metre of the
+    pattern's amplitude), its low-frequency damping and the largest static coupling between
+    patterns (docs/model.md §12.4). Select a layout with [his] layout = "NAME".
+    """
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    from hisopt.studies.screening import mode_stiffness
+    from hisopt.units import display_frame
+
+    p = load(problem, set_) if problem is not None else None
+    frame = mode_stiffness(p)
+    shown = display_frame(frame.drop(columns="summary"))
+    source = p.name if p is not None else "the paper's problem"
+    table = Table(title=Text(f"HIS layouts at the baseline of {source}: added stiffness and low-frequency damping per unit stroke pattern"))
+    for col in shown.columns:
+        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith("layout") else "right")
+    for row in shown.itertuples(index=False):
+        table.add_row(*[Text(v) for v in row])
+    console = Console(width=170)
+    console.print(table)
+    for name, summary in zip(frame["layout"], frame["summary"], strict=True):
+        console.print(Text(f"{name}: {summary}"))
+    console.print(Text('select one with [his] layout = "NAME"; descriptions and sources: docs/model.md §12.3'))
+
+
+def droptest(
+    problem: ProblemArg,
+    out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
+    p0: Annotated[
+        str,
+        typer.Option("--p0", metavar="PRESSURES",
+                     help="accumulator precharges (gauge), comma-separated; bare numbers in Pa, or with a unit, e.g. \"1 MPa,2 MPa\""),
+    ] = "1e6,2e6,3e6",
+    height: Annotated[
+        float,
+        typer.Option("--height", parser=quantity("m"), metavar="HEIGHT",
+                     help="drop height (the wheels roll off blocks this high); a bare number in m, or with a unit, e.g. 5cm"),
+    ] = 0.05,
+    measured: Annotated[
+        Path | None,
+        typer.Option(
+            "--measured",
+            help="measured drop record, CSV with columns time (s) and body_fl, body_fr, body_rl, body_rr "
+            "(vertical acceleration in m/s^2, z up; optional wheel_fl, wheel_fr, wheel_rl, wheel_rr), "
+            "uniformly sampled above 40 Hz; see docs/droptest.md",
+        ),
+    ] = None,
+    case: Annotated[
+        str | None, typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")
+    ] = None,
+    measured_p0: Annotated[
+        float | None,
+        typer.Option(
+            "--measured-p0", parser=quantity("Pa"), metavar="PRESSURE",
+            help="precharge (gauge) of the measured test, a bare number in Pa or with a unit, e.g. \"2 MPa\" (default: the problem's p0)",
+        ),
+    ] = None,
+    mode: Annotated[str, typer.Option("--mode", help="simulation model: linear or nonlinear (gas law, tyre lift-off)")] = "linear",
+    set_: SetOpt = None,
+) -> None:
+    """Drop tests, simulated and measured (paper Table 3).
+
+    Repeats the paper's drop tests (Section VI, Table 3, Fig. 13) on the model. Writes
+    OUT/droptest.csv (case, p0, mode, mac, frequency_time_hz, frequency_model_hz,
+    error_pct, damping; damped frequencies in Hz) and OUT/droptest.html (response spectra).
+    Each signal is paired with the model mode it is by frequency and shape (MAC); one that
+    matches no single mode is "mixed" and has no error. A measured record replaces the
+    simulated row of the same case and p0.
+    """
+    from rich.console import Console
+    from rich.table import Table
+
+    from hisopt.errors import ConfigError
+    from hisopt.io import write_csv
+    from hisopt.quantities import to_si
+    from hisopt.simulation.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure, unpaired_notes
+    from hisopt.units import display_for, format_number
+
+    p0_values = [to_si(v, "Pa", key="--p0") for v in p0.split(",") if v.strip()]
+    from hisopt.specification.validation import parameter_rule, plausible
+
+    if not p0_values or not parameter_rule("p0").holds(p0_values).all():
+        raise ConfigError(f"expected one or more finite precharges >= 0 Pa, got {p0!r}", key="--p0")
+    if not (height > 0 and plausible(height)):
+        raise ConfigError(f"expected a finite drop height > 0 m, got {height!r}", key="--height")
+    if measured_p0 is not None and (measured is None or not parameter_rule("p0").holds(measured_p0)):
+        raise ConfigError(f"expected a finite precharge >= 0 Pa with --measured, got {measured_p0!r}", key="--measured-p0")
+    if mode not in ("linear", "nonlinear"):
+        raise ConfigError(f"expected linear or nonlinear, got {mode!r}", key="--mode")
+    if (measured is None) != (case is None):
+        raise ConfigError("--measured and --case go together: name the file and which drop test it records", key="--case")
+    if case is not None and case not in DROP_CASES:
+        raise ConfigError(f"expected one of {', '.join(DROP_CASES)}, got {case!r}", key="--case")
+
+    if measured is not None:
+        read_measured(measured)  # fail before the simulations if the file is unusable
+    prob = load(problem, set_)
+    tests = run_drop_tests(prob, p0_values, height, mode=mode)  # type: ignore[arg-type]
+    if measured is not None:
+        p0_meas = prob.spec.his.p0 if measured_p0 is None else measured_p0
+        tests.append(measured_drop_test(prob, measured, case, p0_meas))  # type: ignore[arg-type]
+    frame = drop_table(tests)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        write_csv(frame, out / "droptest.csv")
+        spectra_figure(tests).write_html(out / "droptest.html", include_plotlyjs=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot write the results ({exc.strerror}); expected a writable directory", key="--out") from exc
+
+    sources = {(t.case, t.p0_pa): t.source for t in tests}
+    from rich.text import Text
+
+    table = Table(title=f"Drop tests of {prob.name}, {height * 1000:g} mm (paper Table 3; damped frequencies)")
+    pressure = display_for("Pa", frame["p0"].to_numpy())
+    for col in ("case", pressure.label("p0"), "mode", "MAC [-]", "source", "f time [Hz]", "f model [Hz]", "error [%]", "damping [-]"):
+        table.add_column(Text(col), justify="left" if col in ("case", "mode", "source") else "right")
+    for row in frame.itertuples():
+        paired = math.isfinite(row.frequency_model_hz)
+        table.add_row(
+            row.case,
+            pressure.number(row.p0),
+            row.mode,
+            f"{row.mac:.3f}" if math.isfinite(row.mac) else "-",
+            sources[(row.case, row.p0)],
+            format_number(row.frequency_time_hz, trim=False),
+            format_number(row.frequency_model_hz, trim=False) if paired else "-",
+            f"{row.error_pct:+.2f}" if paired else "-",
+            format_number(row.damping, trim=False),
+        )
+    Console(width=130).print(table)
+    for line in unpaired_notes(tests):
+        typer.echo(line)
+    typer.echo(f"wrote {out / 'droptest.csv'} and {out / 'droptest.html'}")
+
+
+def evaluate(
+    problem: ProblemArg,
+    set_: SetOpt = None,
+    designs: Annotated[
+        Path | None,
+        typer.Option(help="CSV with one column per design variable, e.g. examples/designs.csv; an optional units row "
+                     "below the header ([MPa], [cm^2], [-]) gives each column's unit, else SI"),
+    ] = None,
+    out: Annotated[Path | None, typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Objectives and constraints of the baseline or a CSV file.
+
+    Without --designs, of the problem's baseline design; with it, of every row. The
+    table shows the first 20 designs; --out writes them all. A row that breaks a
+    parameter's rule or is not finite is not evaluated, a row outside the [variables] box
+    is; both are flagged in the status and reason columns, never feasible, and counted in
+    one warning line.
+    """
+    from rich.console import Console
+
+    from hisopt.errors import ConfigError
+    from hisopt.io import ensure_writable_file, write_csv
+    from hisopt.specification.designs import read_designs
+    from hisopt.specification.validation import flag_summary
+
+    p = load(problem, set_)
+    if out is not None:
+        ensure_writable_file(out, "--out")  # fail before any work
+    if designs is not None:
+        from hisopt.units import variable_units
+
+        frame = read_designs(designs, p.variable_names, variable_units(p))
+        from hisopt.evaluation.parallel import open_backend
+
+        with open_backend(workers, scheduler) as backend:
+            result = p.evaluate(frame, backend=backend, source=str(designs), log=False)
+    else:
+        result = p.evaluate(p.baseline, log=False)
+    summary = flag_summary(result["status"], str(designs) if designs is not None else "baseline design")
+    if summary:
+        typer.echo(f"warning: {summary}", err=True)
+    if out is not None:
+        try:
+            write_csv(result, out)
+        except OSError as exc:
+            raise ConfigError(f"cannot write {out} ({exc.strerror or exc})", key="--out") from None
+        typer.echo(f"wrote {len(result)} designs to {out}")
+    if designs is None or out is None:
+        from hisopt.cli.console import units_table
+        from hisopt.units import display_frame
+
+        Console(width=200).print(units_table(display_frame(result.head(20)), f"{p.name}: {len(result)} design(s)"))
+        if len(result) > 20:
+            typer.echo(f"showing the first 20 of {len(result)} designs; write them all with --out FILE")
+
+
+def init(
+    file: Annotated[Path, typer.Argument(metavar="FILE", help="problem file to write, e.g. problem.toml")],
+    force: Annotated[bool, typer.Option("--force", help="overwrite FILE if it exists")] = False,
+) -> None:
+    """Write the paper's problem to FILE as a starting point.
+
+    The default vehicle, HIS, design box, road and the paper's four objectives, commented
+    and in SI units (the same file as problems/roll_plane_his.toml). Edit it, then run
+    `hisopt evaluate FILE` or `hisopt optimize FILE`.
+    """
+    from importlib import resources
+
+    from hisopt.errors import ConfigError
+
+    if file.exists() and not force:
+        raise ConfigError("already exists; expected a new file name, or --force to overwrite it", file=str(file))
+    text = (resources.files("hisopt") / "data" / PROBLEM_TEMPLATE).read_text(encoding="utf-8")
+    try:
+        file.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot write the file ({exc.strerror}); expected a writable path", file=str(file)) from None
+    typer.echo(f"wrote {file}; next: hisopt evaluate {file}")
+
+
+def response(
+    problem: ProblemArg,
+    out: Annotated[Path, typer.Option(help="output directory for response.csv and response.html")],
+    set_: SetOpt = None,
+) -> None:
+    """Response spectra with and without HIS (paper Figure 4).
+
+    Writes OUT/response.csv and OUT/response.html (interactive, works offline).
+    """
+    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.plotting.theme import write_html
+    from hisopt.studies.spectra import response_spectra
+
+    p = load(problem, set_)
+    ensure_writable_dir(out)
+    spectra = response_spectra(p)
+    write_csv(spectra.frame, out / "response.csv")
+    write_html(spectra.plot(), out / "response.html")
+    typer.echo(f"wrote {out / 'response.csv'} and {out / 'response.html'}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add this module's commands to ``app``, in the order ``hisopt --help`` lists them."""
+    for command in (modes, layouts, droptest, evaluate, init, response):
+        app.command()(command)

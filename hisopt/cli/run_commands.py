@@ -1,0 +1,219 @@
+"""Commands on optimisation runs: ``optimize``, ``resume``, ``status``, ``study`` (several
+seeds), ``report`` and ``refine``; :func:`register` adds them to the app."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hisopt.cli.options import DEBUG, load
+from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
+
+
+def optimize_cmd(
+    problem: ProblemArg,
+    out: Annotated[Path | None, typer.Option("--out", help="run directory (default runs/NAME-TIMESTAMP)")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", parser=integer, metavar="N", help="random seed (default: problem file)")
+    ] = None,
+    pop: Annotated[
+        int | None, typer.Option("--pop", parser=integer, metavar="N", help="population size (default: problem file, 100)")
+    ] = None,
+    gens: Annotated[
+        int | None, typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")
+    ] = None,
+    refine: Annotated[bool, typer.Option("--refine", help="refine the front with CasADi/IPOPT afterwards (front_refined.csv)")] = False,
+    max_points: Annotated[
+        int, typer.Option("--max-points", parser=integer, metavar="N", help="with --refine: most front designs to refine")
+    ] = 40,
+) -> None:
+    """Pareto-optimise PROBLEM in a resumable run directory.
+
+    NSGA-II, or NSGA-III from four objectives. A checkpoint is written after every
+    generation; `hisopt resume RUN_DIR` continues an interrupted run.
+    """
+    from datetime import datetime
+
+    from hisopt.cli.console import run_with_console
+    from hisopt.optim.run import optimize
+    from hisopt.optim.rundir import prepare_run_directory
+    from hisopt.optim.settings import resolve_settings
+    from hisopt.problem import load_problem
+
+    p = load_problem(problem)
+    settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed)
+    if out is None:
+        stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+        out = Path("runs") / f"{p.name}-{stamp}"
+        suffix = 1
+        while out.exists():
+            suffix += 1
+            out = Path("runs") / f"{p.name}-{stamp}-{suffix}"
+    from hisopt.optim.runstate import refuse_occupied
+
+    refuse_occupied(out)  # says what state a run already there is in
+    prepare_run_directory(out, fresh=True)  # fail before any work
+    typer.echo(
+        f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
+        f"seed {settings.seed} -> {out}",
+        err=True,
+    )
+    code = run_with_console(
+        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, progress=update),
+        total=settings.generations,
+        done=0,
+        run_dir=out,
+        debug=DEBUG["on"],
+    )
+    if code:
+        raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
+    if refine:
+        from hisopt.cli.console import refine_with_progress
+
+        refine_with_progress(out, max_points, None, None)
+
+
+def resume_cmd(
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of an interrupted `hisopt optimize`")],
+) -> None:
+    """Continue an interrupted run from its last checkpoint.
+
+    The run may have been interrupted (Ctrl-C, SIGTERM), killed or stopped by an error. The
+    final front is the one an uninterrupted run with the same seed gives.
+    """
+    from hisopt.cli.console import run_with_console
+    from hisopt.optim.run import prepare_resume
+
+    plan = prepare_resume(run_dir)  # every check before any output
+    if plan.finished:
+        typer.echo(f"{plan.state.line()}; nothing to resume", err=True)
+        return
+    state = plan.state
+    typer.echo(f"resuming {run_dir} at generation {state.generation} of {state.generations}", err=True)
+    code = run_with_console(plan.run, total=state.generations, done=state.generation, run_dir=run_dir, debug=DEBUG["on"])
+    if code:
+        raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
+
+
+def status_cmd(
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of `hisopt optimize` (or a compare-layouts study)")],
+) -> None:
+    """Say in one line what state a run directory is in.
+
+    The state is running, interrupted, killed, failed or finished, and the line says what
+    to do next: resume the run, wait for it, or start over with another --out. On a
+    `hisopt compare-layouts` study: its layouts, seeds, each run's state, its tables and
+    report, and what to do next.
+    """
+    from hisopt.optim.runstate import read_state
+    from hisopt.studies.layout_folder import is_layout_study, study_status
+
+    if is_layout_study(run_dir):
+        typer.echo("\n".join(study_status(run_dir)))
+        return
+    typer.echo(read_state(run_dir).line())
+
+
+def study(
+    problem: ProblemArg,
+    seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds to run, e.g. 1-8 or 1,3,5")] = "1-4",
+    out: Annotated[Path | None, typer.Option(help="study directory: seed-<n>/ run dirs, merged front.csv, runs.csv")] = None,
+    pop: Annotated[
+        int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")
+    ] = None,
+    gens: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Optimise with several seeds, fronts merged.
+
+    Each seed is an independent run in OUT/seed-<n>/, in parallel with --workers or
+    --scheduler (Dask); OUT/front.csv merges their fronts and OUT/runs.csv compares them.
+    """
+    from rich.console import Console
+
+    from hisopt.evaluation.parallel import open_backend
+    from hisopt.optim.study import parse_seeds
+    from hisopt.optim.study import study as run_study
+
+    p = load(problem, None)
+    seed_list = parse_seeds(seeds)
+    finished: list[int] = []
+    k = len(p.objective_names)
+
+    def progress(run: dict) -> None:  # one stderr line per finished seed
+        finished.append(run["seed"])
+        typer.echo(
+            f"seed {run['seed']} done ({len(finished)} of {len(seed_list)}): front of {run['front_size']} designs, "
+            f"HV {run['hypervolume']:.6g} decades^{k}, {run['wall_time_s']:.1f} s",
+            err=True,
+        )
+
+    with open_backend(workers, scheduler) as backend:
+        where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
+        typer.echo(f"running {len(seed_list)} seeds {where}", err=True)
+        result = run_study(p, seed_list, out=out, pop_size=pop, generations=gens, backend=backend, progress=progress)
+    from hisopt.cli.console import units_table
+    from hisopt.units import display_frame, hypervolume_unit
+
+    hv = f"{result.hypervolume:.6g} {hypervolume_unit(len(p.objective_names))}"
+    title = f"{p.name}: {len(seed_list)} seeds, merged front of {len(result.front)} designs, hypervolume {hv}"
+    Console(width=120).print(units_table(display_frame(result.runs), title))
+    if out is not None:
+        typer.echo(f"wrote {out / 'front.csv'} and {out / 'runs.csv'}")
+
+
+def report(
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of `hisopt optimize` (or a compare-layouts study)")],
+    color_by: Annotated[str | None, typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
+    design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
+) -> None:
+    """Write RUN_DIR/report.html, the run's offline report.
+
+    Front, parallel coordinates, convergence, spectra and modes of one design; plotly.js
+    is embedded, so the file opens offline. On a finished `hisopt compare-layouts` study,
+    its study report from its files.
+    """
+    from hisopt.cli.compare import study_report
+    from hisopt.report.html import build_report
+    from hisopt.studies.layout_folder import is_layout_study
+
+    path = study_report(run_dir, color_by, design) if is_layout_study(run_dir) else build_report(run_dir, color_by=color_by, design=design)
+    typer.echo(f"wrote {path}")
+
+
+def refine_cmd(
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
+    max_points: Annotated[
+        int,
+        typer.Option("--max-points", parser=integer, metavar="N", help="most front designs to refine, spread evenly over the front"),
+    ] = 40,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Refine RUN_DIR's front by gradients (CasADi/IPOPT).
+
+    Writes RUN_DIR/front_refined.csv. Each of up to --max-points designs spread over
+    front.csv is moved towards the Pareto front by an NLP (its achievement scalarising
+    function) and kept only if, evaluated again, it weakly dominates its start. NLPs run
+    in this process, or on Dask with --workers or --scheduler. See docs/refine.md.
+    """
+    from hisopt.errors import ConfigError
+
+    if max_points < 1:
+        raise ConfigError(f"expected at least 1, got {max_points}", key="--max-points")
+    from hisopt.cli.console import refine_with_progress
+
+    refine_with_progress(run_dir, max_points, workers, scheduler)
+
+
+def register(app: typer.Typer) -> None:
+    """Add this module's commands to ``app``, in the order ``hisopt --help`` lists them."""
+    app.command("optimize")(optimize_cmd)
+    app.command("resume")(resume_cmd)
+    app.command("status")(status_cmd)
+    app.command()(study)
+    app.command()(report)
+    app.command("refine")(refine_cmd)
