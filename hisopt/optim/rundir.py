@@ -88,8 +88,10 @@ class RunDirectory:
 
     Attributes
     ----------
-    path : [-] the run directory
-    info : [-] the ``run.json`` document, updated in place and written back atomically
+    path : Path
+        the run directory
+    info : dict
+        the ``run.json`` document, updated in place and written back atomically
     """
 
     path: Path
