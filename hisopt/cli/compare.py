@@ -1,4 +1,4 @@
-"""``hisopt compare-layouts``: registered on :mod:`hisopt.cli.app`'s app by :func:`register`."""
+"""``hisopt compare-layouts``: registered on :mod:`hisopt.cli.application`'s app by :func:`register`."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
 
 
 def register(app: typer.Typer) -> None:
-    """Add the ``compare-layouts`` command to ``app`` (:mod:`hisopt.cli.app`'s)."""
+    """Add the ``compare-layouts`` command to ``app`` (:mod:`hisopt.cli.application`'s)."""
 
     @app.command("compare-layouts")
     def compare_layouts_cmd(

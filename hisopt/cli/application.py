@@ -1,6 +1,6 @@
 """Command line: ``hisopt modes|evaluate|response|optimize|resume|...`` (typer).
 
-The app, its global options and :func:`main`, the entry point. The commands live by concept in
+The app, its global options and :func:`run` (what :func:`hisopt.cli.main`, the entry point, runs). The commands live by concept in
 :mod:`~hisopt.cli.model_commands`, :mod:`~hisopt.cli.run_commands`,
 :mod:`~hisopt.cli.study_commands` and :mod:`~hisopt.cli.compare`.
 User mistakes exit with code 2 and one line on stderr; internal errors exit 1; ``--debug``
@@ -9,8 +9,6 @@ shows tracebacks.
 
 from __future__ import annotations
 
-import os
-import signal
 import sys
 from typing import Annotated
 
@@ -18,6 +16,7 @@ import typer
 
 from hisopt.cli import compare, model_commands, run_commands, study_commands
 from hisopt.cli.options import DEBUG
+from hisopt.cli.signals import INTERRUPTED, install_signal_handlers
 
 # Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
 app = typer.Typer(
@@ -53,36 +52,10 @@ for _commands in (model_commands, run_commands, study_commands, compare):
     _commands.register(app)
 
 
-_INTERRUPTED: list[bool] = []
-"""Set by Ctrl-C outside a run: whether a command reported it (runs and savers do)."""
-
-
-def _quit_now(signum: int, frame: object) -> None:
-    """SIGTERM in a command with nothing to save: one line and the shell's exit code, not a
-    traceback (runs install their own handlers, which save a checkpoint first; files are
-    written atomically, so none is left half written)."""
-    os.write(2, f"interrupted by {signal.Signals(signum).name}\n".encode())
-    os._exit(128 + signum)
-
-
-def _keyboard_interrupt(signum: int, frame: object) -> None:
-    _INTERRUPTED.append(False)
-    raise KeyboardInterrupt
-
-
-def install_signal_handlers() -> None:
-    """The command line's handlers, installed by :func:`main` (never on import: a library that
-    imports :mod:`hisopt.cli` keeps its own). Ctrl-C is a KeyboardInterrupt (commands that
-    save work catch it and say so; typer turns the others into a silent exit 130, named by
-    :func:`main`); SIGTERM is a quiet exit until a run installs its own handler
-    (:mod:`hisopt.interrupt`)."""
-    signal.signal(signal.SIGINT, _keyboard_interrupt)
-    signal.signal(signal.SIGTERM, _quit_now)
-
-
-def main() -> None:
-    """Entry point: install the signal handlers, map user errors to exit code 2 and internal
-    errors to 1; print each implausible value's warning as one line and go on."""
+def run() -> None:
+    """Run the command line (:func:`hisopt.cli.main`): install the signal handlers, map user
+    errors to exit code 2 and internal errors to 1; print each implausible value's warning as
+    one line and go on."""
     install_signal_handlers()  # first: the commands import the numerical stack when they run
     from hisopt.cli.usage import one_line_warnings
 
@@ -121,7 +94,7 @@ def _main_command() -> None:
             raise
         typer.echo(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for a traceback)", err=True)
         sys.exit(1)
-    if code == 130 and _INTERRUPTED and not _INTERRUPTED[0]:  # no command reported it
+    if code == 130 and INTERRUPTED and not INTERRUPTED[0]:  # no command reported it
         typer.echo("interrupted by SIGINT", err=True)
     if isinstance(code, int) and code:
         sys.exit(code)
