@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
 import re
 from decimal import Decimal, localcontext
@@ -175,7 +176,8 @@ def unit_factor(given: str, unit: str, *, file: str | None = None, key: str | No
     given = " ".join(given.split())
     if given in ("", unit):  # SI already: no units library needed
         return 1.0
-    shown = f'"{text}"' if text is not None else f"[{given}]"
+    # the text as written, its line breaks and control characters escaped: a message is one line
+    shown = json.dumps(text, ensure_ascii=False) if text is not None else f"[{given}]"
     expected = f"expected {_kind(unit)} (e.g. {_example(unit)})"
     ureg = _registry()
     try:

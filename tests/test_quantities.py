@@ -484,3 +484,19 @@ def test_every_printed_unit_pastes_back_to_the_same_value(tmp_path):
 
     # Not vacuous: the engineering units (not SI) were among those pasted back.
     assert {"MPa", "cm^2", "MPa s/m^3", "L", "deg", "deg/g", "deg/s", "deg/(m/s^2)", "mm", "kN/m", "N s/m", "rad^2/Hz", "-"} <= seen, seen
+
+
+def test_a_unit_label_with_a_line_break_is_named_on_one_line():
+    """Hypothesis found it (tests/test_reliability.py): the label was echoed as written, so a
+    line break in it split the message; it is now escaped, the message one line."""
+    import tomllib
+
+    from hisopt.errors import ConfigError
+    from hisopt.problem import problem_from_dict
+    from tests.conftest import DEFAULT_PROBLEM
+
+    data = tomllib.loads(DEFAULT_PROBLEM.read_text(encoding="utf-8"))
+    data["variables"]["lam"]["unit"] = "\nÀ"
+    with pytest.raises(ConfigError) as err:
+        problem_from_dict(data, "edited.toml")
+    assert "\n" not in str(err.value) and str(err.value).startswith('edited.toml: variables.lam.unit: "\\nÀ": unknown unit')
