@@ -493,7 +493,6 @@ def test_a_unit_label_with_a_line_break_is_named_on_one_line():
 
     from hisopt.errors import ConfigError
     from hisopt.problem import problem_from_dict
-    from tests.conftest import DEFAULT_PROBLEM
 
     data = tomllib.loads(DEFAULT_PROBLEM.read_text(encoding="utf-8"))
     data["variables"]["lam"]["unit"] = "\nÀ"
