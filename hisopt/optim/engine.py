@@ -20,7 +20,8 @@ from hisopt.optim.archive import Archive
 from hisopt.optim.decision import hypervolume
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
 from hisopt.optim.results import GenerationStats, OptimizationResult
-from hisopt.optim.settings import RunSettings, build_algorithm
+from hisopt.optim.hv_emoa import search_objectives
+from hisopt.optim.settings import RunSettings, build_algorithm, searches_in_log
 from hisopt.units import attach_units
 
 if TYPE_CHECKING:
@@ -76,7 +77,7 @@ class Engine:
         q = self.pymoo_problem.quantities(x)
         self.evaluation_s += time.perf_counter() - t0
         f, g = self.pymoo_problem.f_and_g(q)
-        pop.set("F", f, "G", g)
+        pop.set("F", search_objectives(f) if searches_in_log(self.settings.algorithm) else f, "G", g)
         with warnings.catch_warnings():
             self.algorithm.tell(infills=pop)
         feasible = feasible_mask(g)

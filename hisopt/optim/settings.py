@@ -15,8 +15,8 @@ from hisopt.errors import ConfigError
 if TYPE_CHECKING:
     from hisopt.problem import Problem
 
-AlgorithmName = Literal["nsga2", "nsga3"]
-AlgorithmChoice = Literal["auto", "nsga2", "nsga3"]
+AlgorithmName = Literal["nsga2", "nsga3", "smsemoa"]
+AlgorithmChoice = Literal["auto", "nsga2", "nsga3", "smsemoa"]
 NSGA3_MIN_OBJECTIVES = 4
 """``algorithm = "auto"`` picks NSGA-III from this many objectives on, NSGA-II below."""
 
@@ -64,8 +64,8 @@ def resolve_settings(
     """
     spec = problem.spec.optimizer
     choice = spec.algorithm if algorithm is None else algorithm
-    if choice not in ("auto", "nsga2", "nsga3"):
-        raise ConfigError(f"unknown algorithm {choice!r}; expected auto, nsga2 or nsga3", key="--algorithm")
+    if choice not in ("auto", "nsga2", "nsga3", "smsemoa"):
+        raise ConfigError(f"unknown algorithm {choice!r}; expected auto, nsga2, nsga3 or smsemoa", key="--algorithm")
     pop = spec.pop_size if pop_size is None else pop_size
     gens = spec.generations if generations is None else generations
     rng_seed = spec.seed if seed is None else seed
@@ -90,12 +90,22 @@ def das_dennis_partitions(n_obj: int, pop_size: int) -> int:
     return p
 
 
+def searches_in_log(algorithm: AlgorithmName) -> bool:
+    """[-] The algorithm is handed ``log10`` of the objectives (:mod:`hisopt.optim.hv_emoa`);
+    NSGA-II/III keep the linear objectives they always had, so old runs resume identically."""
+    return algorithm == "smsemoa"
+
+
 def build_algorithm(settings: RunSettings, n_obj: int) -> Any:
-    """A fresh pymoo NSGA-II or NSGA-III for ``settings`` (not yet set up).
+    """A fresh pymoo NSGA-II, NSGA-III or hisopt's SMS-EMOA for ``settings`` (not yet set up).
 
     NSGA-III uses Das-Dennis reference directions, as many as fit the population (84 for
     four objectives and 100 individuals).
     """
+    if settings.algorithm == "smsemoa":
+        from hisopt.optim.hv_emoa import build_hv_emoa
+
+        return build_hv_emoa(settings.pop_size)
     if settings.algorithm == "nsga2":
         from pymoo.algorithms.moo.nsga2 import NSGA2
 

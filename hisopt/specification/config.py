@@ -173,7 +173,7 @@ class Handling(_Strict):
 class Optimizer(_Strict):
     """Evolutionary search settings (overridable on the command line)."""
 
-    algorithm: Literal["auto", "nsga2", "nsga3"] = "auto"
+    algorithm: Literal["auto", "nsga2", "nsga3", "smsemoa"] = "auto"
     pop_size: int = Field(100, ge=4)
     generations: int = Field(200, ge=1)
     seed: int = Field(1, ge=0)
