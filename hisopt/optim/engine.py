@@ -21,6 +21,7 @@ from hisopt.optim.decision import hypervolume
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
 from hisopt.optim.results import GenerationStats, OptimizationResult
 from hisopt.optim.settings import RunSettings, build_algorithm
+from hisopt.optim.thinning import EpsilonTolerances
 from hisopt.units import attach_units
 
 if TYPE_CHECKING:
@@ -58,6 +59,7 @@ class Engine:
         self.session_start = time.perf_counter()
         self.evaluation_s = 0.0  # [s] time spent in the evaluator (all sessions)
         self.exhausted = False
+        self.epsilon: EpsilonTolerances | None = None  # the thinned front's tolerances (hisopt.optim.thinning)
 
     # -- stepping --
     def elapsed(self) -> float:
@@ -235,4 +237,5 @@ class Engine:
             wall_time_s=self.elapsed(),
             run_dir=run_dir,
             completed=not self.exhausted,
+            epsilon=self.epsilon,
         )
