@@ -305,3 +305,16 @@ def test_the_file_tolerances_are_used(tmp_path):
     res = optimize(path, out=tmp_path / "run", **SMALL)
     assert res.epsilon is not None and res.epsilon.value.tolist() == [0.02, 0.05, 0.0, 0.0]
     assert json.loads((tmp_path / "run" / "run.json").read_text())["settings"]["epsilon"]["max_roll_psd"]["text"] == "5 %"
+
+
+def test_the_report_shows_the_thinned_front_and_both_counts(tmp_path):
+    from hisopt.report.html import build_report
+
+    optimize(DEFAULT_PROBLEM, out=tmp_path / "run", epsilon=EPSILON, **SMALL)
+    info = json.loads((tmp_path / "run" / "run.json").read_text())
+    full, thin = info["result"]["front_size"], info["result"]["thinned_front_size"]
+    page = build_report(tmp_path / "run").read_text(encoding="utf-8")
+    assert f"front of {full} designs, thinned to {thin} designs that differ by more than sigma_aw 2 %" in page
+    assert "thinned_front_size" in page
+    with pytest.raises(ConfigError, match=f"row index below {thin} \\(rows of front_thinned.csv\\)"):
+        build_report(tmp_path / "run", design=str(thin))

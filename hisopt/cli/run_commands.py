@@ -180,7 +180,9 @@ def study(
 def report(
     run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of `hisopt optimize` (or a compare-layouts study)")],
     color_by: Annotated[str | None, typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
-    design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
+    design: Annotated[
+        str, typer.Option(help="design for spectra and modes: knee, asf or a row index of front.csv (front_thinned.csv with --epsilon)")
+    ] = "knee",
 ) -> None:
     """Write RUN_DIR/report.html, the run's offline report.
 
