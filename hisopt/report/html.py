@@ -184,6 +184,9 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
 def build_report(run_dir: str | Path, color_by: str | None = None, design: str = "knee") -> Path:
     """Write ``RUN_DIR/report.html`` and return its path.
 
+    A run with epsilon tolerances is shown by its thinned front: the figures, the knee and
+    the ASF pick are of ``front_thinned.csv``; the page says how many designs both fronts hold.
+
     Parameters
     ----------
     color_by : str | None, optional
@@ -191,9 +194,6 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     design : str, optional
         design whose spectra and modes are shown: ``knee``, ``asf`` or a row index of the
         front shown (``front_thinned.csv`` when the run has one, else ``front.csv``)
-
-    A run with epsilon tolerances is shown by its thinned front: the figures, the knee and
-    the ASF pick are of ``front_thinned.csv``; the page says how many designs both fronts hold.
     """
     import plotly.offline
 
