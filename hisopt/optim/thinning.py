@@ -49,6 +49,9 @@ from hisopt.specification.tolerances import Tolerance, parse_tolerance_options, 
 if TYPE_CHECKING:
     from hisopt.problem import Problem
 
+BLOCK = 256
+"""[-] Candidates tested against the kept designs in one vectorised call (memory ``BLOCK x kept``)."""
+
 EpsilonInput = Mapping[str, Any] | str | Iterable[str]
 """What :func:`hisopt.optimize`'s ``epsilon`` takes: ``{name: tolerance}`` as in the problem
 file, or ``"NAME=TOL"`` text as ``--epsilon`` takes it (one string, comma-separated, or several)."""
@@ -187,15 +190,19 @@ def thin_front(f: np.ndarray, relative: np.ndarray, value: np.ndarray) -> np.nda
     d = z  # ASF with the ideal point (0 in normalised space) and equal weights
     asf = d.max(axis=1) + 1e-6 * d.sum(axis=1)  # rho as decision.asf_index's default
     order = rows[np.lexsort((rows, asf))]
-    kept = np.empty((len(order), f.shape[1]))
-    kept_rows = np.empty(len(order), dtype=np.int64)
-    m = 0
-    for row in order:  # greedy: sequential by nature; each test is vectorised over the kept designs
-        if m and within_tolerances(f[row][None], kept[:m], relative, value)[0].any():
-            continue
-        kept[m], kept_rows[m] = f[row], row
-        m += 1
-    return np.sort(kept_rows[:m])
+    kept = np.empty((0, f.shape[1]))
+    kept_rows: list[np.ndarray] = []
+    for start in range(0, len(order), BLOCK):  # the greedy rule, a block of candidates at a time
+        block = order[start : start + BLOCK]
+        fb = f[block]
+        free = np.flatnonzero(~within_tolerances(fb, kept, relative, value).any(axis=1))  # clear of every design kept so far
+        near = within_tolerances(fb[free], fb[free], relative, value)
+        taken = np.zeros(len(free), dtype=bool)
+        for i in range(len(free)):  # in visiting order: clear of those of this block kept before it
+            taken[i] = not (near[i] & taken).any()
+        kept_rows.append(block[free[taken]])
+        kept = np.concatenate([kept, fb[free[taken]]])
+    return np.sort(np.concatenate(kept_rows))
 
 
 def epsilon_from_record(problem: Problem, record: Mapping[str, Any] | None) -> EpsilonTolerances | None:
