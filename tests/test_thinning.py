@@ -22,8 +22,8 @@ from hypothesis import strategies as st
 import hisopt
 from hisopt.errors import ConfigError
 from hisopt.io import read_csv
-from hisopt.optim.decision import asf_index, knee_index
 from hisopt.optim import thinning
+from hisopt.optim.decision import asf_index, knee_index
 from hisopt.optim.run import optimize, prepare_resume, resume
 from hisopt.optim.thinning import resolve_epsilon, thin_front
 from hisopt.problem import problem_from_dict
