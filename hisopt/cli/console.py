@@ -116,6 +116,8 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
     totals.add_column("value", justify="right")
     rows = [
         ("front size", f"{len(result.front)} designs"),
+        *([] if result.thinned is None or result.epsilon is None else [
+            ("thinned front", f"{len(result.thinned)} designs (within {result.epsilon.describe()}; front_thinned.csv)")]),
         ("evaluations", f"{len(result.history)}"),
         ("generations", f"{len(result.generations)} of {result.settings.generations}"),
         ("population / seed", f"{result.settings.pop_size} / {result.settings.seed}"),
@@ -130,7 +132,8 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
         totals.add_row(item, Text(value))
     tables: list[Any] = [totals]
     if len(result.front):
-        picks = Table(title="Knee and ASF pick (closest to the ideal)")
+        of = "" if result.thinned is None else " of the thinned front"
+        picks = Table(title=f"Knee and ASF pick{of} (closest to the ideal)")
         picks.add_column(Text("quantity [unit]"))  # Text: brackets are not rich markup
         picks.add_column("knee", justify="right")
         picks.add_column("ASF pick", justify="right")

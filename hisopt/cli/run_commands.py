@@ -28,6 +28,15 @@ def optimize_cmd(
     max_points: Annotated[
         int, typer.Option("--max-points", parser=integer, metavar="N", help="with --refine: most front designs to refine")
     ] = 40,
+    epsilon: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--epsilon",
+            metavar="NAME=TOL",
+            help="tolerance of an objective for the thinned front (front_thinned.csv), relative (--epsilon sigma_aw=1%) or in "
+            "its unit (--epsilon \"sigma_aw=0.01 m/s^2\"; bare numbers are SI); repeatable, overrides [optimizer] epsilon",
+        ),
+    ] = None,
 ) -> None:
     """Pareto-optimise PROBLEM in a resumable run directory.
 
@@ -44,6 +53,9 @@ def optimize_cmd(
 
     p = load_problem(problem)
     settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed)
+    from hisopt.optim.thinning import resolve_epsilon
+
+    tolerances = resolve_epsilon(p, epsilon, option="--epsilon")  # refused before any work
     if out is None:
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
         out = Path("runs") / f"{p.name}-{stamp}"
@@ -57,11 +69,11 @@ def optimize_cmd(
     prepare_run_directory(out, fresh=True)  # fail before any work
     typer.echo(
         f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
-        f"seed {settings.seed} -> {out}",
+        f"seed {settings.seed} -> {out}" + ("" if tolerances is None else f"; thinned front within {tolerances.describe()}"),
         err=True,
     )
     code = run_with_console(
-        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, progress=update),
+        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, progress=update, epsilon=epsilon),
         total=settings.generations,
         done=0,
         run_dir=out,
@@ -168,7 +180,9 @@ def study(
 def report(
     run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory of `hisopt optimize` (or a compare-layouts study)")],
     color_by: Annotated[str | None, typer.Option("--color-by", help="objective colouring the parallel coordinates")] = None,
-    design: Annotated[str, typer.Option(help="design for spectra and modes: knee, asf or a front.csv row index")] = "knee",
+    design: Annotated[
+        str, typer.Option(help="design for spectra and modes: knee, asf or a row index of front.csv (front_thinned.csv with --epsilon)")
+    ] = "knee",
 ) -> None:
     """Write RUN_DIR/report.html, the run's offline report.
 

@@ -22,6 +22,7 @@ from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
 from hisopt.optim.results import GenerationStats, OptimizationResult
 from hisopt.optim.hv_emoa import search_objectives
 from hisopt.optim.settings import RunSettings, build_algorithm, searches_in_log
+from hisopt.optim.thinning import EpsilonTolerances
 from hisopt.units import attach_units
 
 if TYPE_CHECKING:
@@ -59,6 +60,7 @@ class Engine:
         self.session_start = time.perf_counter()
         self.evaluation_s = 0.0  # [s] time spent in the evaluator (all sessions)
         self.exhausted = False
+        self.epsilon: EpsilonTolerances | None = None  # the thinned front's tolerances (hisopt.optim.thinning)
 
     # -- stepping --
     def elapsed(self) -> float:
@@ -236,4 +238,5 @@ class Engine:
             wall_time_s=self.elapsed(),
             run_dir=run_dir,
             completed=not self.exhausted,
+            epsilon=self.epsilon,
         )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -13,6 +14,7 @@ import pandas as pd
 from hisopt.errors import ConfigError
 from hisopt.optim.decision import asf_index, knee_index
 from hisopt.optim.settings import RunSettings
+from hisopt.optim.thinning import EpsilonTolerances, thin_front
 
 if TYPE_CHECKING:
     from hisopt.problem import Problem
@@ -77,6 +79,8 @@ class OptimizationResult:
         the run directory (None for a run without one)
     completed : bool
         [-] False when the algorithm stopped early (no new offspring possible)
+    epsilon : EpsilonTolerances | None
+        [-] the run's tolerances (:mod:`hisopt.optim.thinning`); None: no thinned front
     """
 
     problem: Problem
@@ -89,30 +93,49 @@ class OptimizationResult:
     wall_time_s: float
     run_dir: Path | None = None
     completed: bool = True
+    epsilon: EpsilonTolerances | None = None
 
     @property
     def objectives(self) -> pd.DataFrame:
         """[objective units] The front's objective columns."""
         return self.front[list(self.problem.objective_names)]
 
+    @cached_property
+    def thinned(self) -> pd.DataFrame | None:
+        """[physical units] The thinned front (:func:`hisopt.optim.thinning.thin_front` of
+        :attr:`front`, same columns and order), or None for a run without tolerances."""
+        if self.epsilon is None:
+            return None
+        rows = thin_front(self.objectives.to_numpy(dtype=float), self.epsilon.relative, self.epsilon.value)
+        out = self.front.iloc[rows].reset_index(drop=True)
+        out.attrs = dict(self.front.attrs)
+        return out
+
+    @property
+    def shown(self) -> pd.DataFrame:
+        """[physical units] The front decisions are made on: :attr:`thinned` when the run has
+        tolerances, else :attr:`front`. The knee and the ASF pick are its members."""
+        return self.front if self.thinned is None else self.thinned
+
     @property
     def knee(self) -> pd.Series:
-        """The knee design of the front (:func:`hisopt.optim.decision.knee_index`)."""
-        return self.front.iloc[knee_index(self.objectives.to_numpy())]
+        """The knee design of :attr:`shown` (:func:`hisopt.optim.decision.knee_index`)."""
+        shown = self.shown
+        return shown.iloc[knee_index(shown[list(self.problem.objective_names)].to_numpy())]
 
     def plot_front(self, refined: pd.DataFrame | None = None) -> Any:
-        """Scatter matrix of the front's objectives, knee and ASF pick highlighted (plotly)."""
+        """Scatter matrix of :attr:`shown`'s objectives, knee and ASF pick highlighted (plotly)."""
         from hisopt.plotting.figures import front_scatter_matrix
 
         highlights = {"knee": self.knee, "ASF pick": self.asf_pick()} if len(self.front) else {}
-        return front_scatter_matrix(self.front, self.problem.objective_names, self.problem.variable_names, highlights, refined)
+        return front_scatter_matrix(self.shown, self.problem.objective_names, self.problem.variable_names, highlights, refined)
 
     def plot_parallel(self, color_by: str | None = None) -> Any:
-        """Parallel coordinates of the front's variables and objectives (plotly)."""
+        """Parallel coordinates of :attr:`shown`'s variables and objectives (plotly)."""
         from hisopt.plotting.figures import parallel_coordinates
 
         names = self.problem.objective_names
-        return parallel_coordinates(self.front, self.problem.variable_names, names, color_by or names[0])
+        return parallel_coordinates(self.shown, self.problem.variable_names, names, color_by or names[0])
 
     def plot_convergence(self) -> Any:
         """Hypervolume, front size and feasible share per generation (plotly)."""
@@ -125,7 +148,7 @@ class OptimizationResult:
         reference: Mapping[str, float] | Sequence[float] | None = None,
         weights: Mapping[str, float] | Sequence[float] | None = None,
     ) -> pd.Series:
-        """The front design closest to an aspiration point (augmented ASF, log space).
+        """The design of :attr:`shown` closest to an aspiration point (augmented ASF, log space).
 
         Parameters
         ----------
@@ -136,14 +159,15 @@ class OptimizationResult:
             [-] positive weight per objective (by name or in order); default 1 each;
             a larger weight pulls that objective closer to the reference
         """
-        f = self.objectives.to_numpy()
+        shown = self.shown
         names = self.problem.objective_names
+        f = shown[list(names)].to_numpy()
         ref = None
         if reference is not None:
             ideal = f.min(axis=0)
             ref = _by_objective(reference, names, "reference", default=ideal)
         w = None if weights is None else _by_objective(weights, names, "weights", default=np.ones(len(names)))
-        return self.front.iloc[asf_index(f, ref, w)]
+        return shown.iloc[asf_index(f, ref, w)]
 
 
 def _by_objective(values: Mapping[str, float] | Sequence[float], names: tuple[str, ...], what: str, default: np.ndarray) -> np.ndarray:

@@ -31,6 +31,7 @@ from hisopt.optim.decision import reference_point
 from hisopt.optim.engine import Engine
 from hisopt.optim.results import GenerationStats, OptimizationResult, ProgressFn
 from hisopt.optim.settings import AlgorithmChoice, RunSettings, build_algorithm, resolve_settings
+from hisopt.optim.thinning import EpsilonInput, epsilon_from_record, resolve_epsilon
 
 if TYPE_CHECKING:
     from hisopt.problem import Problem
@@ -102,6 +103,7 @@ def optimize(
     generations: int | None = None,
     algorithm: AlgorithmChoice | None = None,
     progress: ProgressFn | None = None,
+    epsilon: EpsilonInput | None = None,
 ) -> OptimizationResult:
     """Pareto-optimise a problem with NSGA-II/III (settings from its ``[optimizer]`` table).
 
@@ -123,17 +125,22 @@ def optimize(
         ``"nsga2"`` or ``"nsga3"``; default the file's
     progress : ProgressFn | None, optional
         [-] called with :class:`GenerationStats` after every generation
+    epsilon : EpsilonInput | None, optional
+        [-] tolerances of the thinned front, each overriding the file's ``[optimizer]
+        epsilon``: ``{"sigma_aw": "1 %", "max_roll_psd": "2e-6 rad^2/Hz"}`` or
+        ``"sigma_aw=1%,max_roll_psd=2 %"`` (:mod:`hisopt.optim.thinning`); default the file's
 
     Returns
     -------
     OptimizationResult
         Front (archive of every feasible non-dominated design evaluated), history,
-        hypervolume, knee point and ASF pick.
+        hypervolume, knee point and ASF pick; with tolerances also the thinned front, of
+        which the knee and the ASF pick are then members.
 
     Raises
     ------
     ConfigError
-        A setting is out of range.
+        A setting is out of range or a tolerance unreadable.
     RunError
         ``out`` cannot be written or already holds a run (checked before any work).
     KeyboardInterrupt
@@ -146,6 +153,7 @@ def optimize(
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
     settings = resolve_settings(problem, algorithm=algorithm, pop_size=pop_size, generations=generations, seed=seed)
+    tolerances = resolve_epsilon(problem, epsilon)
     if out is not None:
         runstate.refuse_occupied(out)
     run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
@@ -159,6 +167,7 @@ def optimize(
     reference = reference_point(problem)
     engine = Engine(problem, settings, reference)
     engine.session_start = started
+    engine.epsilon = tolerances
     if run is not None:
         info = run.info
         info["settings"] = asdict(settings) | {
@@ -166,6 +175,8 @@ def optimize(
             "constraints": [{"name": c.name, "limit": c.limit} | ({"scenarios": c.scenarios} if c.scenarios else {}) for c in problem.spec.constraints],
             "hypervolume_reference_log10": reference.tolist(),
         }
+        if tolerances is not None:
+            info["settings"]["epsilon"] = tolerances.record()
         if problem.spec.scenarios:  # load cases (docs/model.md §14)
             info["settings"] |= {"scenarios": list(problem.scenario_names), "aggregate": problem.spec.robust.aggregate}
         info["versions"] = rundir.versions()
@@ -233,6 +244,7 @@ def prepare_resume(run_dir: str | Path) -> ResumePlan:
     s = info["settings"]
     settings = RunSettings(s["algorithm"], int(s["pop_size"]), int(s["generations"]), int(s["seed"]))
     engine = Engine(problem, settings, np.asarray(s["hypervolume_reference_log10"], dtype=float))
+    engine.epsilon = epsilon_from_record(problem, s.get("epsilon"))
     checkpoint = run_dir / rundir.CHECKPOINT
     if checkpoint.is_file():
         engine.restore(*rundir.load_checkpoint(checkpoint))

@@ -11,6 +11,8 @@ Run directory files (all written atomically):
 - ``front.csv``: the archive's non-dominated feasible designs: variables, objectives,
   constraint quantities, physical units, shortest round-trip decimals and a units row
   (:func:`hisopt.io.write_csv`; read it back with :func:`hisopt.io.read_csv`);
+- ``front_thinned.csv`` (a run with epsilon tolerances only): the thinned front
+  (:mod:`hisopt.optim.thinning`), ``front.csv``'s columns and format, a subset of its rows;
 - ``evaluations.parquet``: every evaluated design
   with its generation, quantities, ``valid`` and ``feasible``;
 - ``generations.csv``: per-generation statistics (evaluations, feasible share, front
@@ -71,6 +73,8 @@ EVALUATIONS = "evaluations.parquet"
 GENERATIONS_CSV = "generations.csv"
 PROBLEM_TOML = "problem.toml"
 PROBLEM_JSON = "problem.json"
+FRONT_THINNED_CSV = "front_thinned.csv"
+"""Thinned front (a run with epsilon tolerances): ``front.csv``'s columns, a subset of its rows."""
 FRONT_REFINED_CSV = "front_refined.csv"
 """Refined front (``hisopt refine``): ``front.csv``'s columns plus ``source_index``."""
 REFINE_JSON = "refine.json"
@@ -365,6 +369,7 @@ def _summary(result: OptimizationResult) -> dict[str, Any]:
         "generations": int(len(result.generations)),
         "evaluations": int(len(result.history)),
         "front_size": int(len(result.front)),
+        **({} if result.thinned is None else {"thinned_front_size": int(len(result.thinned))}),
         "hypervolume": result.hypervolume,
         "completed": result.completed,
     }
@@ -375,9 +380,11 @@ def _summary(result: OptimizationResult) -> dict[str, Any]:
 
 
 def write_outputs(run_dir: Path, result: OptimizationResult) -> None:
-    """``front.csv`` (with its ``on_bound`` marks), the evaluations and ``generations.csv``
-    (each atomically)."""
+    """``front.csv`` (with its ``on_bound`` marks), ``front_thinned.csv`` (with tolerances),
+    the evaluations and ``generations.csv`` (each atomically)."""
     write_csv(with_bound_column(result.front, result.problem), run_dir / FRONT_CSV)
+    if result.thinned is not None:
+        write_csv(with_bound_column(result.thinned, result.problem), run_dir / FRONT_THINNED_CSV)
     interrupt.hook_point("final-write")
     write_csv(result.generations, run_dir / GENERATIONS_CSV)
     buffer = io.BytesIO()

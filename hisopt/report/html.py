@@ -49,7 +49,7 @@ p.note{color:#556;font-size:13px;margin:4px 0 0 0}
 
 
 def load_run_files(run_dir: str | Path) -> dict[str, Any]:
-    """The run's record, front (and refined front, generations if present) and problem copy."""
+    """The run's record, front (and thinned and refined fronts, generations if present) and problem copy."""
     from hisopt.optim import rundir
 
     run_dir = Path(run_dir)
@@ -59,7 +59,7 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
         raise RunError(f"{front_path}: missing; the run has not finished a generation yet")
     problem = rundir.load_run_problem(run_dir, record["problem"], check_original=False)
     out: dict[str, Any] = {"record": record, "problem": problem, "front": without_bound_column(read_csv(front_path))}
-    for key, name in (("refined", rundir.FRONT_REFINED_CSV), ("generations", rundir.GENERATIONS_CSV)):
+    for key, name in (("thinned", rundir.FRONT_THINNED_CSV), ("refined", rundir.FRONT_REFINED_CSV), ("generations", rundir.GENERATIONS_CSV)):
         path = run_dir / name
         out[key] = without_bound_column(read_csv(path)) if path.is_file() else None  # marks: recomputed where shown
     return out
@@ -158,6 +158,8 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
             text = "; ".join(f"{c['name']} <= {format_quantity(float(c['limit']), METRICS[c['name']].unit)}"
                              + (f" ({', '.join(c['scenarios'])})" if c.get("scenarios") else "")
                              if c.get("name") in METRICS else json.dumps(c) for c in value) or "none"
+        elif key == "epsilon":  # the thinned front's tolerances, as given
+            text = ", ".join(f"{name} {entry['text']}" for name, entry in value.items())
         elif key == "hypervolume_reference_log10":
             text = ", ".join(format_number(float(v)) for v in value) + " decades (log10 of each objective in SI units)"
         elif isinstance(value, list):
@@ -168,7 +170,7 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
     for key, value in record.get("timings", {}).items():
         rows.append(("timing", key, format_quantity(float(value), "s")))
     result_units = {"hypervolume": hypervolume_unit(n_objectives)}
-    for key in ("generations", "evaluations", "front_size", "hypervolume"):
+    for key in ("generations", "evaluations", "front_size", "thinned_front_size", "hypervolume"):
         if key in record.get("result", {}):
             value = record["result"][key]
             rows.append(("result", key, format_quantity(value, result_units[key]) if key in result_units else format_number(value)))
@@ -182,12 +184,16 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
 def build_report(run_dir: str | Path, color_by: str | None = None, design: str = "knee") -> Path:
     """Write ``RUN_DIR/report.html`` and return its path.
 
+    A run with epsilon tolerances is shown by its thinned front: the figures, the knee and
+    the ASF pick are of ``front_thinned.csv``; the page says how many designs both fronts hold.
+
     Parameters
     ----------
     color_by : str | None, optional
         objective colouring the parallel coordinates (default: the first objective)
     design : str, optional
-        design whose spectra and modes are shown: ``knee``, ``asf`` or a front row index
+        design whose spectra and modes are shown: ``knee``, ``asf`` or a row index of the
+        front shown (``front_thinned.csv`` when the run has one, else ``front.csv``)
     """
     import plotly.offline
 
@@ -201,7 +207,8 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
 
     run_dir = Path(run_dir)
     run = load_run_files(run_dir)
-    problem, front = run["problem"], run["front"]
+    problem, full = run["problem"], run["front"]
+    front = full if run["thinned"] is None else run["thinned"]  # what the engineer is shown and picks from
     objectives, variables = list(problem.objective_names), list(problem.variable_names)
     color_by = color_by or objectives[0]
     if color_by not in front.columns:
@@ -211,6 +218,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     if not len(front):
         raise RunError(f"{run_dir}: the front is empty (no feasible design yet)")
     units = column_units(front.columns, problem) | dict(front.attrs.get("units", {}))
+    shown_file = "front.csv" if run["thinned"] is None else "front_thinned.csv"
     f = front[objectives].to_numpy()
     knee = front.iloc[knee_index(f)]
     asf = front.iloc[asf_index(f)]
@@ -224,8 +232,15 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         except (ValueError, IndexError):
             from hisopt.errors import ConfigError
 
-            raise ConfigError(f"expected knee, asf or a row index below {len(front)}, got {design!r}", key="--design") from None
+            raise ConfigError(f"expected knee, asf or a row index below {len(front)} (rows of {shown_file}), got {design!r}",
+                              key="--design") from None
     x = chosen[variables].to_numpy(dtype=float)
+    if run["thinned"] is None:
+        front_note = f"front of {len(full)} designs"
+    else:
+        tolerances = ", ".join(f"{n} {e['text']}" for n, e in run["record"].get("settings", {}).get("epsilon", {}).items())
+        front_note = (f"front of {len(full)} designs, thinned to {len(front)} designs that differ by more than {tolerances} "
+                      f"({shown_file}: the figures and the picks)")
 
     modes = modes_table(modal_analysis(problem, x, his=False), modal_analysis(problem, x))
     highlighted = {"knee": knee, "ASF pick": asf}
@@ -283,7 +298,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
 <style>{REPORT_CSS}</style>
 <script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
 <body><h1>hisopt report: {html.escape(problem.name)}</h1>
-<p class="meta">{html.escape(str(run_dir))}: front of {len(front)} designs{refined_note};
+<p class="meta">{html.escape(str(run_dir))}: {html.escape(front_note)}{refined_note};
 objectives {html.escape(", ".join(objectives))}; knee and ASF pick highlighted. Values in engineering units
 (SI in the CSV files).</p>
 {''.join(parts)}

@@ -34,6 +34,7 @@ from hisopt.metrics import METRICS
 from hisopt.plausibility import given_warnings, rule_reason, speed_problem, warn
 from hisopt.quantities import si
 from hisopt.specification.problem_units import convert_problem_units
+from hisopt.specification.tolerances import parse_tolerances
 from hisopt.specification.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
@@ -177,6 +178,9 @@ class Optimizer(_Strict):
     pop_size: int = Field(100, ge=4)
     generations: int = Field(200, ge=1)
     seed: int = Field(1, ge=0)
+    epsilon: dict[str, Any] = Field(
+        default_factory=dict, description="tolerance per objective of the thinned front: \"1 %\" or a value in its unit"
+    )
 
 
 class ProblemSpec(_Strict):
@@ -287,6 +291,14 @@ class ProblemSpec(_Strict):
                     f"expected one of {read}" if read else "its elements read only numbers, so it has no design variable")
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
+        return self
+
+    @model_validator(mode="after")
+    def _tolerances_readable(self) -> ProblemSpec:
+        try:
+            parse_tolerances(self.optimizer.epsilon, {o: METRICS[o].unit for o in self.objectives}, key=lambda n: f"optimizer.epsilon.{n}")
+        except ConfigError as exc:
+            raise ValueError(f"{exc.key}: {exc.detail}") from None
         return self
 
     @model_validator(mode="after")
