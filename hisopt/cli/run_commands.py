@@ -24,6 +24,11 @@ def optimize_cmd(
     gens: Annotated[
         int | None, typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")
     ] = None,
+    until: Annotated[
+        str | None,
+        typer.Option("--until", metavar="RULE", help="generations (run them all) or converged (stop when the hypervolume "
+                     "stalls; tolerance and window from the problem file; --gens is the cap); default: problem file"),
+    ] = None,
     refine: Annotated[bool, typer.Option("--refine", help="refine the front with CasADi/IPOPT afterwards (front_refined.csv)")] = False,
     max_points: Annotated[
         int, typer.Option("--max-points", parser=integer, metavar="N", help="with --refine: most front designs to refine")
@@ -31,8 +36,8 @@ def optimize_cmd(
 ) -> None:
     """Pareto-optimise PROBLEM in a resumable run directory.
 
-    NSGA-II, or NSGA-III from four objectives. A checkpoint is written after every
-    generation; `hisopt resume RUN_DIR` continues an interrupted run.
+    NSGA-II, or NSGA-III from four objectives. A checkpoint is written every 10 s, at the
+    end and on Ctrl-C; `hisopt resume RUN_DIR` continues an interrupted run.
     """
     from datetime import datetime
 
@@ -43,7 +48,7 @@ def optimize_cmd(
     from hisopt.problem import load_problem
 
     p = load_problem(problem)
-    settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed)
+    settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed, until=until)
     if out is None:
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
         out = Path("runs") / f"{p.name}-{stamp}"
@@ -57,11 +62,11 @@ def optimize_cmd(
     prepare_run_directory(out, fresh=True)  # fail before any work
     typer.echo(
         f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
-        f"seed {settings.seed} -> {out}",
+        f"seed {settings.seed}{_stop_words(settings)} -> {out}",
         err=True,
     )
     code = run_with_console(
-        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, progress=update),
+        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, until=until, progress=update),
         total=settings.generations,
         done=0,
         run_dir=out,
@@ -73,6 +78,12 @@ def optimize_cmd(
         from hisopt.cli.console import refine_with_progress
 
         refine_with_progress(out, max_points, None, None)
+
+
+def _stop_words(settings: object) -> str:
+    if getattr(settings, "until", "generations") != "converged":
+        return ""
+    return f", until converged (gain < {getattr(settings, 'tolerance'):g} over {getattr(settings, 'window')} generations)"
 
 
 def resume_cmd(

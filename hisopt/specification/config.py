@@ -177,6 +177,11 @@ class Optimizer(_Strict):
     pop_size: int = Field(100, ge=4)
     generations: int = Field(200, ge=1)
     seed: int = Field(1, ge=0)
+    until: Literal["generations", "converged"] = Field(
+        "generations", description="stop after all generations, or when converged (tolerance, window; generations is the cap)"
+    )
+    tolerance: float = Field(1e-3, gt=0, lt=1, description="until = \"converged\": relative hypervolume gain over the window")
+    window: int = Field(20, ge=1, description="until = \"converged\": generations the gain is measured over")
 
 
 class ProblemSpec(_Strict):
