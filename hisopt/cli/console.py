@@ -137,11 +137,11 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
         hv.add_column("evaluations", justify="right")
         hv.add_column(Text(f"hypervolume [{unit}]"), justify="right")
         hv.add_column("gain since previous row", justify="right")
-        previous = None
-        for evaluations, value in history:
-            gain = "" if previous is None or previous <= 0 else f"{100 * (value / previous - 1):+.3f} %"
-            hv.add_row(str(evaluations), f"{value:.6g}", gain)
-            previous = value
+        previous: float | None = None
+        for evaluations, volume in history:
+            gain = "" if previous is None or previous <= 0 else f"{100 * (volume / previous - 1):+.3f} %"
+            hv.add_row(str(evaluations), f"{volume:.6g}", gain)
+            previous = volume
         tables.append(hv)
     if len(result.front):
         picks = Table(title="Knee and ASF pick (closest to the ideal)")

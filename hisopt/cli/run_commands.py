@@ -4,12 +4,15 @@ seeds), ``report`` and ``refine``; :func:`register` adds them to the app."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from hisopt.cli.options import DEBUG, load
 from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
+
+if TYPE_CHECKING:
+    from hisopt.optim.settings import RunSettings
 
 
 def optimize_cmd(
@@ -80,10 +83,10 @@ def optimize_cmd(
         refine_with_progress(out, max_points, None, None)
 
 
-def _stop_words(settings: object) -> str:
-    if getattr(settings, "until", "generations") != "converged":
+def _stop_words(settings: RunSettings) -> str:
+    if settings.until != "converged":
         return ""
-    return f", until converged (gain < {getattr(settings, 'tolerance'):g} over {getattr(settings, 'window')} generations)"
+    return f", until converged (gain < {settings.tolerance:g} over {settings.window} generations)"
 
 
 def resume_cmd(

@@ -17,6 +17,7 @@ Rules (deterministic, independent of timing):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import moocore
 import numpy as np
@@ -105,13 +106,15 @@ def pareto_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray,
     return keep, accept
 
 
-_KERNEL: list = []
+_KERNEL: list[Any] = []
 
 
-def _archive_kernel():  # type: ignore[no-untyped-def]
+def _archive_kernel() -> Any:
     """The compiled archive check (compiled on first use, cached on disk)."""
     if not _KERNEL:
-        import hisopt.evaluation.kernels  # noqa: F401  # numba imported the evaluator's way
+        import importlib
+
+        importlib.import_module("hisopt.evaluation.kernels")  # numba imported the evaluator's way first
         from numba import njit
 
         _KERNEL.append(njit(cache=True)(_offer))

@@ -30,6 +30,7 @@ when ``HV(g) - HV(g - window) <= tolerance * HV(g)`` (progress estimates), with
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -92,13 +93,15 @@ class ProgressHypervolume:
         return float(self.scale * np.mean(self.rho**k))
 
 
-_KERNEL: list = []
+_KERNEL: list[Any] = []
 
 
-def _reach_kernel():  # type: ignore[no-untyped-def]
+def _reach_kernel() -> Any:
     """The compiled update of ``rho`` (compiled on first use, cached on disk)."""
     if not _KERNEL:
-        import hisopt.evaluation.kernels  # noqa: F401  # numba imported the evaluator's way
+        import importlib
+
+        importlib.import_module("hisopt.evaluation.kernels")  # numba imported the evaluator's way first
         from numba import njit
 
         _KERNEL.append(njit(cache=True)(_advance))

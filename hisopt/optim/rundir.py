@@ -164,7 +164,7 @@ def save_history_chunk(run_dir: Path, first: int, parts: tuple[np.ndarray, ...])
     name = f"{HISTORY_DIR}/{first:012d}.npz"
     (Path(run_dir) / HISTORY_DIR).mkdir(exist_ok=True)
     buffer = io.BytesIO()
-    np.savez(buffer, **dict(zip(HISTORY_FIELDS, parts, strict=True)))
+    np.savez(buffer, **dict(zip(HISTORY_FIELDS, parts, strict=True)))  # type: ignore[arg-type]
     atomic_write_bytes(Path(run_dir) / name, buffer.getvalue())
     return {"file": name, "first": int(first), "rows": int(len(parts[0]))}
 
