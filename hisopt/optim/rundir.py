@@ -204,7 +204,7 @@ def load_checkpoint(path: Path, *, history: bool = True) -> tuple[dict[str, Any]
             expected += record["rows"]
         if parts:
             arrays |= {name: np.concatenate([p[name] for p in parts]) for name in HISTORY_FIELDS}
-        else:
+        elif "archive_q" in arrays:  # a run's checkpoint before its first chunk
             n_var = arrays["pop_X"].shape[1] if "pop_X" in arrays else 0
             arrays |= {"hist_x": np.empty((0, n_var)), "hist_q": np.empty((0, arrays["archive_q"].shape[1])),
                        "hist_valid": np.empty(0, dtype=bool), "hist_gen": np.empty(0, dtype=np.int64)}
