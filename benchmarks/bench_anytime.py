@@ -235,8 +235,8 @@ def load_runs(work: Path, problem_name: str) -> list[dict[str, Any]]:
 def cmd_reference(args: argparse.Namespace) -> None:
     problem = hisopt.load_problem(args.problem)
     problem.evaluator()(problem.lower[None, :])
-    long_runs = [("hisopt", args.long_evaluations), ("smsemoa", 40_000), ("agemoea2", 100_000)]
-    for method, budget in long_runs:
+    for item in args.long.split(","):
+        method, budget = item.split(":")[0], int(item.split(":")[1])
         path = run_path(Path(args.work) / "reference", problem, method, 1, budget)
         if not path.exists():
             log = run_one(problem, method, 1, budget)
@@ -283,10 +283,12 @@ def cmd_analyse(args: argparse.Namespace) -> None:
     grid = np.unique(np.round(np.logspace(2, np.log10(args.evaluations), 25)).astype(int))
     for run in load_runs(Path(args.work), problem.name):
         for n in grid[grid <= len(run["f"])]:
-            rows.append({"method": run["method"], "seed": run["seed"], "evaluations": int(n), "wall_time_s": float(run["t"][n - 1]), "ratio": ratio(run["f"][:n])})
+            row = {"method": run["method"], "seed": run["seed"], "evaluations": int(n), "wall_time_s": float(run["t"][n - 1])}
+            rows.append(row | {"ratio": ratio(run["f"][:n])})
         for target in TARGETS:
             hit = first_reaching(run, ratio, target)
-            times.append({"method": run["method"], "seed": run["seed"], "target": target, "evaluations": None if hit is None else hit[0], "wall_time_s": None if hit is None else hit[1]})
+            evaluations, seconds = (None, None) if hit is None else hit
+            times.append({"method": run["method"], "seed": run["seed"], "target": target, "evaluations": evaluations, "wall_time_s": seconds})
         print(f"analysed {run['path'].name}", flush=True)
     anytime, runtimes = pd.DataFrame(rows), pd.DataFrame(times)
     anytime.to_csv(out / "anytime.csv", index=False, float_format="%.6g")
@@ -325,7 +327,8 @@ def plot(anytime: Any, name: str, path: Path) -> None:
         colour = f"hsl({k * 45}, 70%, 45%)"
         for col, x in ((1, median.index), (2, seconds.to_numpy())):
             fig.add_trace(go.Scatter(x=x, y=median.to_numpy(), name=method, legendgroup=method, showlegend=col == 1, line={"color": colour}), row=1, col=col)
-            fig.add_trace(go.Scatter(x=x, y=worst.to_numpy(), name=f"{method} worst", legendgroup=method, showlegend=False, line={"color": colour, "dash": "dot", "width": 1}), row=1, col=col)
+            dotted = {"color": colour, "dash": "dot", "width": 1}
+            fig.add_trace(go.Scatter(x=x, y=worst.to_numpy(), name=f"{method} worst", legendgroup=method, showlegend=False, line=dotted), row=1, col=col)
     fig.update_xaxes(type="log", title_text="evaluations [-]", row=1, col=1)
     fig.update_xaxes(type="log", title_text="wall time [s]", row=1, col=2)
     fig.update_yaxes(title_text="hypervolume ratio [-] (median solid, worst dotted)", range=[0.8, 1.0], row=1, col=1)
@@ -342,7 +345,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=11)
     parser.add_argument("--evaluations", type=int, default=20_000)
     parser.add_argument("--optuna-evaluations", type=int, default=1_000)
-    parser.add_argument("--long-evaluations", type=int, default=200_000, help="hisopt's long reference run")
+    parser.add_argument("--long", default="hisopt:200000,smsemoa:40000,agemoea2:100000", help="the reference's long runs, METHOD:EVALUATIONS,...")
     parser.add_argument("--work", default=str(ROOT / "benchmarks" / "anytime" / "work"))
     args = parser.parse_args()
     {"runs": cmd_runs, "reference": cmd_reference, "analyse": cmd_analyse}[args.step](args)

@@ -23,6 +23,7 @@ import pytest
 
 from hisopt.interrupt import TEST_HOOK_ENV
 from hisopt.optim import rundir
+from hisopt.optim.run import CHECKPOINT_INTERVAL_ENV
 from hisopt.optim.runstate import read_state
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
@@ -38,7 +39,7 @@ def _default_sigint() -> None:
 
 
 def optimize(run_dir: Path, hook: str | None = None) -> subprocess.CompletedProcess:
-    env = dict(os.environ)
+    env = dict(os.environ) | {CHECKPOINT_INTERVAL_ENV: "0"}  # a checkpoint per generation: kills land at known points
     env.pop(TEST_HOOK_ENV, None)
     if hook:
         env[TEST_HOOK_ENV] = hook

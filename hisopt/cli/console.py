@@ -123,6 +123,7 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
         ("population / seed", f"{result.settings.pop_size} / {result.settings.seed}"),
         ("wall time", f"{result.wall_time_s:.1f} s"),
         ("hypervolume (log10 objectives)", f"{result.hypervolume:.6g} {hypervolume_unit(len(result.problem.objective_names))}"),
+        ("stop rule", stop_words(result)),
         ("run directory", str(result.run_dir) if result.run_dir else "-"),
     ]
     at_bound = bound_summary(result.front, result.problem)
@@ -131,6 +132,19 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
     for item, value in rows:
         totals.add_row(item, Text(value))
     tables: list[Any] = [totals]
+    history = result.hypervolume_history()
+    if history:
+        unit = hypervolume_unit(len(result.problem.objective_names))
+        hv = Table(title=Text(f"Hypervolume history (progress estimate, {unit}): still rising at the end means more generations help"))
+        hv.add_column("evaluations", justify="right")
+        hv.add_column(Text(f"hypervolume [{unit}]"), justify="right")
+        hv.add_column("gain since previous row", justify="right")
+        previous: float | None = None
+        for evaluations, volume in history:
+            gain = "" if previous is None or previous <= 0 else f"{100 * (volume / previous - 1):+.3f} %"
+            hv.add_row(str(evaluations), f"{volume:.6g}", gain)
+            previous = volume
+        tables.append(hv)
     if len(result.front):
         of = "" if result.thinned is None else " of the thinned front"
         picks = Table(title=f"Knee and ASF pick{of} (closest to the ideal)")
@@ -152,6 +166,18 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
                                  "that bound; the box, not the physics, chose that value")
         tables.append(picks)
     return tables
+
+
+def stop_words(result: OptimizationResult) -> str:
+    """[-] The run's stop rule in words: its generations, or the convergence criterion and
+    whether and where it fired."""
+    s = result.settings
+    if s.until != "converged":
+        return f"all {s.generations} generations"
+    rule = f"converged: hypervolume gain < {s.tolerance:g} (relative) over {s.window} generations"
+    if result.converged_at is not None:
+        return f"{rule}; fired at generation {result.converged_at}"
+    return f"{rule}; did not fire within {s.generations} generations"
 
 
 def print_modes(p: Any) -> None:

@@ -4,12 +4,15 @@ seeds), ``report`` and ``refine``; :func:`register` adds them to the app."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from hisopt.cli.options import DEBUG, load
 from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
+
+if TYPE_CHECKING:
+    from hisopt.optim.settings import RunSettings
 
 
 def optimize_cmd(
@@ -23,6 +26,11 @@ def optimize_cmd(
     ] = None,
     gens: Annotated[
         int | None, typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")
+    ] = None,
+    until: Annotated[
+        str | None,
+        typer.Option("--until", metavar="RULE", help="generations (run them all) or converged (stop when the hypervolume "
+                     "stalls; tolerance and window from the problem file; --gens is the cap); default: problem file"),
     ] = None,
     refine: Annotated[bool, typer.Option("--refine", help="refine the front with CasADi/IPOPT afterwards (front_refined.csv)")] = False,
     max_points: Annotated[
@@ -40,8 +48,8 @@ def optimize_cmd(
 ) -> None:
     """Pareto-optimise PROBLEM in a resumable run directory.
 
-    NSGA-II, or NSGA-III from four objectives. A checkpoint is written after every
-    generation; `hisopt resume RUN_DIR` continues an interrupted run.
+    NSGA-II, or NSGA-III from four objectives. A checkpoint is written every 10 s, at the
+    end and on Ctrl-C; `hisopt resume RUN_DIR` continues an interrupted run.
     """
     from datetime import datetime
 
@@ -52,7 +60,7 @@ def optimize_cmd(
     from hisopt.problem import load_problem
 
     p = load_problem(problem)
-    settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed)
+    settings = resolve_settings(p, pop_size=pop, generations=gens, seed=seed, until=until)
     from hisopt.optim.thinning import resolve_epsilon
 
     tolerances = resolve_epsilon(p, epsilon, option="--epsilon")  # refused before any work
@@ -69,11 +77,11 @@ def optimize_cmd(
     prepare_run_directory(out, fresh=True)  # fail before any work
     typer.echo(
         f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
-        f"seed {settings.seed} -> {out}" + ("" if tolerances is None else f"; thinned front within {tolerances.describe()}"),
+        f"seed {settings.seed}{_stop_words(settings)} -> {out}" + ("" if tolerances is None else f"; thinned front within {tolerances.describe()}"),
         err=True,
     )
     code = run_with_console(
-        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, progress=update, epsilon=epsilon),
+        lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, until=until, progress=update, epsilon=epsilon),
         total=settings.generations,
         done=0,
         run_dir=out,
@@ -85,6 +93,12 @@ def optimize_cmd(
         from hisopt.cli.console import refine_with_progress
 
         refine_with_progress(out, max_points, None, None)
+
+
+def _stop_words(settings: RunSettings) -> str:
+    if settings.until != "converged":
+        return ""
+    return f", until converged (gain < {settings.tolerance:g} over {settings.window} generations)"
 
 
 def resume_cmd(

@@ -17,6 +17,7 @@ Rules (deterministic, independent of timing):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import moocore
 import numpy as np
@@ -68,6 +69,13 @@ def non_dominated_mask(f: np.ndarray) -> np.ndarray:
 def pareto_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Which archived designs stay and which new designs enter (module rules).
 
+    The batch is filtered first (:func:`non_dominated_mask`); each survivor is then checked
+    against the archive by a compiled loop that stops at the first archived design weakly
+    dominating it, scanning the newest designs first (a candidate's dominators are mostly
+    recent: they come from the population that bred it). Only accepted candidates scan the
+    whole archive, to find the designs they remove; a generation's cost therefore grows with
+    the archive only through the few candidates that enter.
+
     Parameters
     ----------
     archive_f : np.ndarray
@@ -83,14 +91,62 @@ def pareto_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray,
         boolean ``(n,)``, candidates that enter
     """
     accept = non_dominated_mask(new_f)
-    if len(archive_f) and accept.any():
-        accept[accept] = ~weakly_dominates(archive_f, new_f[accept]).any(axis=0)
     keep = np.ones(len(archive_f), dtype=bool)
     if len(archive_f) and accept.any():
-        # no archived design weakly dominates an accepted one, so "weakly dominates" from an
-        # accepted design to an archived one is strict domination here
-        keep = np.asarray(~weakly_dominates(new_f[accept], archive_f).any(axis=0), dtype=bool)
+        a = np.ascontiguousarray(archive_f, dtype=float)
+        c = np.ascontiguousarray(np.asarray(new_f, dtype=float)[accept])
+        if np.isnan(a).any() or np.isnan(c).any():  # NaN compares with nothing: the plain rule
+            accept[accept] = ~weakly_dominates(a, c).any(axis=0)
+            if accept.any():
+                keep = np.asarray(~weakly_dominates(np.asarray(new_f, dtype=float)[accept], a).any(axis=0), dtype=bool)
+            return keep, accept
+        entered = np.empty(len(c), dtype=np.bool_)
+        _archive_kernel()(a, c, entered, keep)
+        accept[accept] = entered
     return keep, accept
+
+
+_KERNEL: list[Any] = []
+
+
+def _archive_kernel() -> Any:
+    """The compiled archive check (compiled on first use, cached on disk)."""
+    if not _KERNEL:
+        import importlib
+
+        importlib.import_module("hisopt.evaluation.kernels")  # numba imported the evaluator's way first
+        from numba import njit
+
+        _KERNEL.append(njit(cache=True)(_offer))
+    return _KERNEL[0]
+
+
+def _offer(a: np.ndarray, c: np.ndarray, entered: np.ndarray, keep: np.ndarray) -> None:
+    """Compiled by numba: ``entered[j]`` no row of ``a`` weakly dominates ``c[j]``; clear
+    ``keep[i]`` for each row of ``a`` an entering candidate dominates (no NaN in ``a``, ``c``)."""
+    m, k = a.shape
+    for j in range(c.shape[0]):
+        entered[j] = True
+        for i in range(m - 1, -1, -1):  # newest first: early exit for most rejected candidates
+            below = True
+            for t in range(k):
+                if a[i, t] > c[j, t]:
+                    below = False
+                    break
+            if below:
+                entered[j] = False
+                break
+        if entered[j]:
+            # no archived design weakly dominates c[j], so "c[j] weakly dominates" is strict domination
+            for i in range(m):
+                if keep[i]:
+                    above = True
+                    for t in range(k):
+                        if c[j, t] > a[i, t]:
+                            above = False
+                            break
+                    if above:
+                        keep[i] = False
 
 
 @dataclass(frozen=True)

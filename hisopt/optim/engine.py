@@ -1,6 +1,16 @@
 """The state of an optimisation run between generations: the pymoo algorithm driven through
 ask/tell, the archive, every evaluated design and the statistics, with an exact checkpoint
 round trip (:meth:`Engine.snapshot`, :meth:`Engine.restore`; format in :mod:`hisopt.optim.rundir`).
+
+A generation's cost does not grow with the run: the archive update scans the archive only
+for the designs that enter (:func:`hisopt.optim.archive.pareto_update`), the progress
+hypervolume is updated from those designs alone (:mod:`hisopt.optim.convergence`), the
+evaluations are kept as per-generation blocks (joined once, for the outputs; a checkpoint
+writes only the blocks since the previous one) and the algorithm's own state (population,
+survival attributes, random generators: :meth:`Engine.algorithm_state`, a fixed size) is
+copied after every generation, so that an interrupted generation can be undone without a
+checkpoint. The end of :meth:`Engine.step` (archive, evaluations, counters, statistics and
+that copy) is committed with signals deferred, all or nothing.
 """
 
 from __future__ import annotations
@@ -14,13 +24,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+import hisopt.interrupt as interrupt
 from hisopt.errors import RunError
 from hisopt.optim import rundir
 from hisopt.optim.archive import Archive
-from hisopt.optim.decision import hypervolume
+from hisopt.optim.convergence import ProgressHypervolume, converged
+from hisopt.optim.decision import hypervolume, log_objectives
+from hisopt.optim.hv_emoa import search_objectives
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
 from hisopt.optim.results import GenerationStats, OptimizationResult
-from hisopt.optim.hv_emoa import search_objectives
 from hisopt.optim.settings import RunSettings, build_algorithm, searches_in_log
 from hisopt.optim.thinning import EpsilonTolerances
 from hisopt.units import attach_units
@@ -61,6 +73,11 @@ class Engine:
         self.evaluation_s = 0.0  # [s] time spent in the evaluator (all sessions)
         self.exhausted = False
         self.epsilon: EpsilonTolerances | None = None  # the thinned front's tolerances (hisopt.optim.thinning)
+        self.progress_hv = ProgressHypervolume(self.reference_log)
+        self.converged_at: int | None = None  # generation at which the convergence stop fired
+        self.saved_blocks = 0  # entries of ``hist`` already written as history chunks
+        self.chunks: list[dict[str, Any]] = []  # history chunk records of the run directory
+        self.mark = self.algorithm_state()
 
     # -- stepping --
     def elapsed(self) -> float:
@@ -87,24 +104,45 @@ class Engine:
         ids = np.arange(self.evaluations, self.evaluations + n, dtype=np.int64)
         qm = np.column_stack([np.asarray(q[name], dtype=float) for name in self.quantity_names])
         archive = self.archive.update(x, qm[:, : self.n_obj], qm, ids, feasible)
-        hv = hypervolume(archive.f, self.reference_log)
-        # commit
-        self.archive = archive
-        self.hist.append((x, qm, np.asarray(q["valid"], dtype=bool), np.full(n, self.generation + 1, dtype=np.int64)))
-        self.generation += 1
-        self.evaluations += n
-        stats = GenerationStats(
-            self.generation, self.settings.generations, self.evaluations, float(feasible.mean()), len(archive), hv, self.elapsed()
-        )
-        self.stats.append(stats)
+        entered = archive.f[archive.ids >= self.evaluations]  # appended at the end, in batch order
+        with interrupt.deferred():  # commit: all of it or none of it
+            self.archive = archive
+            self.progress_hv.add(log_objectives(entered))
+            self.hist.append((x, qm, np.asarray(q["valid"], dtype=bool), np.full(n, self.generation + 1, dtype=np.int64)))
+            self.generation += 1
+            self.evaluations += n
+            stats = GenerationStats(
+                self.generation, self.settings.generations, self.evaluations, float(feasible.mean()), len(archive),
+                self.progress_hv.value(), self.elapsed(),
+            )
+            self.stats.append(stats)
+            self._check_convergence()
+            self.mark = self.algorithm_state()
         return stats
 
+    def _check_convergence(self) -> None:
+        s = self.settings
+        if s.until == "converged" and self.converged_at is None:
+            if converged([st.hypervolume for st in self.stats[-s.window - 1 :]], s.window, s.tolerance):
+                self.converged_at = self.generation
+
+    @property
+    def done(self) -> bool:
+        """[-] The run has reached its generations, its convergence stop or its last offspring."""
+        return self.generation >= self.settings.generations or self.exhausted or self.converged_at is not None
+
     # -- checkpoint round trip --
-    def snapshot(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """``(meta, arrays)`` for :func:`hisopt.optim.rundir.save_checkpoint`."""
+    def algorithm_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """``(meta, arrays)`` of the algorithm alone: population with its survival attributes,
+        normalisation state, iteration counter and random generators (a fixed size).
+
+        Generic over pymoo algorithms: every per-individual attribute survival set (any name
+        in the individuals' ``data`` with a number) and, when the survival has a ``norm``,
+        its :data:`NORM_FIELDS`.
+        """
         alg = self.algorithm
         arrays: dict[str, np.ndarray] = {}
-        pop: Any = alg.pop if self.generation > 0 else []
+        pop: Any = alg.pop if self.generation > 0 and alg.pop is not None else []
         n_var, n_g = self.pymoo_problem.n_var, self.pymoo_problem.n_ieq_constr
         arrays["pop_X"] = np.asarray(pop.get("X"), dtype=float) if len(pop) else np.empty((0, n_var))
         arrays["pop_F"] = np.asarray(pop.get("F"), dtype=float) if len(pop) else np.empty((0, self.n_obj))
@@ -112,34 +150,88 @@ class Engine:
         for name in SURVIVAL_FIELDS:
             values = [ind.data.get(name) for ind in pop]
             arrays[f"pop_{name}"] = np.array([np.nan if v is None else float(v) for v in values])
-        norm = getattr(alg.survival, "norm", None)
+        norm = getattr(getattr(alg, "survival", None), "norm", None)
         if norm is not None:
             for name in NORM_FIELDS:
-                value = getattr(norm, name)
+                value = getattr(norm, name, None)
                 if value is not None:
-                    arrays[f"norm_{name}"] = np.asarray(value, dtype=float)
-        arrays["archive_x"], arrays["archive_q"], arrays["archive_ids"] = self.archive.x, self.archive.q, self.archive.ids
-        hx, hq, hv, hg = self.history_arrays()
-        arrays["hist_x"], arrays["hist_q"], arrays["hist_valid"], arrays["hist_gen"] = hx, hq, hv, hg
-        arrays["reference_log"] = self.reference_log
+                    arrays[f"norm_{name}"] = np.array(value, dtype=float)
         meta = {
+            "n_iter": int(alg.n_iter or 0),
+            "rng": rundir.generator_state(alg.random_state),
+            "numpy_global_rng": rundir.legacy_state(),
+        }
+        return meta, arrays
+
+    def snapshot(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """``(meta, arrays)`` for :func:`hisopt.optim.rundir.save_checkpoint`: the algorithm's
+        state after the last complete generation, the archive, the progress hypervolume, the
+        statistics and the list of history chunks (the evaluations themselves are in the
+        chunks; :meth:`pending_history` gives the ones not yet written)."""
+        alg_meta, arrays = self.mark
+        arrays = dict(arrays)
+        arrays["archive_x"], arrays["archive_q"], arrays["archive_ids"] = self.archive.x, self.archive.q, self.archive.ids
+        arrays["progress_rho"] = self.progress_hv.rho.copy()
+        arrays["reference_log"] = self.reference_log
+        meta = alg_meta | {
             "generation": self.generation,
             "evaluations": self.evaluations,
-            "n_iter": int(alg.n_iter or 0),
             "settings": asdict(self.settings),
             "variables": list(self.problem.variable_names),
             "quantities": list(self.quantity_names),
-            "rng": rundir.generator_state(alg.random_state),
-            "numpy_global_rng": rundir.legacy_state(),
             "stats": [asdict(s) for s in self.stats],
             "elapsed_s": self.elapsed(),
             "evaluation_s": self.evaluation_s,
             "exhausted": self.exhausted,
+            "converged_at": self.converged_at,
+            "history_chunks": list(self.chunks),
         }
         return meta, arrays
 
+    def pending_history(self) -> tuple[int, tuple[np.ndarray, ...]] | None:
+        """``(first evaluation, (x, q, valid, generation))`` of the evaluations not yet in a
+        history chunk, or None; :meth:`history_written` records them as written."""
+        if self.saved_blocks >= len(self.hist):
+            return None
+        first = sum(len(block[0]) for block in self.hist[: self.saved_blocks])
+        parts = tuple(np.concatenate(p) for p in zip(*self.hist[self.saved_blocks :], strict=True))
+        return first, parts
+
+    def history_written(self, record: dict[str, Any]) -> None:
+        """Record that :meth:`pending_history` is now the history chunk ``record``."""
+        self.chunks.append(record)
+        self.saved_blocks = len(self.hist)
+
+    def restore_algorithm(self, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+        """Load an :meth:`algorithm_state` into the algorithm (the run's counters untouched)."""
+        if self.generation == 0:
+            return
+        from pymoo.core.population import Population
+
+        alg = self.algorithm
+        pop = Population.new(X=arrays["pop_X"])
+        pop.set("F", arrays["pop_F"], "G", arrays["pop_G"])
+        for name in SURVIVAL_FIELDS:
+            values = arrays[f"pop_{name}"]
+            for ind, v in zip(pop, values, strict=True):
+                if not np.isnan(v):
+                    ind.set(name, int(v) if name in ("rank", "niche") else float(v))
+        norm = getattr(getattr(alg, "survival", None), "norm", None)
+        if norm is not None:
+            for name in NORM_FIELDS:
+                key = f"norm_{name}"
+                if key in arrays:
+                    setattr(norm, name, arrays[key].copy())
+        alg.pop = pop
+        alg.off = None
+        alg.is_initialized = True
+        alg.n_iter = int(meta["n_iter"])
+        rundir.set_generator_state(alg.random_state, meta["rng"])
+        rundir.set_legacy_state(meta["numpy_global_rng"])
+
     def restore(self, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-        """Load a :meth:`snapshot` into this freshly set-up engine.
+        """Load a :meth:`snapshot` (with its history, as :func:`hisopt.optim.rundir.load_checkpoint`
+        gives it) into this freshly set-up engine.
 
         Raises
         ------
@@ -157,35 +249,21 @@ class Engine:
         self.evaluation_s = float(meta.get("evaluation_s", 0.0))
         self.session_start = time.perf_counter()
         self.exhausted = bool(meta.get("exhausted", False))
+        self.converged_at = meta.get("converged_at")
         self.reference_log = arrays["reference_log"]
         aq = arrays["archive_q"]
         self.archive = Archive(arrays["archive_x"], aq[:, : self.n_obj], aq, arrays["archive_ids"].astype(np.int64))
+        self.progress_hv = ProgressHypervolume(self.reference_log)
+        if "progress_rho" in arrays:
+            self.progress_hv.rho = arrays["progress_rho"].astype(float)
+        else:  # a checkpoint of format 1: the estimate from the archive (the same numbers)
+            self.progress_hv.add(log_objectives(self.archive.f))
         hx, hq, hvalid, hgen = arrays["hist_x"], arrays["hist_q"], arrays["hist_valid"].astype(bool), arrays["hist_gen"]
         self.hist = [(hx, hq, hvalid, hgen.astype(np.int64))] if len(hx) else []
-        if self.generation == 0:
-            return
-        from pymoo.core.population import Population
-
-        alg = self.algorithm
-        pop = Population.new(X=arrays["pop_X"])
-        pop.set("F", arrays["pop_F"], "G", arrays["pop_G"])
-        for name in SURVIVAL_FIELDS:
-            values = arrays[f"pop_{name}"]
-            for ind, v in zip(pop, values, strict=True):
-                if not np.isnan(v):
-                    ind.set(name, int(v) if name in ("rank", "niche") else float(v))
-        norm = getattr(alg.survival, "norm", None)
-        if norm is not None:
-            for name in NORM_FIELDS:
-                key = f"norm_{name}"
-                if key in arrays:
-                    setattr(norm, name, arrays[key].copy())
-        alg.pop = pop
-        alg.off = None
-        alg.is_initialized = True
-        alg.n_iter = int(meta["n_iter"])
-        rundir.set_generator_state(alg.random_state, meta["rng"])
-        rundir.set_legacy_state(meta["numpy_global_rng"])
+        self.chunks = list(meta.get("history_chunks", []))
+        self.saved_blocks = len(self.hist) if self.chunks else 0
+        self.restore_algorithm(meta, arrays)
+        self.mark = self.algorithm_state()
 
     # -- outputs --
     def history_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -226,7 +304,7 @@ class Engine:
 
     def result(self, run_dir: Path | None) -> OptimizationResult:
         """The result so far."""
-        hv = self.stats[-1].hypervolume if self.stats else 0.0
+        hv = hypervolume(self.archive.f, self.reference_log)  # exact (the progress figure is an estimate)
         return OptimizationResult(
             problem=self.problem,
             settings=self.settings,
@@ -239,4 +317,5 @@ class Engine:
             run_dir=run_dir,
             completed=not self.exhausted,
             epsilon=self.epsilon,
+            converged_at=self.converged_at,
         )

@@ -46,7 +46,7 @@ def normalised(f: np.ndarray, ideal: np.ndarray, nadir: np.ndarray) -> np.ndarra
     return (f - ideal) / span
 
 
-class LeastContributorSurvival(Survival):  # type: ignore[misc]
+class LeastContributorSurvival(Survival):
     """Non-dominated sorting, then the splitting front loses its least hypervolume
     contributors one at a time (infeasible designs: by constraint violation, pymoo's rule)."""
 

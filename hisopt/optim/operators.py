@@ -37,7 +37,7 @@ def on_faces(u: np.ndarray, draw: np.ndarray, share: float) -> np.ndarray:
     return np.where(draw < share / 2, 0.0, np.where(draw >= 1.0 - share / 2, 1.0, u))
 
 
-class BoxSampling(Sampling):  # type: ignore[misc]
+class BoxSampling(Sampling):
     """Latin hypercube over the box with a share of coordinates on the bounds."""
 
     def _do(self, problem: Any, n_samples: int, *args: Any, random_state: np.random.Generator, **kwargs: Any) -> np.ndarray:
@@ -48,7 +48,7 @@ class BoxSampling(Sampling):  # type: ignore[misc]
         return np.asarray(problem.xl + u * (problem.xu - problem.xl), dtype=float)
 
 
-class FaceMutation(PolynomialMutation):  # type: ignore[misc]
+class FaceMutation(PolynomialMutation):
     """Polynomial mutation, then some variables moved onto their nearer bound.
 
     Parameters

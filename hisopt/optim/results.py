@@ -36,7 +36,9 @@ class GenerationStats:
     front_size : int
         [-] designs in the archive (the non-dominated feasible set)
     hypervolume : float
-        [decades^n_obj] hypervolume of the archive in log10 space
+        [decades^n_obj] progress hypervolume of the archive in log10 space: an estimate
+        within about 1 % (:mod:`hisopt.optim.convergence`); the run's final figure,
+        :attr:`OptimizationResult.hypervolume`, is exact
     elapsed_s : float
         [s] wall time of the run so far (all sessions)
     """
@@ -81,6 +83,9 @@ class OptimizationResult:
         [-] False when the algorithm stopped early (no new offspring possible)
     epsilon : EpsilonTolerances | None
         [-] the run's tolerances (:mod:`hisopt.optim.thinning`); None: no thinned front
+    converged_at : int | None
+        [-] generation at which the convergence stop fired (None: it did not, or the run
+        does not use it)
     """
 
     problem: Problem
@@ -94,6 +99,25 @@ class OptimizationResult:
     run_dir: Path | None = None
     completed: bool = True
     epsilon: EpsilonTolerances | None = None
+    converged_at: int | None = None
+
+    def stop_record(self) -> dict[str, Any]:
+        """[-] The run's stop rule and whether and where it fired (for ``run.json`` and the summary)."""
+        s = self.settings
+        out: dict[str, Any] = {"until": s.until, "generations": s.generations}
+        if s.until == "converged":
+            out |= {"tolerance": s.tolerance, "window_generations": s.window, "converged": self.converged_at is not None,
+                    "converged_at_generation": self.converged_at}
+        return out
+
+    def hypervolume_history(self, rows: int = 6) -> list[tuple[int, float]]:
+        """[-, decades^k] A few ``(evaluations, progress hypervolume)`` points of the run, evenly
+        spaced in generations and ending with the last, to show whether it still improves."""
+        g = self.generations
+        if len(g) == 0:
+            return []
+        picks = np.unique(np.linspace(0, len(g) - 1, min(rows, len(g))).round().astype(int))
+        return [(int(g["evaluations"].iloc[i]), float(g["hypervolume"].iloc[i])) for i in picks]
 
     @property
     def objectives(self) -> pd.DataFrame:

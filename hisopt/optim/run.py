@@ -1,14 +1,19 @@
 """NSGA-II/III runs of a hisopt problem: library entry points, run directories, resume.
 
 A run drives a pymoo algorithm through its ask/tell interface: ``ask`` proposes a
-generation, hisopt evaluates it in one vectorised call, ``tell`` performs survival. After
-every generation the run directory receives an atomic checkpoint (:mod:`hisopt.optim.rundir`)
-holding everything needed to continue bit for bit: the population with its survival
+generation, hisopt evaluates it in one vectorised call, ``tell`` performs survival. Every
+:data:`CHECKPOINT_INTERVAL_S` seconds of wall time (after the generation that ends the
+interval), at the end, and on Ctrl-C or SIGTERM the run directory receives an atomic
+checkpoint (:mod:`hisopt.optim.rundir`) holding everything needed to continue bit for bit: the population with its survival
 attributes, NSGA-III's normalisation state, the algorithm's random generator state, the
 archive (:mod:`hisopt.optim.archive`), every evaluated design and the statistics. No pymoo
 object is pickled; :func:`resume` rebuilds the algorithm from the settings, sets it up with
 the same seed and loads that state into it, so an interrupted run (Ctrl-C, ``SIGKILL``)
-ends with the same front as an uninterrupted one.
+ends with the same front as an uninterrupted one. A ``SIGKILL`` loses at most the
+generations since the last checkpoint, which the resumed run computes again, identically.
+The convergence stop (``until = "converged"``, :mod:`hisopt.optim.convergence`) reads only
+the progress hypervolume of each generation, which the checkpoint holds, so a resumed run
+stops at the same generation.
 
 The run directory's files, the checkpoint format and the resume rule (the problem copy must
 be unedited and the original file unchanged) are :mod:`hisopt.optim.rundir`'s; the state a
@@ -17,6 +22,7 @@ run directory is in, :mod:`hisopt.optim.runstate`'s.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -25,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 import hisopt.interrupt as interrupt
-from hisopt.errors import RunError
+from hisopt.errors import ConfigError, RunError
 from hisopt.optim import rundir, runstate
 from hisopt.optim.decision import reference_point
 from hisopt.optim.engine import Engine
@@ -35,6 +41,41 @@ from hisopt.optim.thinning import EpsilonInput, epsilon_from_record, resolve_eps
 
 if TYPE_CHECKING:
     from hisopt.problem import Problem
+
+CHECKPOINT_INTERVAL_S = 10.0
+"""[s] Wall time between checkpoints (also one at the end, and on Ctrl-C or SIGTERM)."""
+
+CHECKPOINT_INTERVAL_ENV = "HISOPT_CHECKPOINT_INTERVAL_S"
+"""Environment variable overriding :data:`CHECKPOINT_INTERVAL_S` (seconds; 0: every generation)."""
+
+
+def checkpoint_interval() -> float:
+    """[s] The checkpoint interval: :data:`CHECKPOINT_INTERVAL_ENV` if set, else the default.
+
+    Raises
+    ------
+    ConfigError
+        The variable is not a number of seconds >= 0.
+    """
+    raw = os.environ.get(CHECKPOINT_INTERVAL_ENV)
+    if raw is None or not raw.strip():
+        return CHECKPOINT_INTERVAL_S
+    try:
+        value = float(raw)
+    except ValueError:
+        value = -1.0
+    if not value >= 0.0 or value == float("inf"):
+        raise ConfigError(f"expected a number of seconds >= 0, got {raw!r}", key=CHECKPOINT_INTERVAL_ENV)
+    return value
+
+
+def _save(engine: Engine, run: rundir.RunDirectory) -> None:
+    """Checkpoint: the evaluations since the last checkpoint as a new history chunk, then the
+    checkpoint naming it (a kill between the two leaves a chunk the next checkpoint overwrites)."""
+    pending = engine.pending_history()
+    if pending is not None:
+        engine.history_written(rundir.save_history_chunk(run.path, *pending))
+    rundir.save_checkpoint(run.path / rundir.CHECKPOINT, *engine.snapshot())
 
 
 def _drive(engine: Engine, run: rundir.RunDirectory | None, progress: ProgressFn | None) -> OptimizationResult:
@@ -52,17 +93,22 @@ def _drive_session(engine: Engine, run: rundir.RunDirectory | None, progress: Pr
         run.info.setdefault("sessions", []).append(session)
         run.info["status"], run.info["process"] = runstate.RUNNING, runstate.process_identity()
         run.write_info()
-    last = engine.snapshot() if run is not None else None
+    interval = checkpoint_interval()
+    saved_at = time.perf_counter()
     finished = False
     try:
-        while engine.generation < engine.settings.generations and not engine.exhausted:
+        while not engine.done:
             interrupt.hook_point(f"generation-{engine.generation + 1}")
             stats = engine.step()
-            if run is not None:
-                last = engine.snapshot()
-                rundir.save_checkpoint(run.path / rundir.CHECKPOINT, *last)
+            if run is not None and time.perf_counter() - saved_at >= interval:
+                with interrupt.deferred():
+                    _save(engine, run)
+                saved_at = time.perf_counter()
             if stats is not None and progress is not None:
                 progress(stats)
+        if run is not None:
+            with interrupt.deferred():
+                _save(engine, run)
         result = engine.result(run_dir)
         if run is not None:
             with interrupt.deferred():  # a signal now waits until every file is written
@@ -71,13 +117,11 @@ def _drive_session(engine: Engine, run: rundir.RunDirectory | None, progress: Pr
                 finished = True
         return result
     except KeyboardInterrupt as exc:
-        if run is not None and last is not None and not finished:
+        if run is not None and not finished:
             session["signal"] = interrupt.signal_name(exc)
             with interrupt.deferred():  # a second Ctrl-C must not cut the save short
-                clock = engine.session_start, engine.elapsed_before
-                engine.restore(*last)  # the last complete generation, whatever was cut short
-                engine.session_start, engine.elapsed_before = clock
-                rundir.save_checkpoint(run.path / rundir.CHECKPOINT, *last)
+                engine.restore_algorithm(*engine.mark)  # the last complete generation, whatever was cut short
+                _save(engine, run)
                 result = engine.result(run.path)
                 rundir.write_outputs(run.path, result)
                 _record(run, session, runstate.INTERRUPTED, engine, result)
@@ -102,6 +146,7 @@ def optimize(
     pop_size: int | None = None,
     generations: int | None = None,
     algorithm: AlgorithmChoice | None = None,
+    until: str | None = None,
     progress: ProgressFn | None = None,
     epsilon: EpsilonInput | None = None,
 ) -> OptimizationResult:
@@ -123,6 +168,10 @@ def optimize(
     algorithm : AlgorithmChoice | None, optional
         [-] ``"auto"`` (NSGA-III from four objectives on, else NSGA-II),
         ``"nsga2"`` or ``"nsga3"``; default the file's
+    until : str | None, optional
+        [-] ``"generations"`` or ``"converged"`` (stop when the progress hypervolume gained
+        less than the file's ``tolerance`` over its ``window``; ``generations`` is the cap);
+        default the file's
     progress : ProgressFn | None, optional
         [-] called with :class:`GenerationStats` after every generation
     epsilon : EpsilonInput | None, optional
@@ -152,8 +201,9 @@ def optimize(
 
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
-    settings = resolve_settings(problem, algorithm=algorithm, pop_size=pop_size, generations=generations, seed=seed)
+    settings = resolve_settings(problem, algorithm=algorithm, pop_size=pop_size, generations=generations, seed=seed, until=until)
     tolerances = resolve_epsilon(problem, epsilon)
+    checkpoint_interval()  # a bad override fails before any work
     if out is not None:
         runstate.refuse_occupied(out)
     run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
@@ -242,7 +292,10 @@ def prepare_resume(run_dir: str | Path) -> ResumePlan:
     if state.status != runstate.FINISHED:
         rundir.prepare_run_directory(run_dir, fresh=False)
     s = info["settings"]
-    settings = RunSettings(s["algorithm"], int(s["pop_size"]), int(s["generations"]), int(s["seed"]))
+    settings = RunSettings(
+        s["algorithm"], int(s["pop_size"]), int(s["generations"]), int(s["seed"]),
+        s.get("until", "generations"), float(s.get("tolerance", RunSettings.tolerance)), int(s.get("window", RunSettings.window)),
+    )
     engine = Engine(problem, settings, np.asarray(s["hypervolume_reference_log10"], dtype=float))
     engine.epsilon = epsilon_from_record(problem, s.get("epsilon"))
     checkpoint = run_dir / rundir.CHECKPOINT

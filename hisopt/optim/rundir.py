@@ -7,7 +7,10 @@ Run directory files (all written atomically):
   with timings, and (when finished) a result summary;
 - ``problem.toml`` (or ``problem.json`` for a problem not read unchanged from a file): the
   run's own copy of the problem;
-- ``checkpoint.npz``: written after every generation;
+- ``checkpoint.npz``: written every 10 s of wall time, at the end and on Ctrl-C/SIGTERM
+  (:data:`hisopt.optim.run.CHECKPOINT_INTERVAL_S`);
+- ``history/<first evaluation>.npz``: the evaluations, one append-only chunk per checkpoint
+  (the evaluations since the previous one), named in the checkpoint;
 - ``front.csv``: the archive's non-dominated feasible designs: variables, objectives,
   constraint quantities, physical units, shortest round-trip decimals and a units row
   (:func:`hisopt.io.write_csv`; read it back with :func:`hisopt.io.read_csv`);
@@ -32,14 +35,18 @@ the same directory, which is flushed, ``fsync``-ed and moved over the target wit
 :func:`os.replace`. A reader (or a resumed run after ``SIGKILL``) therefore sees either the
 previous complete file or the new complete file, never a torn one.
 
-Checkpoint format (``checkpoint.npz``, one file, written after every generation): plain
+Checkpoint format 2 (``checkpoint.npz``, one file, rewritten at each checkpoint): plain
 numpy arrays (no pickles, loaded with ``allow_pickle=False``) plus one JSON document in the
 0-d string array ``meta``. The arrays hold the algorithm's population (``pop_X``, ``pop_F``,
-``pop_G`` and the survival attributes ``pop_rank`` ...), the archive (``archive_X``,
-``archive_Q``, ``archive_id``), every evaluated design (``hist_X``, ``hist_Q``,
-``hist_valid``, ``hist_gen``) and NSGA-III's normalisation state (``norm_*``); ``meta``
-holds the generation counter, the random generator states as plain integers and lists,
-the per-generation statistics and the settings.
+``pop_G`` and the survival attributes ``pop_rank`` ...), the archive (``archive_x``,
+``archive_q``, ``archive_ids``), the progress hypervolume's state (``progress_rho``) and
+NSGA-III's normalisation state (``norm_*``); ``meta`` holds the generation counter, the
+random generator states as plain integers and lists, the per-generation statistics, the
+settings and ``history_chunks``: the chunk files (``history/<first evaluation>.npz``, each
+``hist_x``, ``hist_q``, ``hist_valid``, ``hist_gen`` of the evaluations written since the
+previous checkpoint) that together hold every evaluated design. A checkpoint's cost grows
+with the archive and the population, not with the number of evaluations. Format 1 (every
+evaluation inside ``checkpoint.npz``) is still read.
 """
 
 from __future__ import annotations
@@ -82,7 +89,11 @@ REFINE_JSON = "refine.json"
 LAYOUT_STUDY_JSON = "study.json"
 """The record of a layout study directory (:mod:`hisopt.studies.layout_study`, whose runs are
 run directories one level down): named here so that a run command given such a folder says so."""
-CHECKPOINT_FORMAT = 1
+CHECKPOINT_FORMAT = 2
+READABLE_FORMATS = (1, 2)
+HISTORY_DIR = "history"
+"""Folder of the history chunks (checkpoint format 2)."""
+HISTORY_FIELDS = ("hist_x", "hist_q", "hist_valid", "hist_gen")
 
 
 @dataclass
@@ -151,13 +162,25 @@ def save_checkpoint(path: Path, meta: dict[str, Any], arrays: dict[str, np.ndarr
     atomic_write_bytes(path, buffer.getvalue())
 
 
-def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Read a checkpoint written by :func:`save_checkpoint`: ``(meta, arrays)``.
+def save_history_chunk(run_dir: Path, first: int, parts: tuple[np.ndarray, ...]) -> dict[str, Any]:
+    """Write evaluations ``first, first + 1, ...`` (``x, q, valid, generation``) as a history
+    chunk (atomically); the record the checkpoint lists it by."""
+    name = f"{HISTORY_DIR}/{first:012d}.npz"
+    (Path(run_dir) / HISTORY_DIR).mkdir(exist_ok=True)
+    buffer = io.BytesIO()
+    np.savez(buffer, **dict(zip(HISTORY_FIELDS, parts, strict=True)))  # type: ignore[arg-type]
+    atomic_write_bytes(Path(run_dir) / name, buffer.getvalue())
+    return {"file": name, "first": int(first), "rows": int(len(parts[0]))}
+
+
+def load_checkpoint(path: Path, *, history: bool = True) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Read a checkpoint written by :func:`save_checkpoint`: ``(meta, arrays)``, the arrays
+    with the evaluations of its history chunks joined (``hist_*``; ``history=False``: without).
 
     Raises
     ------
     RunError
-        The file is missing, unreadable or of another format.
+        The file or a chunk it names is missing, unreadable or of another format.
     """
     path = Path(path)
     if not path.is_file():
@@ -168,8 +191,27 @@ def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     except (OSError, ValueError) as exc:
         raise RunError(f"{path}: unreadable checkpoint ({exc})") from None
     meta = json.loads(str(arrays.pop("meta")))
-    if meta.get("format") != CHECKPOINT_FORMAT:
+    if meta.get("format") not in READABLE_FORMATS:
         raise RunError(f"{path}: checkpoint format {meta.get('format')!r}, expected {CHECKPOINT_FORMAT}")
+    if history and meta.get("format") == 2:
+        parts: list[dict[str, np.ndarray]] = []
+        expected = 0
+        for record in meta.get("history_chunks", []):
+            chunk = path.parent / record["file"]
+            try:
+                with np.load(chunk, allow_pickle=False) as data:
+                    parts.append({name: data[name] for name in HISTORY_FIELDS})
+            except (OSError, ValueError, KeyError) as exc:
+                raise RunError(f"{chunk}: unreadable history chunk ({exc}); start over with another --out") from None
+            if record["first"] != expected or len(parts[-1]["hist_x"]) != record["rows"]:
+                raise RunError(f"{chunk}: not the history chunk {path.name} names; start over with another --out")
+            expected += record["rows"]
+        if parts:
+            arrays |= {name: np.concatenate([p[name] for p in parts]) for name in HISTORY_FIELDS}
+        elif "archive_q" in arrays:  # a run's checkpoint before its first chunk
+            n_var = arrays["pop_X"].shape[1] if "pop_X" in arrays else 0
+            arrays |= {"hist_x": np.empty((0, n_var)), "hist_q": np.empty((0, arrays["archive_q"].shape[1])),
+                       "hist_valid": np.empty(0, dtype=bool), "hist_gen": np.empty(0, dtype=np.int64)}
     return meta, arrays
 
 
@@ -178,7 +220,7 @@ def checkpoint_generation(run_dir: Path) -> int:
     path = Path(run_dir) / CHECKPOINT
     if not path.is_file():
         return 0
-    meta, _ = load_checkpoint(path)
+    meta, _ = load_checkpoint(path, history=False)
     return int(meta["generation"])
 
 
@@ -372,6 +414,8 @@ def _summary(result: OptimizationResult) -> dict[str, Any]:
         **({} if result.thinned is None else {"thinned_front_size": int(len(result.thinned))}),
         "hypervolume": result.hypervolume,
         "completed": result.completed,
+        "stop": result.stop_record(),
+        "hypervolume_history": [{"evaluations": e, "hypervolume": h} for e, h in result.hypervolume_history()],
     }
     if len(result.front):
         out["knee"] = {k: float(v) for k, v in result.knee.items()}

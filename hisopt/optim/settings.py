@@ -16,6 +16,12 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
 
 AlgorithmName = Literal["nsga2", "nsga3", "smsemoa"]
+Until = Literal["generations", "converged"]
+UNTIL_CHOICES = ("generations", "converged")
+DEFAULT_TOLERANCE = 1e-3
+"""[-] ``until = "converged"``: relative progress-hypervolume gain over the window below which a run stops."""
+DEFAULT_WINDOW = 20
+"""[generations] ``until = "converged"``: the generations the gain is measured over."""
 AlgorithmChoice = Literal["auto", "nsga2", "nsga3", "smsemoa"]
 NSGA3_MIN_OBJECTIVES = 4
 """``algorithm = "auto"`` picks NSGA-III from this many objectives on, NSGA-II below."""
@@ -34,12 +40,23 @@ class RunSettings:
         [-] generations including the initial one
     seed : int
         [-] random seed of the algorithm
+    until : Until
+        [-] ``"generations"`` (run them all) or ``"converged"`` (stop when the progress
+        hypervolume gained at most ``tolerance`` of itself over ``window`` generations;
+        ``generations`` is the cap; :mod:`hisopt.optim.convergence`)
+    tolerance : float
+        [-] relative gain of the convergence stop
+    window : int
+        [generations] window of the convergence stop
     """
 
     algorithm: AlgorithmName
     pop_size: int
     generations: int
     seed: int
+    until: Until = "generations"
+    tolerance: float = DEFAULT_TOLERANCE
+    window: int = DEFAULT_WINDOW
 
     @property
     def evaluations(self) -> int:
@@ -54,6 +71,7 @@ def resolve_settings(
     pop_size: int | None = None,
     generations: int | None = None,
     seed: int | None = None,
+    until: str | None = None,
 ) -> RunSettings:
     """Settings from the problem file, each overridable (``None`` keeps the file's value).
 
@@ -75,11 +93,14 @@ def resolve_settings(
         raise ConfigError(f"expected generations >= 1, got {gens!r}", key="--gens")
     if not isinstance(rng_seed, int) or rng_seed < 0:
         raise ConfigError(f"expected a seed >= 0, got {rng_seed!r}", key="--seed")
+    stop = spec.until if until is None else until
+    if stop not in UNTIL_CHOICES:
+        raise ConfigError(f"unknown stop rule {stop!r}; expected generations or converged", key="--until")
     n_obj = len(problem.objective_names)
     name: AlgorithmName = ("nsga3" if n_obj >= NSGA3_MIN_OBJECTIVES else "nsga2") if choice == "auto" else choice
     if name == "nsga3" and pop < n_obj:
         raise ConfigError(f"NSGA-III needs a population of at least {n_obj} (one per objective), got {pop}", key="--pop")
-    return RunSettings(name, pop, gens, rng_seed)
+    return RunSettings(name, pop, gens, rng_seed, stop, spec.tolerance, spec.window)  # type: ignore[arg-type]
 
 
 def das_dennis_partitions(n_obj: int, pop_size: int) -> int:

@@ -181,6 +181,11 @@ class Optimizer(_Strict):
     epsilon: dict[str, Any] = Field(
         default_factory=dict, description="tolerance per objective of the thinned front: \"1 %\" or a value in its unit"
     )
+    until: Literal["generations", "converged"] = Field(
+        "generations", description="stop after all generations, or when converged (tolerance, window; generations is the cap)"
+    )
+    tolerance: float = Field(1e-3, gt=0, lt=1, description="until = \"converged\": relative hypervolume gain over the window")
+    window: int = Field(20, ge=1, description="until = \"converged\": generations the gain is measured over")
 
 
 class ProblemSpec(_Strict):
