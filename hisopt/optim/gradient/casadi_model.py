@@ -36,7 +36,7 @@ import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
@@ -515,11 +515,14 @@ def _buffered(fn: ca.Function, args: list[np.ndarray], results: list[np.ndarray]
     """A call of ``fn`` reading ``args`` and writing ``results`` in place (float arrays whose
     memory is each argument's column-major data; they must outlive the call)."""
     buffer, call = fn.buffer()
+    # CasADi's stubs name the buffer's size, which its Python wrapper takes from the memoryview
+    set_arg: Any = buffer.set_arg
+    set_res: Any = buffer.set_res
     for i, a in enumerate(args):
         assert a.flags.f_contiguous, "CasADi reads a matrix column by column"
-        buffer.set_arg(i, memoryview(a.reshape(-1, order="F")))
+        set_arg(i, memoryview(cast(Any, a.reshape(-1, order="F"))))
     for i, r in enumerate(results):
-        buffer.set_res(i, memoryview(r))
+        set_res(i, memoryview(cast(Any, r)))
 
     def run() -> None:
         call()
