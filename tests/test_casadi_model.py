@@ -189,6 +189,34 @@ def test_callback_jacobian_equals_the_graph_jacobian(problem, rng):
     assert np.all(np.abs(a - b) <= 1e-9 * (np.abs(b) + np.abs(b).max(axis=0)))
 
 
+def test_callback_values_equal_the_graph_and_compiled_buffers_the_virtual_machine(problem, rng, tmp_path, monkeypatch):
+    # the callback reads CasADi's column-major buffers in place: a layout slip would permute
+    # outputs, nodes or variables, which these comparisons see at once
+    import casadi as ca
+
+    monkeypatch.setenv("HISOPT_CACHE_DIR", str(tmp_path))
+    lower, span = problem.lower, problem.upper - problem.lower
+    plain, fast = CasadiModel(problem, compile=False), CasadiModel(problem, compile=True)
+    for x in random_designs(problem, 3, rng, corners=False):
+        fs = plain.frequency_set(*evaluator_nodes(problem, x))
+        u0 = (x - lower) / span
+        graph = np.array(plain.spectra(ca.DM(x), fs.params))
+        vm, compiled_cb = SpectraCallback(plain, fs, lower, span), SpectraCallback(fast, fs, lower, span)
+        value, jac = vm.evaluate(u0, jacobian=True)
+        # the same node function mapped the same way: the same operations, bit for bit
+        np.testing.assert_array_equal(vm.evaluate(u0 + 0.0, jacobian=False)[0], graph)
+        np.testing.assert_array_equal(value, graph)
+        u = ca.MX.sym("u", plain.n_var)
+        psd = plain.spectra(ca.DM(lower) + ca.DM(span) * u, fs.params)
+        graph_jac = np.array(ca.Function("j", [u], [ca.jacobian(ca.vec(psd), u)])(u0))
+        # two AD orders (forward inside each node; through the graph's scaling): equal to rounding
+        assert np.all(np.abs(jac - graph_jac) <= 1e-9 * (np.abs(graph_jac) + np.abs(graph_jac).max(axis=0)))
+        # compiled C: the same operations in the same order (no fast-math), rounding aside
+        c_value, c_jac = compiled_cb.evaluate(u0, jacobian=True)
+        np.testing.assert_allclose(c_value, value, rtol=1e-13, atol=0)
+        np.testing.assert_allclose(c_jac, jac, rtol=1e-12, atol=1e-12 * np.abs(jac).max())
+
+
 def test_compiled_function_gives_the_same_numbers(problem, tmp_path, monkeypatch):
     monkeypatch.setenv("HISOPT_CACHE_DIR", str(tmp_path))
     model = CasadiModel(problem, compile=False)

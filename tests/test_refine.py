@@ -116,6 +116,34 @@ def test_refine_point_improves_an_interior_design(problem):
     assert np.all((result.x >= problem.lower) & (result.x <= problem.upper))
 
 
+def test_peak_search_of_all_peaks_at_once_equals_one_search_per_peak(problem, rng):
+    # node_plan searches every PSD peak in one batch: each bracket must give what its own
+    # refine_maximum on that output's PSD gives (the FRF is frequency by frequency), exactly
+    from hisopt.evaluation.channels import DirectOutputs
+    from hisopt.evaluation.peaks import refine_maximum
+    from hisopt.optim.gradient.asf_nlp import peak_locations
+
+    ev = problem.evaluator()
+    x = problem.lower + (problem.upper - problem.lower) * rng.uniform(0.1, 0.9, problem.lower.size)
+    frf = DirectOutputs(problem.model(x[None]), ev.outputs)
+    n_out = len(ev.outputs)
+    outputs = np.arange(6) % n_out
+    lo = rng.uniform(0.5, 15.0, 6)
+    hi = lo * rng.uniform(1.05, 1.5, 6)
+    found = peak_locations(frf, ev, outputs, lo, hi)
+    for j, a, b, got in zip(outputs, lo, hi, found, strict=True):
+
+        def values_at(pts, j=j):
+            return ev.spectra(pts, frf(2 * np.pi * pts, int(j)))[..., 0]
+
+        f = np.linspace(a, b, 9)[None, :]
+        assert got == refine_maximum(values_at, f, values_at(f), 12)[0][0]
+        assert a <= got <= b
+        # the search keeps the best sample: no bracket sample is higher than the peak found
+        assert values_at(np.array([[got]]))[0, 0] >= values_at(f).max()
+    assert peak_locations(frf, ev, np.zeros(0, dtype=int), np.zeros(0), np.zeros(0)).size == 0
+
+
 def test_refine_front_keeps_only_dominating_designs(problem, small_run):
     front = small_run.front
     result = refine_front(problem, front, max_points=6)

@@ -81,9 +81,15 @@ class NodePlan:
     max_nodes: dict[str, np.ndarray]
 
 
-def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, steps: int = 12, points: int = 9) -> float:
-    """[Hz] Location of the PSD maximum of ``output`` in ``[lo_hz, hi_hz]``, from ``points``
-    samples refined by :func:`hisopt.evaluation.peaks.refine_maximum` (``steps`` new samples).
+def peak_locations(
+    frf: Any, ev: Any, outputs: np.ndarray, lo_hz: np.ndarray, hi_hz: np.ndarray, steps: int = 12, points: int = 9
+) -> np.ndarray:
+    """[Hz] Location of the PSD maximum of output ``outputs[i]`` in ``[lo_hz[i], hi_hz[i]]``
+    for every bracket ``i`` at once, from ``points`` samples each refined by
+    :func:`hisopt.evaluation.peaks.refine_maximum` (``steps`` new samples each).
+
+    All brackets are sampled in one FRF call per step (the FRF of one design is frequency by
+    frequency, so a bracket's numbers do not depend on the others').
 
     Parameters
     ----------
@@ -91,14 +97,25 @@ def peak_location(frf: Any, ev: Any, output: int, lo_hz: float, hi_hz: float, st
         output FRF function of one design, as :class:`hisopt.evaluation.channels.DirectOutputs`
     ev : Any
         the problem's evaluator (for its road spectra)
+    outputs : np.ndarray
+        [-] output index of each bracket, ``(n,)``
+    lo_hz, hi_hz : np.ndarray
+        [Hz] bracket limits, ``(n,)``
     """
     from hisopt.evaluation.peaks import refine_maximum
 
-    def values_at(pts: np.ndarray) -> np.ndarray:
-        return ev.spectra(pts, frf(2 * np.pi * pts, output))[..., 0]
+    outputs = np.asarray(outputs, dtype=int)
+    if outputs.size == 0:
+        return np.zeros(0)
+    rows = np.arange(outputs.size)[:, None]
 
-    f = np.linspace(lo_hz, hi_hz, points)[None, :]
-    return float(refine_maximum(values_at, f, values_at(f), steps)[0][0])
+    def values_at(pts: np.ndarray) -> np.ndarray:
+        flat = pts.reshape(1, -1)
+        psd = ev.spectra(flat, frf(2 * np.pi * flat))[0].reshape(*pts.shape, -1)  # (n, m, n_out)
+        return psd[rows, np.arange(pts.shape[1])[None, :], outputs[:, None]]
+
+    f = np.linspace(np.asarray(lo_hz, dtype=float), np.asarray(hi_hz, dtype=float), points, axis=1)
+    return refine_maximum(values_at, f, values_at(f), steps)[0]
 
 
 def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: RefineSettings) -> NodePlan:
@@ -118,20 +135,27 @@ def node_plan(problem: Problem, model: CasadiModel, x: np.ndarray, settings: Ref
     upper = lam[0][lam[0].imag > 0]  # one of each conjugate pair
     offsets = np.array(settings.cluster_offsets)
     offsets = np.r_[-offsets[::-1], 0.0, offsets]
-    clusters: dict[str, list[np.ndarray]] = {}
+    owner: list[str] = []  # the band-maximum quantity of each peak bracket
+    output: list[int] = []
+    peak: list[int] = []
     for m in model.metrics:
         if m.kind != "max":
             continue
         j = model.output_index[m.signal]
         y = psd[:, j]
         is_peak = np.r_[y[0] > y[1], (y[1:-1] >= y[:-2]) & (y[1:-1] >= y[2:]), y[-1] > y[-2]]
-        clusters[m.name] = []
-        for k in (int(i) for i in np.flatnonzero(is_peak & (y >= settings.peak_share * y.max()))):
-            f_pk = peak_location(frf, ev, j, f[max(k - 1, 0)], f[min(k + 1, f.size - 1)])
-            nearest = upper[np.argmin(np.abs(upper.imag / (2 * np.pi) - f_pk))] if upper.size else 0j
-            half_width = max(abs(nearest.real) / (2 * np.pi), 1e-3 * f_pk)
-            c = f_pk + half_width * offsets
-            clusters[m.name].append(c[(c >= ev.f_lo) & (c <= ev.f_hi)])
+        found = np.flatnonzero(is_peak & (y >= settings.peak_share * y.max()))
+        owner += [m.name] * found.size
+        output += [j] * found.size
+        peak += found.tolist()
+    k = np.array(peak, dtype=int)
+    f_pk = peak_locations(frf, ev, np.array(output, dtype=int), f[np.maximum(k - 1, 0)], f[np.minimum(k + 1, f.size - 1)])
+    clusters: dict[str, list[np.ndarray]] = {m.name: [] for m in model.metrics if m.kind == "max"}
+    for name, fp in zip(owner, f_pk.tolist(), strict=True):
+        nearest = upper[np.argmin(np.abs(upper.imag / (2 * np.pi) - fp))] if upper.size else 0j
+        half_width = max(abs(nearest.real) / (2 * np.pi), 1e-3 * fp)
+        c = fp + half_width * offsets
+        clusters[name].append(c[(c >= ev.f_lo) & (c <= ev.f_hi)])
     extra = [c for cs in clusters.values() for c in cs]
     f_all, inverse = np.unique(np.concatenate([f, *extra]), return_inverse=True)
     w_all = np.bincount(inverse[: f.size], weights=w, minlength=f_all.size)

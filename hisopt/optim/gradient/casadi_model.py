@@ -33,10 +33,10 @@ import os
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
@@ -451,9 +451,15 @@ class SpectraCallback(ca.Callback):
         self.lower, self.span = np.asarray(lower, dtype=float), np.asarray(span, dtype=float)
         # not n_out / n_nodes: those are methods of every CasADi Function
         self.outputs_count, self.nodes_count = len(model.outputs), fs.size
-        self.params = ca.DM(fs.params)
-        self.value = model.fast_node_function().map(fs.size, "serial")
-        self.value_jac = model.fast_node_function(jacobian=True).map(fs.size, "serial")
+        # Numeric calls go through CasADi's zero-copy buffers: converting a DM result to numpy
+        # costs more than evaluating the compiled nodes.
+        self.params = np.asfortranarray(fs.params)
+        self._x = np.zeros(model.n_var)
+        self._psd = np.zeros(self.outputs_count * self.nodes_count)
+        self._jac = np.zeros(self.outputs_count * self.nodes_count * model.n_var)
+        args = [self._x, self.params]  # the design is shared by the nodes (not repeated per node)
+        self.value = _buffered(model.fast_node_function().map("value", "serial", fs.size, [0], []), args, [self._psd])
+        self.value_jac = _buffered(model.fast_node_function(jacobian=True).map("value_jac", "serial", fs.size, [0], []), args, [self._psd, self._jac])
         self._cache: dict[bytes, tuple[np.ndarray, np.ndarray | None]] = {}
         self._jacobian: Any = None
         self.construct("spectra", {"enable_fd": False})
@@ -488,19 +494,41 @@ class SpectraCallback(ca.Callback):
         hit = self._cache.get(key)
         if hit is not None and (hit[1] is not None or not jacobian):
             return hit
-        x = self.lower + self.span * u
+        self._x[:] = self.lower + self.span * u
+        # column-major buffers: psd (n_out, F); the map's Jacobian (n_out, F n_var), column f n_var + v
         if jacobian:
-            psd, jac = self.value_jac(x, self.params)
-            jac = np.array(jac).reshape(self.outputs_count, self.nodes_count, -1, order="C")
-            jac = np.transpose(jac, (1, 0, 2)).reshape(self.nodes_count * self.outputs_count, -1) * self.span
-            result = (np.array(psd), jac)
+            self.value_jac()
+            jac = self._jac.reshape(self.nodes_count, self.model.n_var, self.outputs_count)
+            jac = np.transpose(jac, (0, 2, 1)).reshape(self.nodes_count * self.outputs_count, -1) * self.span
+            result = (self._psd.reshape(self.nodes_count, self.outputs_count).T.copy(), jac)
         else:
-            result = (np.array(self.value(x, self.params)), None)
+            self.value()
+            result = (self._psd.reshape(self.nodes_count, self.outputs_count).T.copy(), None)
         # IPOPT alternates between an iterate and its trial points: keep the last few.
         self._cache[key] = result
         while len(self._cache) > 8:
             self._cache.pop(next(iter(self._cache)))
         return result
+
+
+def _buffered(fn: ca.Function, args: list[np.ndarray], results: list[np.ndarray]) -> Callable[[], None]:
+    """A call of ``fn`` reading ``args`` and writing ``results`` in place (float arrays whose
+    memory is each argument's column-major data; they must outlive the call)."""
+    buffer, call = fn.buffer()
+    # CasADi's stubs name the buffer's size, which its Python wrapper takes from the memoryview
+    set_arg: Any = buffer.set_arg
+    set_res: Any = buffer.set_res
+    for i, a in enumerate(args):
+        assert a.flags.f_contiguous, "CasADi reads a matrix column by column"
+        set_arg(i, memoryview(cast(Any, a.reshape(-1, order="F"))))
+    for i, r in enumerate(results):
+        set_res(i, memoryview(cast(Any, r)))
+
+    def run() -> None:
+        call()
+
+    run.buffer = buffer  # type: ignore[attr-defined]  # keeps the buffer alive with the call
+    return run
 
 
 class JacobianCallback(ca.Callback):
