@@ -258,9 +258,14 @@ def panel_edges(f_lo: float, f_hi: float, forced: np.ndarray, singularities: np.
             k += 1
             a = c
         counts[i] = k
-    used = counts.max()
+    # Loops, not counts.max() and slice assignment: numba's generic versions of those (an
+    # empty-array check, a shape-mismatch message built from strings) cost seconds to compile.
+    used = 0
     for i in range(n):
-        out[i, counts[i] : used] = np.nan
+        used = max(used, counts[i])
+    for i in range(n):
+        for j in range(counts[i], used):
+            out[i, j] = np.nan
     return used
 
 
@@ -562,7 +567,15 @@ def lay_nodes(
         for j in range(fixed.shape[0]):
             sing[i, k + j] = fixed[j]
         peaks[i, 0], peaks[i, 1] = f_lo, f_hi
-        peaks[i] = np.sort(peaks[i])
+        # sorted by insertion (no NaN here): np.sort's quicksort and the copy back cost
+        # seconds to compile, and the row is short
+        for a in range(1, k + 2):
+            v = peaks[i, a]
+            b = a - 1
+            while b >= 0 and peaks[i, b] > v:
+                peaks[i, b + 1] = peaks[i, b]
+                b -= 1
+            peaks[i, b + 1] = v
     edges = np.empty((n, max_panels + 1))
     used = panel_edges(f_lo, f_hi, forced, sing, kappa, edges)
     edges = edges[:, :used]

@@ -138,7 +138,9 @@ class PoleResidue:
             rho = self.residues[:, :, inputs][..., axle, output] if axle.size else np.zeros((n, k, 0))
             lam_p, alpha, beta, lam_1, rho_1 = conjugate_pairs(self.lam, rho.reshape(n, k, -1))
             poly = self.poly[:, :, inputs][..., axle, output]
-            return (lam_p, alpha, beta, lam_1, rho_1.real, rho_1.imag, np.ascontiguousarray(poly), column.astype(np.int64))
+            # contiguous copies of the real and imaginary views: the types the kernel is compiled for
+            re, im = np.ascontiguousarray(rho_1.real), np.ascontiguousarray(rho_1.imag)
+            return (lam_p, alpha, beta, lam_1, re, im, np.ascontiguousarray(poly), column.astype(np.int64))
         from hisopt.evaluation.kernels import modal_terms
 
         upper, lower = np.sum(self.lam.imag > 0, axis=1), np.sum(self.lam.imag < 0, axis=1)
@@ -149,8 +151,11 @@ class PoleResidue:
         lam_p, lam_1 = np.empty((n, n_pair), complex), np.empty((n, n_single), complex)
         alpha, beta = np.empty((n, n_pair, len(cols))), np.empty((n, n_pair, len(cols)))
         r_re, r_im = np.empty((n, n_single, len(cols))), np.empty((n, n_single, len(cols)))
-        modal_terms(self.lam, self._vec, self._w_inv, self._bp, np.ascontiguousarray(self._pos), self._c[0], cols, lam_p, alpha, beta, lam_1, r_re, r_im)
-        poly = np.ascontiguousarray(np.broadcast_to(feed[0][output, axle], (n, 1, len(cols))))
+        # C-contiguous and writable (a copy of the read-only broadcast view), the one type compiled
+        pos = np.require(self._pos, float, ["C", "W"])
+        modal_terms(self.lam, self._vec, self._w_inv, self._bp, pos, self._c[0], cols, lam_p, alpha, beta, lam_1, r_re, r_im)
+        # a copy, writable: a broadcast view of one design is read-only, a second type to compile
+        poly = np.array(np.broadcast_to(feed[0][output, axle], (n, 1, len(cols))), order="C")
         return (lam_p, alpha, beta, lam_1, r_re, r_im, poly, column.astype(np.int64))
 
     def __call__(self, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
