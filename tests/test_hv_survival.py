@@ -256,3 +256,10 @@ def test_edge_cases_and_bad_input() -> None:
         hv_contributions(np.array([[np.nan, 1.0]]), ref)
     with pytest.raises(ValueError, match="2-D array"):
         hv_contributions(np.ones(3), ref)
+
+
+@pytest.mark.parametrize(("k", "n"), [(2, 200), (3, 200), (4, 200)])
+def test_survival_sized_removal_equals_its_own_contributions_loop(k: int, n: int) -> None:
+    """A survival's size (200 to 100): many near-equal contributions, so the lazy bound is put to the test."""
+    f, ref = front(np.random.default_rng(k), n, k, "sphere"), np.full(k, 1.1)
+    assert least_contributor_removal_order(f, ref, n // 2).tolist() == naive_removal_order(f, ref, n // 2, contributions=hv_contributions)

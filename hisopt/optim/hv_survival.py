@@ -168,20 +168,6 @@ def _neighbours4(f: np.ndarray, ref: np.ndarray, alive: np.ndarray, order: np.nd
 
 
 @njit(cache=True)
-def _sort_by(key: np.ndarray, m: int, idx: np.ndarray) -> None:
-    """Insertion sort of ``idx[:m] = 0..m-1`` by ``key[:m]``, ties by position (m is small)."""
-    for i in range(m):
-        idx[i] = i
-    for i in range(1, m):
-        v = idx[i]
-        j = i - 1
-        while j >= 0 and key[idx[j]] > key[v]:
-            idx[j + 1] = idx[j]
-            j -= 1
-        idx[j + 1] = v
-
-
-@njit(cache=True)
 def _uncovered4(
     p: np.ndarray, ref: np.ndarray, cols: np.ndarray, m: int, by_w: np.ndarray, by_z: np.ndarray, rank_w: np.ndarray, sx: np.ndarray, sy: np.ndarray
 ) -> float:
@@ -194,8 +180,17 @@ def _uncovered4(
     differences: no cancellation.
     """
     xs, ys, zs, ws = cols[0], cols[1], cols[2], cols[3]
-    _sort_by(ws, m, by_w)
-    _sort_by(zs, m, by_z)
+    for c in range(2):  # insertion sorts (m is small) by w and by z, ties by position
+        key, idx = (ws, by_w) if c == 0 else (zs, by_z)
+        for i in range(m):
+            idx[i] = i
+        for i in range(1, m):
+            v = idx[i]
+            j = i - 1
+            while j >= 0 and key[idx[j]] > key[v]:
+                idx[j + 1] = idx[j]
+                j -= 1
+            idx[j + 1] = v
     for j in range(m):
         rank_w[by_w[j]] = j
     wx = ref[0] - p[0]
@@ -250,34 +245,10 @@ def _uncovered4(
 
 
 @njit(cache=True)
-def _contribution4(
-    f: np.ndarray, ref: np.ndarray, alive: np.ndarray, order: np.ndarray, p: int, members: np.ndarray, cols: np.ndarray, work: np.ndarray, fwork: np.ndarray
-) -> tuple[float, int]:
-    """Contribution of live point ``p`` (4 objectives) and the number of its neighbours (see :func:`_neighbours`)."""
-    m = _neighbours4(f, ref, alive, order, p, members, cols)
-    if m < 0:
-        return 0.0, m
-    return _uncovered4(f[p], ref, cols, m, work[0], work[1], work[2], fwork[0], fwork[1]), m
-
-
-@njit(cache=True)
-def _contributions4(f: np.ndarray, ref: np.ndarray, order: np.ndarray) -> np.ndarray:
-    """Contributions of every row of ``f`` (n, 4)."""
-    n = f.shape[0]
-    alive = np.ones(n, dtype=np.bool_)
-    members = np.empty(n, dtype=np.int64)
-    cols = np.empty((4, n))  # neighbours' projections, by column
-    work = np.empty((3, n), dtype=np.int64)
-    fwork = np.empty((2, n))
-    out = np.empty(n)
-    for p in range(n):
-        out[p] = _contribution4(f, ref, alive, order, p, members, cols, work, fwork)[0]
-    return out
-
-
-@njit(cache=True)
-def _removal_order4(f: np.ndarray, ref: np.ndarray, order: np.ndarray, n_remove: int) -> np.ndarray:
-    """Indices removed one by one, least contributor first (lowest index on ties), 4 objectives.
+def _removal_order4(f: np.ndarray, ref: np.ndarray, order: np.ndarray, n_remove: int, initial: np.ndarray) -> np.ndarray:
+    """Indices removed one by one, least contributor first (lowest index on ties), 4 objectives;
+    the contributions before any removal into ``initial`` (n,). One compiled entry point for both
+    public functions: numba compiles each entry point with its callees on the first run.
 
     Lazy: removing a point can only raise the contributions of the others, so a value computed
     before a neighbour left is a lower bound (less :data:`SLACK` for rounding). Only a point whose
@@ -292,55 +263,48 @@ def _removal_order4(f: np.ndarray, ref: np.ndarray, order: np.ndarray, n_remove:
     fwork = np.empty((2, n))
     contrib = np.empty(n)
     neighbour = np.zeros((n, n), dtype=np.bool_)  # neighbour[p, q]: q is one of p's neighbours
-    for p in range(n):
-        _evaluate4(f, ref, alive, order, p, members, cols, work, fwork, contrib, neighbour)
     removed = np.empty(n_remove, dtype=np.int64)
-    for step in range(n_remove):
-        while True:
+    step = 0
+    pending = 0  # the first pass evaluates every point; then one removal or re-evaluation per turn
+    while True:
+        if pending < n:
+            target = pending
+            pending += 1
+        else:
+            if pending == n:
+                for p in range(n):
+                    initial[p] = contrib[p]
+                pending += 1
+            if step == n_remove:
+                break
             best = -1  # least exact value, lowest index on ties
             for p in range(n):
                 if alive[p] and not stale[p] and (best < 0 or contrib[p] < contrib[best]):
                     best = p
-            redo = -1  # a stale point whose bound does not lose to best
+            target = -1  # a stale point whose bound does not lose to best
             for p in range(n):
                 if alive[p] and stale[p]:
                     bound = contrib[p] * (1.0 - SLACK)
                     if best < 0 or bound < contrib[best] or (bound == contrib[best] and p < best):
-                        redo = p
+                        target = p
                         break
-            if redo < 0:
-                break
-            _evaluate4(f, ref, alive, order, redo, members, cols, work, fwork, contrib, neighbour)
-            stale[redo] = False
-        removed[step] = best
-        alive[best] = False
-        for p in range(n):
-            if alive[p] and neighbour[p, best]:
-                stale[p] = True
+            if target < 0:
+                removed[step] = best
+                step += 1
+                alive[best] = False
+                for p in range(n):
+                    if alive[p] and neighbour[p, best]:
+                        stale[p] = True
+                continue
+        # evaluate target: its neighbours (a weak dominator counts as one) and contribution
+        m = _neighbours4(f, ref, alive, order, target, members, cols)
+        contrib[target] = _uncovered4(f[target], ref, cols, m, work[0], work[1], work[2], fwork[0], fwork[1]) if m >= 0 else 0.0
+        for q in range(n):
+            neighbour[target, q] = False
+        for j in range(m if m >= 0 else (1 if m == -2 else 0)):
+            neighbour[target, members[j]] = True
+        stale[target] = False
     return removed
-
-
-@njit(cache=True)
-def _evaluate4(
-    f: np.ndarray,
-    ref: np.ndarray,
-    alive: np.ndarray,
-    order: np.ndarray,
-    p: int,
-    members: np.ndarray,
-    cols: np.ndarray,
-    work: np.ndarray,
-    fwork: np.ndarray,
-    contrib: np.ndarray,
-    neighbour: np.ndarray,
-) -> None:
-    """Sets ``contrib[p]`` and the row ``neighbour[p]`` (a weak dominator counts as a neighbour)."""
-    value, m = _contribution4(f, ref, alive, order, p, members, cols, work, fwork)
-    contrib[p] = value
-    for q in range(f.shape[0]):
-        neighbour[p, q] = False
-    for j in range(m if m >= 0 else (1 if m == -2 else 0)):
-        neighbour[p, members[j]] = True
 
 
 def _scan_order(f: np.ndarray) -> np.ndarray:
@@ -395,7 +359,9 @@ def hv_contributions(f: np.ndarray, ref: np.ndarray) -> np.ndarray:
     order = _scan_order(f)
     if k <= PAD_OBJECTIVES:
         f4, ref4 = _padded(f, ref)
-        return _contributions4(f4, ref4, order)
+        out = np.empty(n)
+        _removal_order4(f4, ref4, order, 0, out)
+        return out
     alive = np.ones(n, dtype=np.bool_)
     members = np.empty(n, dtype=np.int64)
     proj = np.empty((n, k))
@@ -434,7 +400,7 @@ def least_contributor_removal_order(f: np.ndarray, ref: np.ndarray, n_remove: in
     order = _scan_order(f)
     if k <= PAD_OBJECTIVES:
         f4, ref4 = _padded(f, ref)
-        return _removal_order4(f4, ref4, order, n_remove)
+        return _removal_order4(f4, ref4, order, n_remove, np.empty(n))
     alive = np.ones(n, dtype=np.bool_)
     members = np.empty(n, dtype=np.int64)
     proj = np.empty((n, k))
