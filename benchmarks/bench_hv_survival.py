@@ -95,6 +95,7 @@ def compare(name: str, f: np.ndarray, repeats: int, naive_repeats: int) -> None:
     print(
         f"{name:<28} {n:>4} -> {n - n_remove:<4} k={k}: hisopt {1e3 * mine_s:8.2f} ms, pymoo loop {1e3 * naive_s:8.1f} ms, "
         f"ratio {naive_s / mine_s:6.0f}x; removals equal {same}/{n_remove} (first difference at step {first}); "
+        f"same survivors: {'yes' if set(mine.tolist()) == set(naive.tolist()) else 'no'}; "
         f"survivors' hypervolume hisopt {survivors_hv(mine):.9f}, hisopt - loop {survivors_hv(mine) - survivors_hv(naive):+.1e}"
     )
 

@@ -374,7 +374,7 @@ def least_contributor_removal_order(f: np.ndarray, ref: np.ndarray, n_remove: in
     After each removal only the contributions that can change are recomputed (those of the
     points that had the removed one as a neighbour; module docstring). Ties go to the lowest
     index. The result equals repeating ``argmin`` of :func:`hv_contributions` over the points
-    left and deleting that point, exactly.
+    left and deleting that point, exactly. Memory: an ``n x n`` table of neighbours (n^2 bytes).
 
     Parameters
     ----------
