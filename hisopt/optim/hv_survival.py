@@ -18,8 +18,10 @@ and two orders of magnitude faster, by two observations:
   in every objective.
 - **Local updates.** Removing ``q`` changes the contribution of ``p`` only if ``q`` is one of
   ``p``'s neighbours (a projection dominated by another neighbour, or outside the box, removes
-  nothing from the uncovered volume). The greedy keeps every point's neighbour set and
-  recomputes only the points that had the removed one as a neighbour.
+  nothing from the uncovered volume). The greedy keeps every point's neighbour set and marks
+  only the points that had the removed one as a neighbour. A marked value stays a lower bound
+  (contributions only grow as points leave), so up to 4 objectives it is recomputed only when it
+  could be the least; from 5 every marked one is recomputed at once.
 
 For 2 and 3 objectives the points are padded with zeros to 4 (reference 1 in the padding:
 the factors are exact ones). From 5 objectives on the neighbour sets are the same, and the
