@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from hisopt.errors import ConfigError
-from hisopt.optim.archive import non_dominated_mask, pareto_update, weakly_dominates
+from hisopt.optim import archive as archive_module
+from hisopt.optim.archive import Archive, build_index, non_dominated_mask, pareto_update, weakly_dominates
 from hisopt.optim.convergence import DIRECTIONS, ProgressHypervolume, converged, hypervolume_estimate, orthant_area
+from hisopt.optim.decision import hypervolume, slab_hypervolume
 
 
 def plain_update(archive_f: np.ndarray, new_f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -40,6 +42,92 @@ def test_compiled_archive_update_follows_the_rules(seed):
         archive = np.concatenate([archive[keep], batch[accept]])
         reference = np.concatenate([reference[keep_ref], batch[accept_ref]])
     assert np.array_equal(archive, reference) and non_dominated_mask(archive).all()
+
+
+def archive_batches(seed: int, n_batches: int) -> list[np.ndarray]:
+    """Batches on a coarse grid (ties, equal vectors) that drift towards the origin, so later
+    batches remove many archived designs (compactions), with a few NaN rows."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for b in range(n_batches):
+        batch = rng.integers(0, 8, size=(40, 4)).astype(float) + rng.integers(0, 2, size=(40, 1))
+        batch -= 4.0 * b / n_batches * (rng.random((40, 1)) < 0.5)  # some batches dominate much of the archive
+        batch[rng.random(40) < 0.02, rng.integers(0, 4)] = np.nan
+        out.append(batch)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("leaf, tail", [(1, 1), (3, 5), (32, 1024)])
+def test_archive_storage_and_index_follow_the_dense_rule(monkeypatch, seed, leaf, tail):
+    """The in-place archive (growing buffers, flagged removals, compaction, spatial index
+    rebuilt after ``tail`` appended rows, leaves of ``leaf`` designs) holds exactly the members,
+    in the same order, as the dense rule applied batch by batch to plain arrays."""
+    monkeypatch.setattr(archive_module, "LEAF_SIZE", leaf)
+    monkeypatch.setattr(archive_module, "_tail_limit", lambda n: tail)
+    archive = Archive.empty(2, 4, 5)
+    reference = np.empty((0, 4))
+    ref_ids = np.empty(0, dtype=np.int64)
+    start = 0
+    compactions = 0
+    for batch in archive_batches(seed, 30):
+        n = len(batch)
+        ids = np.arange(start, start + n)
+        feasible = np.arange(n) % 7 != 3
+        x = np.column_stack([ids, -ids]).astype(float)
+        q = np.column_stack([batch, ids.astype(float)])
+        dead_before = archive._dead
+        offer = archive.offer(x, batch, q, ids, feasible)
+        keep_ref, accept_ref = plain_update(reference, batch[feasible])
+        assert np.array_equal(offer.ids, ids[feasible][accept_ref])
+        archive.apply(offer)
+        compactions += archive._dead < dead_before + len(offer.removed)
+        reference = np.concatenate([reference[keep_ref], batch[feasible][accept_ref]])
+        ref_ids = np.concatenate([ref_ids[keep_ref], ids[feasible][accept_ref]])
+        assert np.array_equal(archive.ids, ref_ids) and len(archive) == len(ref_ids)
+        assert np.array_equal(archive.f, reference, equal_nan=True)
+        assert np.array_equal(archive.x[:, 0], ref_ids) and np.array_equal(archive.q[:, 4], ref_ids)
+        start += n
+    assert compactions > 0  # the removal patterns did exercise compaction
+
+
+def test_spatial_index_leaves_bound_their_designs():
+    """Every indexed row is in exactly one leaf, and within that leaf's corners."""
+    rng = np.random.default_rng(0)
+    f = np.round(rng.random((1000, 4)), 2)
+    f[5, 2] = np.nan
+    rows = np.flatnonzero(rng.random(1000) < 0.7)
+    perm, starts, lo, hi = build_index(f, rows, leaf_size=8)
+    assert np.array_equal(np.sort(perm), rows) and starts[0] == 0 and starts[-1] == len(rows)
+    for b in range(len(starts) - 1):
+        fb = f[perm[starts[b] : starts[b + 1]]]
+        with np.errstate(invalid="ignore"):
+            assert np.all((fb >= lo[b]) | np.isnan(fb)) and np.all((fb <= hi[b]) | np.isnan(fb))
+    assert (np.diff(starts) <= 4 * 8).all()  # STR tiles: a few times the leaf size at most (ties)
+
+
+@pytest.mark.parametrize("k", [3, 4])
+@pytest.mark.parametrize("slabs", [1, 2, 7, 40])
+def test_slab_hypervolume_equals_moocore(k, slabs):
+    """Against moocore on all points at once, with ties in every coordinate (coarse grid,
+    dominated and duplicate points). Error budget: both sides add up at most a few thousand
+    box volumes of the same sign, each exact to a few ulps, so they agree to ~n * 1e-16
+    relative; 1e-11 bounds that with room."""
+    rng = np.random.default_rng(k * 100 + slabs)
+    for n in (1, 5, 300, 2000):
+        z = np.round(rng.random((n, k)), 2)
+        if n > 5:
+            z[: n // 2] = moocore.generate_ndset(n // 2, k, method="simplex", seed=slabs)
+        ref = np.full(k, 1.1)
+        assert slab_hypervolume(z, ref, slabs) == pytest.approx(moocore.hypervolume(z, ref=ref), rel=1e-11)
+
+
+def test_hypervolume_of_a_large_front_uses_slabs_and_stays_exact():
+    rng = np.random.default_rng(1)
+    z = moocore.generate_ndset(9000, 4, method="simplex", seed=2) * 0.9 + 0.01 * rng.random((9000, 4))
+    ref = np.full(4, 1.0)
+    f = 10.0**z  # hypervolume() works on log10 objectives
+    assert hypervolume(f, ref) == pytest.approx(moocore.hypervolume(z, ref=ref), rel=1e-11)
 
 
 def test_archive_update_with_nan_compares_with_nothing():

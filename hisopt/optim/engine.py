@@ -2,9 +2,9 @@
 ask/tell, the archive, every evaluated design and the statistics, with an exact checkpoint
 round trip (:meth:`Engine.snapshot`, :meth:`Engine.restore`; format in :mod:`hisopt.optim.rundir`).
 
-A generation's cost does not grow with the run: the archive update scans the archive only
-for the designs that enter (:func:`hisopt.optim.archive.pareto_update`), the progress
-hypervolume is updated from those designs alone (:mod:`hisopt.optim.convergence`), the
+A generation's cost does not grow with the run: the archive grows in place and is searched
+through a spatial index (:class:`hisopt.optim.archive.Archive`), the progress hypervolume is
+updated from the entering designs alone (:mod:`hisopt.optim.convergence`), the
 evaluations are kept as per-generation blocks (joined once, for the outputs; a checkpoint
 writes only the blocks since the previous one) and the algorithm's own state (population,
 survival attributes, random generators: :meth:`Engine.algorithm_state`, a fixed size) is
@@ -103,16 +103,15 @@ class Engine:
         n = len(x)
         ids = np.arange(self.evaluations, self.evaluations + n, dtype=np.int64)
         qm = np.column_stack([np.asarray(q[name], dtype=float) for name in self.quantity_names])
-        archive = self.archive.update(x, qm[:, : self.n_obj], qm, ids, feasible)
-        entered = archive.f[archive.ids >= self.evaluations]  # appended at the end, in batch order
+        offer = self.archive.offer(x, qm[:, : self.n_obj], qm, ids, feasible)
         with interrupt.deferred():  # commit: all of it or none of it
-            self.archive = archive
-            self.progress_hv.add(log_objectives(entered))
+            self.archive.apply(offer)
+            self.progress_hv.add(log_objectives(offer.f))
             self.hist.append((x, qm, np.asarray(q["valid"], dtype=bool), np.full(n, self.generation + 1, dtype=np.int64)))
             self.generation += 1
             self.evaluations += n
             stats = GenerationStats(
-                self.generation, self.settings.generations, self.evaluations, float(feasible.mean()), len(archive),
+                self.generation, self.settings.generations, self.evaluations, float(feasible.mean()), len(self.archive),
                 self.progress_hv.value(), self.elapsed(),
             )
             self.stats.append(stats)
