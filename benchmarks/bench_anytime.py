@@ -58,7 +58,7 @@ from hisopt.optim.settings import das_dennis_partitions
 ROOT = Path(__file__).resolve().parents[1]
 TARGETS = (0.9, 0.95, 0.99, 0.999)
 BUDGETS = (1000, 5000, 20000)
-PEERS = ("hisopt", "hisopt-nsga3", "nsga3", "unsga3", "agemoea2", "smsemoa", "optuna-tpe", "optuna-gp")
+PEERS = ("hisopt", "hisopt-smsemoa", "hisopt-nsga3", "nsga3", "unsga3", "agemoea2", "smsemoa", "optuna-tpe", "optuna-gp")
 OPTUNA = ("optuna-tpe", "optuna-gp")
 REFERENCE_MARGIN = 0.1
 """[-] Reference point beyond the reference front's nadir, in units of its range."""
@@ -170,8 +170,8 @@ def run_optuna(problem: hisopt.Problem, name: str, seed: int, evaluations: int) 
 def run_one(problem: hisopt.Problem, method: str, seed: int, evaluations: int) -> Log:
     if method == "hisopt":
         return run_hisopt(problem, seed, evaluations, None)
-    if method == "hisopt-nsga3":
-        return run_hisopt(problem, seed, evaluations, "nsga3")
+    if method.startswith("hisopt-"):
+        return run_hisopt(problem, seed, evaluations, method.removeprefix("hisopt-"))
     if method in OPTUNA:
         return run_optuna(problem, method, seed, evaluations)
     return run_pymoo(problem, method, seed, evaluations)

@@ -5,7 +5,7 @@ cache plays no part) and runs the same hisopt command twice, each in a new proce
 
 - ``cold``: the first run compiles every kernel, the second loads them (the baseline: what a
   user who skips the set-up's warm-up step pays);
-- ``after warm-up``: README's set-up step ``python -m hisopt.evaluation.warmup`` first (timed
+- ``after warm-up``: README's set-up step ``python -m hisopt.optim.warmup`` first (timed
   apart: it belongs to the install), then the two runs.
 
 It prints, per case, the wall and CPU seconds of each run and the first run's extra over the
@@ -50,7 +50,7 @@ def _case(label: str, command: list[str], warmup: bool, scratch: Path) -> float:
     env = {**os.environ, "NUMBA_CACHE_DIR": str(scratch / f"numba-{label}")}
     hisopt = [sys.executable, "-m", "hisopt"]
     if warmup:
-        wall, cpu = _timed([sys.executable, "-m", "hisopt.evaluation.warmup"], env)
+        wall, cpu = _timed([sys.executable, "-m", "hisopt.optim.warmup"], env)
         print(f"{label:>14}: warm-up (install step) {wall:6.1f} s wall {cpu:6.1f} s CPU")
     runs = []
     for i in range(2):
@@ -70,7 +70,7 @@ def main() -> None:
     parser.add_argument("--no-cold", action="store_true", help="skip the cold case (its first run compiles everything)")
     args = parser.parse_args()
     command = shlex.split(args.command)
-    has_warmup = importlib.util.find_spec("hisopt.evaluation.warmup") is not None
+    has_warmup = importlib.util.find_spec("hisopt.optim.warmup") is not None
     print(f"hisopt {shlex.join(command)}  (Python {sys.version.split()[0]}, {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f})")
     with tempfile.TemporaryDirectory(prefix="bench_first_run-") as tmp:
         scratch = Path(tmp)
@@ -81,7 +81,7 @@ def main() -> None:
     if warm is not None:
         print(f"first-run extra after the warm-up:   {warm:.1f} s (target <= {TARGET_S:.0f} s)")
     else:
-        print("no warm-up step in this hisopt (hisopt.evaluation.warmup)")
+        print("no warm-up step in this hisopt (hisopt.optim.warmup)")
 
 
 if __name__ == "__main__":

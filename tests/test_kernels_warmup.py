@@ -77,6 +77,7 @@ _COUNT_COMPILES = textwrap.dedent(
     with event.install_recorder("numba:compile") as run:
         for n in (1, 5):
             problem.evaluate(random_designs(problem, n, np.random.default_rng(n), corners=False))
+        hisopt.optimize(problem, pop_size=12, generations=3)  # the optimiser's kernels too
     with event.install_recorder("numba:compile") as control:  # the count sees a compile
         numba.njit(lambda x: x + 1)(1)
     print(sum(1 for _, e in run.buffer if e.is_start), sum(1 for _, e in control.buffer if e.is_start))
@@ -86,10 +87,10 @@ _COUNT_COMPILES = textwrap.dedent(
 
 @pytest.mark.slow
 def test_after_the_warmup_a_run_compiles_nothing(tmp_path):
-    """In a fresh numba cache: the warm-up, then an evaluation in a new process loads every
+    """In a fresh numba cache: the warm-up, then an evaluation and a short run in a new process load every
     kernel from the cache (no compile event), while a function not warmed up does compile."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
-    subprocess.run([sys.executable, "-m", "hisopt.evaluation.warmup"], env=env, check=True, capture_output=True)
+    subprocess.run([sys.executable, "-m", "hisopt.optim.warmup"], env=env, check=True, capture_output=True)
     out = subprocess.run([sys.executable, "-c", _COUNT_COMPILES, str(DEFAULT_PROBLEM)], cwd=ROOT, env=env, check=True, capture_output=True, text=True)
     run, control = (int(v) for v in out.stdout.split())
     assert control > 0

@@ -166,8 +166,11 @@ def test_reference_point_is_nadir_plus_margin():
 # --- settings --------------------------------------------------------------------------
 def test_settings_defaults_and_overrides(problem):
     s = resolve_settings(problem)
-    assert (s.algorithm, s.pop_size, s.generations, s.seed) == ("nsga3", 100, 200, 1)
-    assert resolve_settings(two_objective_problem()).algorithm == "nsga2"
+    assert (s.algorithm, s.pop_size, s.generations, s.seed) == ("smsemoa", 100, 200, 1)
+    assert resolve_settings(two_objective_problem()).algorithm == "smsemoa"
+    data = tomllib.loads(DEFAULT_PROBLEM.read_text())
+    data["objectives"] = [*data["objectives"], "rms_roll"]
+    assert resolve_settings(problem_from_dict(data)).algorithm == "nsga3"  # five objectives
     s = resolve_settings(problem, pop_size=20, generations=3, seed=5, algorithm="nsga2")
     assert (s.algorithm, s.pop_size, s.generations, s.seed) == ("nsga2", 20, 3, 5)
     assert das_dennis_partitions(4, 100) == 6  # 84 reference directions
@@ -227,7 +230,7 @@ def test_run_directory_contents_and_exact_front(tmp_path, handling):
     assert info["problem"]["text"] == HANDLING_PROBLEM.read_text()
     assert (run_dir / "problem.toml").read_bytes() == HANDLING_PROBLEM.read_bytes()
     assert {"hisopt", "numpy", "pymoo", "python"} <= set(info["versions"])
-    assert info["settings"]["seed"] == SMALL["seed"] and info["settings"]["algorithm"] == "nsga3"
+    assert info["settings"]["seed"] == SMALL["seed"] and info["settings"]["algorithm"] == "smsemoa"
     assert info["result"]["front_size"] == len(front) and info["sessions"][0]["end_generation"] == SMALL["generations"]
     assert 0 < info["timings"]["evaluation_s"] < info["timings"]["wall_time_s"]
     assert rundir.checkpoint_generation(run_dir) == SMALL["generations"]
@@ -251,7 +254,7 @@ def test_problem_from_dict_is_copied_as_json_and_resumable(tmp_path):
     assert resumed.front.equals(optimize(p, **SMALL).front)
 
 
-@pytest.mark.parametrize("path", [DEFAULT_PROBLEM, HANDLING_PROBLEM], ids=["nsga3", "nsga3-constrained"])
+@pytest.mark.parametrize("path", [DEFAULT_PROBLEM, HANDLING_PROBLEM], ids=["default", "default-constrained"])
 def test_interrupt_and_resume_gives_identical_run(tmp_path, path):
     p = hisopt.load_problem(path)
     full = optimize(p, out=tmp_path / "full", **SMALL)

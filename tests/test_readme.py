@@ -36,7 +36,7 @@ NOT_RUN = {
     "python3 -m venv": "creates the environment these tests already run in",
     ". .venv/bin/activate": "activates that environment",
     "pip install": "installs hisopt (the tests run the installed copy)",
-    "python -m hisopt.evaluation.warmup": "compiles the kernels ahead (tests/test_kernels_warmup.py runs it in a fresh cache)",
+    "python -m hisopt.optim.warmup": "compiles the kernels ahead (tests/test_kernels_warmup.py runs it in a fresh cache)",
     "python -m pytest": "runs this test suite",
     "python benchmarks/": "a benchmark (minutes); benchmarks/ compares against its own baselines",
     "dask scheduler": "starts a Dask scheduler on host A of a multi-machine cluster",

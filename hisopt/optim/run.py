@@ -166,8 +166,8 @@ def optimize(
     generations : int | None, optional
         [-] generations including the initial one; default the file's (200)
     algorithm : AlgorithmChoice | None, optional
-        [-] ``"auto"`` (NSGA-III from four objectives on, else NSGA-II),
-        ``"nsga2"`` or ``"nsga3"``; default the file's
+        [-] ``"auto"`` (hisopt's SMS-EMOA up to four objectives, NSGA-III above),
+        ``"nsga2"``, ``"nsga3"`` or ``"smsemoa"``; default the file's
     until : str | None, optional
         [-] ``"generations"`` or ``"converged"`` (stop when the progress hypervolume gained
         less than the file's ``tolerance`` over its ``window``; ``generations`` is the cap);

@@ -1,5 +1,6 @@
 """Algorithm settings of an optimisation run: the problem file's ``[optimizer]`` table plus
-overrides, and the pymoo algorithm they describe (NSGA-II, or NSGA-III from four objectives).
+overrides, and the pymoo algorithm they describe (hisopt's SMS-EMOA up to four objectives,
+NSGA-III above; NSGA-II on request).
 """
 
 from __future__ import annotations
@@ -23,8 +24,10 @@ DEFAULT_TOLERANCE = 1e-3
 DEFAULT_WINDOW = 20
 """[generations] ``until = "converged"``: the generations the gain is measured over."""
 AlgorithmChoice = Literal["auto", "nsga2", "nsga3", "smsemoa"]
-NSGA3_MIN_OBJECTIVES = 4
-"""``algorithm = "auto"`` picks NSGA-III from this many objectives on, NSGA-II below."""
+SMSEMOA_MAX_OBJECTIVES = 4
+"""``algorithm = "auto"`` picks hisopt's SMS-EMOA up to this many objectives and NSGA-III
+above: exact hypervolume contributions cost milliseconds up to four objectives and far more
+beyond (``benchmarks/bench_hv_survival.py``)."""
 
 @dataclass(frozen=True)
 class RunSettings:
@@ -97,7 +100,7 @@ def resolve_settings(
     if stop not in UNTIL_CHOICES:
         raise ConfigError(f"unknown stop rule {stop!r}; expected generations or converged", key="--until")
     n_obj = len(problem.objective_names)
-    name: AlgorithmName = ("nsga3" if n_obj >= NSGA3_MIN_OBJECTIVES else "nsga2") if choice == "auto" else choice
+    name: AlgorithmName = ("smsemoa" if n_obj <= SMSEMOA_MAX_OBJECTIVES else "nsga3") if choice == "auto" else choice
     if name == "nsga3" and pop < n_obj:
         raise ConfigError(f"NSGA-III needs a population of at least {n_obj} (one per objective), got {pop}", key="--pop")
     return RunSettings(name, pop, gens, rng_seed, stop, spec.tolerance, spec.window)  # type: ignore[arg-type]
