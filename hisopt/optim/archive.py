@@ -27,10 +27,11 @@ only in leaves whose maximum corner it weakly dominates; the other leaves are sk
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import moocore
 import numpy as np
+
+from hisopt.evaluation.compiled import CompiledOnFirstUse
 
 
 def weakly_dominates(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -228,19 +229,8 @@ def _offer(
     return count
 
 
-_KERNEL: list[Any] = []
-
-
-def _archive_kernel() -> Any:
-    """The compiled archive check (compiled on first use, cached on disk)."""
-    if not _KERNEL:
-        import importlib
-
-        importlib.import_module("hisopt.evaluation.kernels")  # numba imported the evaluator's way first
-        from numba import njit
-
-        _KERNEL.append(njit(cache=True)(_offer))
-    return _KERNEL[0]
+_archive_kernel = CompiledOnFirstUse(_offer)
+"""The compiled archive check (compiled on first use, cached on disk)."""
 
 
 def _search(
@@ -253,7 +243,7 @@ def _search(
     removed = np.empty(n, dtype=np.int64)
     gone = np.zeros(n, dtype=np.bool_)
     perm, starts, lo, hi = index
-    count = _archive_kernel()(f, n, alive, n_indexed, perm, starts, lo, hi, c, entered, removed, gone)
+    count = _archive_kernel(f, n, alive, n_indexed, perm, starts, lo, hi, c, entered, removed, gone)
     return entered, np.sort(removed[:count])
 
 

@@ -30,9 +30,10 @@ when ``HV(g) - HV(g - window) <= tolerance * HV(g)`` (progress estimates), with
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
+
+from hisopt.evaluation.compiled import CompiledOnFirstUse
 
 DIRECTIONS = 16384
 """[-] Directions of the progress-hypervolume estimator (a power of two for the Sobol set)."""
@@ -85,7 +86,7 @@ class ProgressHypervolume:
         if len(z) == 0:
             return
         gap = np.ascontiguousarray(self.reference_log[None, :] - z)  # (n, k), negative beyond the reference
-        _reach_kernel()(gap, self.inverse_w, self.rho)
+        _reach_kernel(gap, self.inverse_w, self.rho)
 
     def value(self) -> float:
         """[decades^k] The current estimate."""
@@ -93,19 +94,6 @@ class ProgressHypervolume:
         return float(self.scale * np.mean(self.rho**k))
 
 
-_KERNEL: list[Any] = []
-
-
-def _reach_kernel() -> Any:
-    """The compiled update of ``rho`` (compiled on first use, cached on disk)."""
-    if not _KERNEL:
-        import importlib
-
-        importlib.import_module("hisopt.evaluation.kernels")  # numba imported the evaluator's way first
-        from numba import njit
-
-        _KERNEL.append(njit(cache=True)(_advance))
-    return _KERNEL[0]
 
 
 def _advance(gap: np.ndarray, inverse_w: np.ndarray, rho: np.ndarray) -> None:
@@ -120,6 +108,10 @@ def _advance(gap: np.ndarray, inverse_w: np.ndarray, rho: np.ndarray) -> None:
                     reach = v
             if reach > rho[d]:
                 rho[d] = reach
+
+
+_reach_kernel = CompiledOnFirstUse(_advance)
+"""The compiled update of ``rho`` (compiled on first use, cached on disk)."""
 
 
 def hypervolume_estimate(z: np.ndarray, reference_log: np.ndarray, n_directions: int = DIRECTIONS) -> float:
