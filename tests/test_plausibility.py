@@ -294,10 +294,16 @@ def marks_by_hand(frame, problem) -> list[str]:
 
 @pytest.fixture(scope="module")
 def bound_run(tmp_path_factory):
-    """The paper's problem, 20 x 5, seed 9: its knee and ASF pick have p0 = 22.5 kPa, 0.56 % of
-    the 0-4 MPa box above 0 (as the issue's main job's knee of 5 kPa)."""
-    run = tmp_path_factory.mktemp("bound") / "run"
-    out = run_cli("optimize", DEFAULT_PROBLEM, "--pop", "20", "--gens", "5", "--seed", "9", "--out", run)
+    """The paper's problem with NSGA-III, 20 x 5, seed 9: its knee and ASF pick have p0 = 22.5 kPa,
+    0.56 % of the 0-4 MPa box above 0 (as the issue's main job's knee of 5 kPa); NSGA-III, the
+    default before issue 28, because its picks sit near a bound, not on it."""
+    folder = tmp_path_factory.mktemp("bound")
+    problem = folder / "roll_plane_his.toml"
+    text = DEFAULT_PROBLEM.read_text()
+    problem.write_text(text.replace('algorithm = "auto"', 'algorithm = "nsga3"', 1))
+    assert problem.read_text() != text
+    run = folder / "run"
+    out = run_cli("optimize", problem, "--pop", "20", "--gens", "5", "--seed", "9", "--out", run)
     assert out.code == 0, out.stderr
     return run, out
 

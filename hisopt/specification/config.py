@@ -184,7 +184,9 @@ class Optimizer(_Strict):
     until: Literal["generations", "converged"] = Field(
         "generations", description="stop after all generations, or when converged (tolerance, window; generations is the cap)"
     )
-    tolerance: float = Field(1e-3, gt=0, lt=1, description="until = \"converged\": relative hypervolume gain over the window")
+    tolerance: float = Field(
+        1e-3, gt=0, lt=1, description="until = \"converged\": relative hypervolume gain over the window", json_schema_extra=si("-")
+    )
     window: int = Field(20, ge=1, description="until = \"converged\": generations the gain is measured over")
 
 
