@@ -157,7 +157,8 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
         bounds = dict(zip(problem.variable_names, zip(problem.lower, problem.upper, strict=True), strict=True))
         marked = False
         for name in result.front.columns:
-            shown = display_for(units.get(name, ""), [knee[name], asf[name]], trim=False)
+            # a variable is shown in its box's unit, so a pick at 0 Pa still reads in MPa
+            shown = display_for(units.get(name, ""), [knee[name], asf[name], *bounds.get(name, ())], trim=False)
             notes = [bound_note(float(d[name]), *bounds[name]) if name in bounds else "" for d in (knee, asf)]
             marked = marked or any(notes)
             picks.add_row(Text(shown.label(name)), *[Text(shown.number(d[name]) + n) for d, n in zip((knee, asf), notes, strict=True)])
