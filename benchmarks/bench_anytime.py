@@ -52,6 +52,7 @@ import numpy as np
 
 import hisopt
 from hisopt.optim.archive import non_dominated_mask
+from hisopt.optim.decision import hypervolume
 from hisopt.optim.pymoo_problem import HisoptPymooProblem, feasible_mask
 from hisopt.optim.settings import das_dennis_partitions
 
@@ -203,25 +204,22 @@ def archive_front(f: np.ndarray) -> np.ndarray:
 
 
 class Ratio:
-    """Hypervolume ratio against a reference front (module docstring)."""
+    """Hypervolume ratio against a reference front (module docstring).
+
+    Scaling each log10 objective by the reference front's range multiplies every hypervolume
+    by the same factor, so the ratio is that of :func:`hisopt.optim.decision.hypervolume` (log10
+    objectives, exact, by slabs for large fronts) with the reference point at the front's
+    nadir plus :data:`REFERENCE_MARGIN` of its range.
+    """
 
     def __init__(self, reference_f: np.ndarray):
         z = np.log10(reference_f)
-        self.ideal, self.nadir = z.min(axis=0), z.max(axis=0)
-        self.point = np.full(z.shape[1], 1.0 + REFERENCE_MARGIN)
-        self.reference = self.volume(reference_f)
-
-    def volume(self, f: np.ndarray) -> float:
-        import moocore
-
-        if len(f) == 0:
-            return 0.0
-        z = (np.log10(f) - self.ideal) / (self.nadir - self.ideal)
-        z = z[np.all(z < self.point, axis=1)]
-        return float(moocore.hypervolume(z, ref=self.point)) if len(z) else 0.0
+        ideal, nadir = z.min(axis=0), z.max(axis=0)
+        self.point = nadir + REFERENCE_MARGIN * (nadir - ideal)  # [decades]
+        self.reference = hypervolume(reference_f, self.point)
 
     def __call__(self, f: np.ndarray) -> float:
-        return self.volume(archive_front(f)) / self.reference
+        return hypervolume(archive_front(f), self.point) / self.reference
 
 
 def load_runs(work: Path, problem_name: str) -> list[dict[str, Any]]:
