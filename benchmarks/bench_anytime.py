@@ -5,7 +5,7 @@ hisopt's problems: each method runs with several seeds on the same evaluator; a 
 at every point of its life by the hypervolume of its archive (every feasible design it has
 evaluated, reduced to the non-dominated ones: hisopt's front is that archive, and every peer
 gets the same count) relative to a reference front. The runtime to reach a target ratio
-(0.9, 0.95, 0.99, 0.999) is the first evaluation count (and wall time) at which the
+(0.9, 0.95, 0.99, 0.999) is the first evaluation count (and CPU time) at which the
 archive's ratio reaches it; their distribution over seeds is the empirical runtime
 distribution.
 
@@ -23,11 +23,11 @@ Three steps, each resumable (a finished run is not repeated)::
     python benchmarks/bench_anytime.py reference --problem problems/roll_plane_his.toml
     python benchmarks/bench_anytime.py analyse --problem problems/roll_plane_his.toml
 
-``runs`` stores every evaluation of every run (objectives, feasibility, wall time) under
+``runs`` stores every evaluation of every run (objectives, feasibility, CPU time) under
 ``--work`` (default ``benchmarks/anytime/work``, not committed); ``analyse`` writes
 ``benchmarks/anytime/<problem>/anytime.csv`` (ratio per method, seed and budget),
 ``runtimes.csv`` (evaluations and seconds to each target), ``table.md`` and ``anytime.html``
-(median and range per method over evaluations and over seconds).
+(median and worst per method over evaluations and over CPU seconds).
 
 Methods: ``hisopt`` (the default run, through ``hisopt.optimize`` with a run directory, as a
 user runs it: checkpoints, reference grid and all), ``hisopt-nsga3`` (hisopt's NSGA-III, the
@@ -67,14 +67,16 @@ REFERENCE_MARGIN = 0.1
 
 # -- recording runs -------------------------------------------------------------------------
 class Log:
-    """Every evaluation of one run: objectives (inf when infeasible) and wall time [s]."""
+    """Every evaluation of one run: objectives (inf when infeasible) and the CPU time of this
+    process when it was evaluated [s] (not wall time: the figures then hold on a shared
+    machine; every method runs in this one process, its threads counted)."""
 
     def __init__(self, problem: hisopt.Problem):
         self.adapter = HisoptPymooProblem(problem)
         self.evaluator = problem.evaluator()
         self.f: list[np.ndarray] = []
         self.t: list[np.ndarray] = []
-        self.start = time.perf_counter()
+        self.start = time.process_time()
 
     def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         f, g = self.adapter.f_and_g(self.evaluator(x))
@@ -83,7 +85,7 @@ class Log:
 
     def record(self, f: np.ndarray, feasible: np.ndarray, at: float | None = None) -> None:
         self.f.append(np.where(feasible[:, None], f, np.inf))
-        self.t.append(np.full(len(f), time.perf_counter() - self.start if at is None else at))
+        self.t.append(np.full(len(f), time.process_time() - self.start if at is None else at))
 
     @property
     def count(self) -> int:
@@ -103,7 +105,7 @@ def run_hisopt(problem: hisopt.Problem, seed: int, evaluations: int, algorithm: 
         stamps: list[float] = []
         result = hisopt.optimize(
             problem, out=Path(tmp) / "run", seed=seed, generations=evaluations // pop, algorithm=algorithm,  # type: ignore[arg-type]
-            progress=lambda stats: stamps.append(time.perf_counter() - log.start),
+            progress=lambda stats: stamps.append(time.process_time() - log.start),
         )
     history = result.history
     f = history[list(problem.objective_names)].to_numpy(dtype=float)
@@ -258,7 +260,7 @@ def cmd_reference(args: argparse.Namespace) -> None:
 
 
 def first_reaching(run: dict[str, Any], ratio: Ratio, target: float) -> tuple[int, float] | None:
-    """[-, s] First evaluation count (and wall time) at which the archive's ratio reaches
+    """[-, s] First evaluation count (and CPU time) at which the archive's ratio reaches
     ``target``: bisection, since an archive's hypervolume never falls."""
     f, t = run["f"], run["t"]
     if ratio(f) < target:
@@ -281,12 +283,12 @@ def cmd_analyse(args: argparse.Namespace) -> None:
     grid = np.unique(np.round(np.logspace(2, np.log10(args.evaluations), 25)).astype(int))
     for run in load_runs(Path(args.work), problem.name):
         for n in grid[grid <= len(run["f"])]:
-            row = {"method": run["method"], "seed": run["seed"], "evaluations": int(n), "wall_time_s": float(run["t"][n - 1])}
+            row = {"method": run["method"], "seed": run["seed"], "evaluations": int(n), "cpu_time_s": float(run["t"][n - 1])}
             rows.append(row | {"ratio": ratio(run["f"][:n])})
         for target in TARGETS:
             hit = first_reaching(run, ratio, target)
             evaluations, seconds = (None, None) if hit is None else hit
-            times.append({"method": run["method"], "seed": run["seed"], "target": target, "evaluations": evaluations, "wall_time_s": seconds})
+            times.append({"method": run["method"], "seed": run["seed"], "target": target, "evaluations": evaluations, "cpu_time_s": seconds})
         print(f"analysed {run['path'].name}", flush=True)
     anytime, runtimes = pd.DataFrame(rows), pd.DataFrame(times)
     anytime.to_csv(out / "anytime.csv", index=False, float_format="%.6g")
@@ -298,7 +300,7 @@ def cmd_analyse(args: argparse.Namespace) -> None:
 
 
 def summary_table(anytime: Any, runtimes: Any) -> str:
-    lines = ["| method | seeds | 1,000 | 5,000 | 20,000 | evaluations to 0.99 (median) | time to 0.99 [s] (median) |", "|---|---|---|---|---|---|---|"]
+    lines = ["| method | seeds | 1,000 | 5,000 | 20,000 | evaluations to 0.99 (median) | CPU time to 0.99 [s] (median) |", "|---|---|---|---|---|---|---|"]
     for method in [m for m in PEERS if m in set(anytime["method"])]:
         a = anytime[anytime["method"] == method]
         cells = []
@@ -309,7 +311,7 @@ def summary_table(anytime: Any, runtimes: Any) -> str:
         seeds = a["seed"].nunique()
         reached = hit["evaluations"].notna().sum()
         evals = f"{hit['evaluations'].median():,.0f}" if reached * 2 > seeds else f"not reached ({reached}/{seeds})"
-        secs = f"{hit['wall_time_s'].median():.1f}" if reached * 2 > seeds else "-"
+        secs = f"{hit['cpu_time_s'].median():.1f}" if reached * 2 > seeds else "-"
         lines.append(f"| {method} | {seeds} | {' | '.join(cells)} | {evals} | {secs} |")
     return "\n".join(lines)
 
@@ -321,14 +323,14 @@ def plot(anytime: Any, name: str, path: Path) -> None:
     fig = make_subplots(rows=1, cols=2, subplot_titles=("per evaluation", "per second"))
     for k, method in enumerate(m for m in PEERS if m in set(anytime["method"])):
         a = anytime[anytime["method"] == method].groupby("evaluations")
-        median, worst, seconds = a["ratio"].median(), a["ratio"].min(), a["wall_time_s"].median()
+        median, worst, seconds = a["ratio"].median(), a["ratio"].min(), a["cpu_time_s"].median()
         colour = f"hsl({k * 45}, 70%, 45%)"
         for col, x in ((1, median.index), (2, seconds.to_numpy())):
             fig.add_trace(go.Scatter(x=x, y=median.to_numpy(), name=method, legendgroup=method, showlegend=col == 1, line={"color": colour}), row=1, col=col)
             dotted = {"color": colour, "dash": "dot", "width": 1}
             fig.add_trace(go.Scatter(x=x, y=worst.to_numpy(), name=f"{method} worst", legendgroup=method, showlegend=False, line=dotted), row=1, col=col)
     fig.update_xaxes(type="log", title_text="evaluations [-]", row=1, col=1)
-    fig.update_xaxes(type="log", title_text="wall time [s]", row=1, col=2)
+    fig.update_xaxes(type="log", title_text="CPU time [s]", row=1, col=2)
     fig.update_yaxes(title_text="hypervolume ratio [-] (median solid, worst dotted)", range=[0.8, 1.0], row=1, col=1)
     fig.update_yaxes(range=[0.8, 1.0], row=1, col=2)
     fig.update_layout(title=f"Anytime quality on {name}", width=1200, height=500, template="plotly_white")

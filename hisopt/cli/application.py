@@ -16,7 +16,7 @@ import typer
 
 from hisopt.cli import compare, model_commands, run_commands, study_commands
 from hisopt.cli.options import DEBUG
-from hisopt.cli.signals import INTERRUPTED, install_signal_handlers
+from hisopt.cli.signals import install_signal_handlers
 
 # Plain help (no rich markup: "[his]" is text, not a style tag); -h is short for --help.
 app = typer.Typer(
@@ -83,8 +83,6 @@ def _main_command() -> None:
     except typer.Abort:
         typer.echo("aborted", err=True)
         sys.exit(130)
-    except KeyboardInterrupt:  # a command with nothing to save (runs report their own)
-        code = 130
     except Exception as exc:  # command-line usage errors come through here too
         line = usage_error_line(exc, args)  # by what they carry: their classes move between typer versions
         if line is not None:
@@ -94,7 +92,5 @@ def _main_command() -> None:
             raise
         typer.echo(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for a traceback)", err=True)
         sys.exit(1)
-    if code == 130 and INTERRUPTED and not INTERRUPTED[0]:  # no command reported it
-        typer.echo("interrupted by SIGINT", err=True)
     if isinstance(code, int) and code:
         sys.exit(code)

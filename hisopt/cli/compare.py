@@ -75,7 +75,7 @@ def compare_layouts_command(
                    f"{run['feasible_designs']} feasible", err=True)
 
     try:
-        with open_backend(workers, scheduler) as backend:
+        with interrupt.signals_as_interrupts(), open_backend(workers, scheduler) as backend:
             where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
             typer.echo(f"{problem.name}: layout study in {out}, runs {where}", err=True)
             result = run_layout_study(problem, layouts, seeds, out=out, pop_size=pop, generations=gens, handling=handling,
