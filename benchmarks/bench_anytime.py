@@ -162,7 +162,8 @@ def run_optuna(problem: hisopt.Problem, name: str, seed: int, evaluations: int) 
         trial = study.ask()
         x = np.array([[trial.suggest_float(n, lo, hi) for n, lo, hi in zip(names, lower, upper, strict=True)]])
         f, g = log.evaluate(x)
-        trial.set_constraint([float(v) for v in g[0]])  # Optuna 5: value <= 0 is feasible
+        for j, value in enumerate(g[0]):  # Optuna 5: feasible when every value <= 0
+            trial.set_constraint(f"g{j}", float(value))
         if np.all(np.isfinite(f)):
             study.tell(trial, [float(v) for v in f[0]])
         else:
