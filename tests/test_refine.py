@@ -22,6 +22,7 @@ import pytest
 import hisopt
 from hisopt.io import read_csv
 from hisopt.optim.archive import non_dominated_mask
+from hisopt.optim.gradient.asf_slp import SlpSettings, lp_steps, refine_designs
 from hisopt.optim.gradient.casadi_model import CasadiModel
 from hisopt.optim.gradient.refine import (
     FRONT_REFINED_CSV,
@@ -144,9 +145,10 @@ def test_peak_search_of_all_peaks_at_once_equals_one_search_per_peak(problem, rn
     assert peak_locations(frf, ev, np.zeros(0, dtype=int), np.zeros(0), np.zeros(0)).size == 0
 
 
-def test_refine_front_keeps_only_dominating_designs(problem, small_run):
+@pytest.mark.parametrize("method", ["slp", "ipopt"])
+def test_refine_front_keeps_only_dominating_designs(problem, small_run, method):
     front = small_run.front
-    result = refine_front(problem, front, max_points=6)
+    result = refine_front(problem, front, max_points=6, method=method)
     assert len(result.points) == min(6, len(front))
     check_refined(problem, front, result)
     assert result.points["accepted"].any()
@@ -250,3 +252,81 @@ def test_optimize_with_refine_flag_writes_refined_front(tmp_path):
     front = read_csv(out / "front.csv")
     assert list(refined.columns) == [c for c in front.columns if c != "on_bound"] + ["source_index", "on_bound"]
     assert refined["source_index"].between(0, len(front) - 1).all()
+
+
+# --- the batched SLP (hisopt.optim.gradient.asf_slp) -----------------------------------------
+# HiGHS meets its primal and dual feasibility tolerances (1e-7) on data of order 1: optimal
+# objective values of the same programme, however batched, agree within about 1e-6.
+LP_TOLERANCE = 1e-6
+
+
+def test_batched_linear_programme_equals_one_per_design(rng):
+    n, k, m, c = 6, 4, 4, 2
+    gap = -rng.random((n, k)) * 0.1
+    jac = rng.normal(size=(n, k, m))
+    con = -rng.random((n, c))
+    con_jac = rng.normal(size=(n, c, m))
+    u = rng.random((n, m))
+    low, high = np.maximum(-0.3, -u), np.minimum(0.3, 1.0 - u)
+    rho = np.where(np.arange(n) % 2 == 0, 0.05, 0.0)
+    s_cap = np.where(np.arange(n) % 3 == 0, gap.max(axis=1), np.inf)
+    d, predicted = lp_steps(gap, jac, con, con_jac, low, high, rho, s_cap)
+    for i in range(n):
+        one = slice(i, i + 1)
+        d_i, p_i = lp_steps(gap[one], jac[one], con[one], con_jac[one], low[one], high[one], rho[one], s_cap[one])
+        assert predicted[i] == pytest.approx(p_i[0], abs=LP_TOLERANCE)
+    # the steps keep to their bounds and constraints, and the prediction is their merit
+    assert np.all(d >= low - 1e-9) and np.all(d <= high + 1e-9)
+    assert np.all(con + np.einsum("ncm,nm->nc", con_jac, d) <= 1e-7)
+    linear = gap + np.einsum("nkm,nm->nk", jac, d)
+    np.testing.assert_allclose(predicted, linear.max(axis=1) + rho * linear.sum(axis=1), atol=LP_TOLERANCE)
+
+
+def test_linear_programme_of_one_objective_is_the_box_corner():
+    # one gap a with gradient g over the box |d_j| <= r: the step is -r sign(g), the merit
+    # (1 + rho)(a - r sum |g|)
+    g = np.array([[[0.5, -2.0, 1.0]]])
+    a, r, rho = -0.1, 0.2, 0.05
+    d, predicted = lp_steps(np.array([[a]]), g, np.zeros((1, 0)), np.zeros((1, 0, 3)), np.full((1, 3), -r), np.full((1, 3), r),
+                            np.array([rho]), np.array([np.inf]))
+    np.testing.assert_allclose(d[0], -r * np.sign(g[0, 0]), atol=1e-9)
+    assert predicted[0] == pytest.approx((1 + rho) * (a - r * np.abs(g).sum()), abs=LP_TOLERANCE)
+
+
+def test_slp_moves_a_design_far_from_the_front_to_one_dominating_it(problem):
+    x0 = problem.baseline[None]
+    q0 = problem.evaluator()(x0)
+    f0 = np.column_stack([q0[n] for n in problem.objective_names])
+    result = refine_designs(problem, x0, f0, np.array([0]), np.full(4, 3.0))
+    assert result.merit[0] < -1e-3 and result.steps[0] > 0
+    q = problem.evaluator()(result.x)
+    f = np.column_stack([q[n] for n in problem.objective_names])
+    assert np.all(f <= f0) and np.any(f < f0)
+    np.testing.assert_array_equal(f, np.column_stack([result.quantities[n] for n in problem.objective_names]))
+    assert np.all((result.x >= problem.lower) & (result.x <= problem.upper))
+
+
+def test_a_design_s_starts_do_not_depend_on_the_others(problem, small_run):
+    # each design draws its own starts from its front row: refined alone or with others, the same
+    from hisopt.optim.gradient.asf_slp import start_points
+
+    u = np.random.default_rng(1).random((3, 4))
+    together = start_points(u, np.array([4, 9, 2]), SlpSettings())
+    alone = start_points(u[1:2], np.array([9]), SlpSettings())
+    np.testing.assert_array_equal(together[1], alone[0])
+    np.testing.assert_array_equal(together[:, 0], u)
+    np.testing.assert_array_equal(together[:, 1], u)
+    assert np.all((together >= 0.0) & (together <= 1.0))
+
+
+def test_refinement_method_and_settings_are_checked(problem, small_run, tmp_path):
+    with pytest.raises(hisopt.ConfigError, match="--method"):
+        refine_front(problem, small_run.front, max_points=2, method="newton")
+    with pytest.raises(hisopt.ConfigError, match="SlpSettings"):
+        refine_front(problem, small_run.front, max_points=2, method="slp", settings=RefineSettings())
+    run_dir = tmp_path / "run"
+    optimize(problem, out=run_dir, seed=5, pop_size=16, generations=3, algorithm="nsga2")
+    out = subprocess.run([sys.executable, "-m", "hisopt", "refine", str(run_dir), "--method", "newton"],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "--method" in out.stderr, out.stderr
+    assert "Traceback" not in out.stderr

@@ -238,28 +238,29 @@ def units_table(shown: Any, title: str) -> Any:
     return table
 
 
-def refine_with_progress(run_dir: Path, max_points: int, workers: int | None, scheduler: str | None) -> None:
+def refine_with_progress(run_dir: Path, max_points: int, method: str, workers: int | None, scheduler: str | None) -> None:
     """Refine a run's front with a progress bar; in this process unless Dask is asked for."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from hisopt.evaluation.parallel import open_backend
-    from hisopt.optim.gradient.refine import refine_run, start_designs
+    from hisopt.optim.gradient.refine import method_settings, refine_run, start_designs
     from hisopt.optim.rundir import FRONT_CSV, FRONT_REFINED_CSV, read_front, run_problem
 
-    problem = run_problem(run_dir)[0]  # every check before the progress bar
+    method_settings(method, None)  # every check before the progress bar
+    problem = run_problem(run_dir)[0]
     front = read_front(run_dir / FRONT_CSV)
     start_designs(problem, front, str(run_dir / FRONT_CSV))
     bar = Progress(TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"),
                    TimeElapsedColumn(), console=Console(stderr=True))
     task = bar.add_task("refine", total=min(max_points, len(front)))
     with open_backend(workers, scheduler) as backend, bar:
-        result = refine_run(run_dir, max_points, backend=backend, progress=lambda _: bar.update(task, advance=1))
+        result = refine_run(run_dir, max_points, method=method, backend=backend, progress=lambda _: bar.update(task, advance=1))
     accepted = int(result.points["accepted"].sum()) if len(result.points) else 0
     print(
         f"refined {accepted} of {len(result.points)} designs; hypervolume {result.hypervolume_before:.6g} -> "
         f"{result.hypervolume_after:.6g} decades^{len(result.reference_point)} ({100 * result.hypervolume_gain:+.2f} %), "
-        f"{result.seconds_per_point:.2f} s per design"
+        f"{result.seconds_per_point:.3g} s per design ({method})"
     )
     line = bound_summary(result.front, problem)
     if line:

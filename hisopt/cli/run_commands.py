@@ -32,7 +32,7 @@ def optimize_cmd(
         typer.Option("--until", metavar="RULE", help="generations (run them all) or converged (stop when the hypervolume "
                      "stalls; tolerance and window from the problem file; --gens is the cap); default: problem file"),
     ] = None,
-    refine: Annotated[bool, typer.Option("--refine", help="refine the front with CasADi/IPOPT afterwards (front_refined.csv)")] = False,
+    refine: Annotated[bool, typer.Option("--refine", help="refine the front afterwards (front_refined.csv; see `hisopt refine`)")] = False,
     max_points: Annotated[
         int, typer.Option("--max-points", parser=integer, metavar="N", help="with --refine: most front designs to refine")
     ] = 40,
@@ -48,7 +48,8 @@ def optimize_cmd(
 ) -> None:
     """Pareto-optimise PROBLEM in a resumable run directory.
 
-    NSGA-II, or NSGA-III from four objectives. A checkpoint is written every 10 s, at the
+    SMS-EMOA up to four objectives, NSGA-III above (the problem file's [optimizer]
+    algorithm chooses otherwise). A checkpoint is written every 10 s, at the
     end and on Ctrl-C; `hisopt resume RUN_DIR` continues an interrupted run.
     """
     from datetime import datetime
@@ -92,7 +93,7 @@ def optimize_cmd(
     if refine:
         from hisopt.cli.console import refine_with_progress
 
-        refine_with_progress(out, max_points, None, None)
+        refine_with_progress(out, max_points, "slp", None, None)
 
 
 def _stop_words(settings: RunSettings) -> str:
@@ -218,10 +219,15 @@ def refine_cmd(
         int,
         typer.Option("--max-points", parser=integer, metavar="N", help="most front designs to refine, spread evenly over the front"),
     ] = 40,
+    method: Annotated[
+        str,
+        typer.Option("--method", metavar="NAME", help="slp (every design at once, on the evaluator: milliseconds per design) "
+                     "or ipopt (CasADi/IPOPT, one design at a time: about a second each)"),
+    ] = "slp",
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Refine RUN_DIR's front by gradients (CasADi/IPOPT).
+    """Refine RUN_DIR's front by gradients (batched SLP, or CasADi/IPOPT).
 
     Writes RUN_DIR/front_refined.csv. Each of up to --max-points designs spread over
     front.csv is moved towards the Pareto front by an NLP (its achievement scalarising
@@ -234,7 +240,7 @@ def refine_cmd(
         raise ConfigError(f"expected at least 1, got {max_points}", key="--max-points")
     from hisopt.cli.console import refine_with_progress
 
-    refine_with_progress(run_dir, max_points, workers, scheduler)
+    refine_with_progress(run_dir, max_points, method, workers, scheduler)
 
 
 def register(app: typer.Typer) -> None:

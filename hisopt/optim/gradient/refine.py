@@ -1,9 +1,14 @@
-"""Gradient refinement of a Pareto front with CasADi and IPOPT.
+"""Gradient refinement of a Pareto front: one NLP per design, by batched SLP or by IPOPT.
 
-An evolutionary front (NSGA, :mod:`hisopt.optim.run`) is close to the Pareto front but not on
+An evolutionary front (:mod:`hisopt.optim.run`) is close to the Pareto front but not on
 it. From each of up to ``max_points`` designs spread evenly over the front, an
-achievement-scalarising NLP moves the design towards the Pareto front with exact gradients
-(:mod:`hisopt.optim.gradient.casadi_model`); the standard evaluator then decides what to keep.
+achievement-scalarising NLP moves the design towards the Pareto front; the standard
+evaluator then decides what to keep. Two solvers of the NLP:
+
+- ``method="slp"`` (default): trust-region SLP on the evaluator itself, every design at once
+  and from several starts each (:mod:`hisopt.optim.gradient.asf_slp`), milliseconds per design;
+- ``method="ipopt"``: IPOPT on the CasADi model with exact gradients
+  (:mod:`hisopt.optim.gradient.casadi_model`), one design at a time, described below.
 
 The NLP of one start design (reference ``r`` = the start's objectives; ``z = log10`` of the
 objectives; ``w`` = 1 / the front's log10 range per objective, so every objective counts in
@@ -58,6 +63,7 @@ import pandas as pd
 from hisopt.errors import ConfigError, RunError
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.gradient.asf_nlp import Part, RefineSettings, node_plan, solve_asf
+from hisopt.optim.gradient.asf_slp import SlpSettings, refine_designs
 from hisopt.optim.rundir import FRONT_REFINED_CSV, REFINE_JSON
 
 if TYPE_CHECKING:
@@ -85,13 +91,13 @@ class PointResult:
     merit : float
         [-] the NLP objective of the final design (0 for the start)
     rounds : int
-        [-] NLP solves performed
+        [-] NLP solves performed (IPOPT), or SLP steps taken on the way to the result (SLP)
     iterations : int
-        [-] IPOPT iterations over all rounds
+        [-] IPOPT iterations over all rounds, or linear programmes over all starts (SLP)
     seconds : float
-        [s] wall time of this point
+        [s] wall time of this point (SLP: its share of its batch's)
     status : str
-        [-] IPOPT return status of the last solve
+        [-] IPOPT return status of the last solve, or why the chosen SLP start stopped
     """
 
     source_index: int
@@ -370,9 +376,30 @@ def _worker_parts(problem: Problem) -> list[Part]:
 
 
 def _refine_task(task: tuple[int, np.ndarray, np.ndarray], problem: Problem, weights: np.ndarray, settings: RefineSettings) -> PointResult:
-    """Refine one ``(source_index, x0, f0)`` in whichever process runs it."""
+    """Refine one ``(source_index, x0, f0)`` by IPOPT in whichever process runs it."""
     parts = _worker_parts(problem)
     return refine_point(_WORKER["problem"], parts, task[0], task[1], task[2], weights, settings)
+
+
+def _slp_task(chunk: list[tuple[int, np.ndarray, np.ndarray]], problem: Problem, weights: np.ndarray, settings: SlpSettings) -> list[PointResult]:
+    """Refine a chunk of ``(source_index, x0, f0)`` together by SLP in whichever process runs it."""
+    started = time.perf_counter()
+    keys = np.array([t[0] for t in chunk])
+    result = refine_designs(problem, np.array([t[1] for t in chunk]), np.array([t[2] for t in chunk]), keys, weights, settings)
+    share = (time.perf_counter() - started) / len(chunk)
+    quantities = {k: v for k, v in result.quantities.items() if k != "valid"}
+    return [
+        PointResult(
+            source_index=int(keys[i]), x=result.x[i], quantities={k: float(v[i]) for k, v in quantities.items()},
+            accepted=bool(result.merit[i] < 0.0), asf=float(result.asf[i]), merit=float(result.merit[i]),
+            rounds=int(result.steps[i]), iterations=int(result.iterations[i]), seconds=share, status=result.status[i],
+        )
+        for i in range(len(chunk))
+    ]
+
+
+METHODS = ("slp", "ipopt")
+"""[-] Solvers of the refinement NLP (module docstring)."""
 
 
 def refine_front(
@@ -380,7 +407,8 @@ def refine_front(
     front: pd.DataFrame,
     max_points: int = 40,
     *,
-    settings: RefineSettings | None = None,
+    method: str = "slp",
+    settings: RefineSettings | SlpSettings | None = None,
     backend: Backend | None = None,
     reference_log: np.ndarray | None = None,
     progress: Callable[[PointResult], None] | None = None,
@@ -397,11 +425,17 @@ def refine_front(
         constraint columns), one row per design, as ``front.csv``
     max_points : int, optional
         [-] most start designs
-    settings : RefineSettings | None, optional
-        refinement settings (default :class:`RefineSettings`)
+    method : str, optional
+        [-] ``"slp"`` (batched trust-region SLP on the evaluator) or ``"ipopt"`` (CasADi and
+        IPOPT, one design at a time); see the module docstring
+    settings : RefineSettings | SlpSettings | None, optional
+        the method's settings (default :class:`~hisopt.optim.gradient.asf_slp.SlpSettings`
+        for SLP, :class:`RefineSettings` for IPOPT)
     backend : Backend | None, optional
         where the NLPs run: this process (default) or a Dask cluster
-        (:func:`hisopt.evaluation.parallel.open_backend`), one task per start design
+        (:func:`hisopt.evaluation.parallel.open_backend`), one task per start design (IPOPT) or
+        per fixed-size chunk of them (SLP: the same chunks whatever the workers, so the
+        same result)
     reference_log : np.ndarray | None, optional
         [decades] hypervolume reference point; default the problem's
         (:func:`hisopt.optim.decision.reference_point`)
@@ -413,14 +447,14 @@ def refine_front(
     Raises
     ------
     ConfigError
-        ``max_points < 1``, the front lacks a variable or objective column, or a row is not a valid start
-        (:func:`start_designs`).
+        ``max_points < 1``, an unknown method or settings of another method, the front lacks a
+        variable or objective column, or a row is not a valid start (:func:`start_designs`).
     """
     from hisopt.evaluation.parallel import Backend
     from hisopt.optim.decision import hypervolume, reference_point
 
     started = time.perf_counter()
-    settings = settings or RefineSettings()
+    settings = method_settings(method, settings)
     names = list(problem.objective_names)
     var_names = list(problem.variable_names)
     missing = [c for c in var_names + names if c not in front.columns]
@@ -433,8 +467,18 @@ def refine_front(
     weights = asf_weights(f) if len(front) else np.ones(len(names))
     tasks = [(int(i), x[i], f[i]) for i in chosen]
     backend = backend or Backend()
-    report = None if progress is None else (lambda _, result: progress(result))
-    results = backend.map(_refine_task, tasks, problem, weights, settings, on_result=report)
+    if isinstance(settings, SlpSettings):
+        chunks = [tasks[i:i + settings.chunk] for i in range(0, len(tasks), settings.chunk)]
+
+        def report_chunk(_: int, chunk: list[PointResult]) -> None:
+            for point in chunk:
+                if progress is not None:
+                    progress(point)
+
+        results = [r for chunk in backend.map(_slp_task, chunks, problem, weights, settings, on_result=report_chunk) for r in chunk]
+    else:
+        report = None if progress is None else (lambda _, result: progress(result))
+        results = backend.map(_refine_task, tasks, problem, weights, settings, on_result=report)
 
     from hisopt.units import attach_units
 
@@ -448,6 +492,24 @@ def refine_front(
         reference_point=reference,
         wall_time_s=time.perf_counter() - started,
     )
+
+
+def method_settings(method: str, settings: RefineSettings | SlpSettings | None) -> RefineSettings | SlpSettings:
+    """The settings of refinement ``method`` (its defaults when ``settings`` is None).
+
+    Raises
+    ------
+    ConfigError
+        ``method`` is not one of :data:`METHODS`, or ``settings`` belong to the other method.
+    """
+    if method not in METHODS:
+        raise ConfigError(f"expected a refinement method of {', '.join(METHODS)}, got {method!r}", key="--method")
+    expected = SlpSettings if method == "slp" else RefineSettings
+    if settings is None:
+        return expected()
+    if not isinstance(settings, expected):
+        raise ConfigError(f"expected {expected.__name__} for method {method!r}, got {type(settings).__name__}", key="--method")
+    return settings
 
 
 def start_designs(problem: Problem, front: pd.DataFrame, source: str = "front") -> tuple[np.ndarray, np.ndarray]:
@@ -521,7 +583,8 @@ def refine_run(
     run_dir: str | Path,
     max_points: int = 40,
     *,
-    settings: RefineSettings | None = None,
+    method: str = "slp",
+    settings: RefineSettings | SlpSettings | None = None,
     backend: Backend | None = None,
     progress: Callable[[PointResult], None] | None = None,
 ) -> RefineResult:
@@ -531,7 +594,7 @@ def refine_run(
     ----------
     run_dir : str | Path
         [-] a directory written by :func:`hisopt.optim.run.optimize` (``out=``)
-    max_points, settings, backend, progress
+    max_points, method, settings, backend, progress
         as :func:`refine_front`
 
     Raises
@@ -551,13 +614,13 @@ def refine_run(
     problem, reference = rundir.run_problem(run_dir)
     front = rundir.read_front(run_dir / rundir.FRONT_CSV)
     ensure_writable_dir(run_dir)
-    settings = settings or RefineSettings()
+    settings = method_settings(method, settings)
     result = refine_front(
-        problem, front, max_points, settings=settings, backend=backend, reference_log=reference, progress=progress,
-        source=str(run_dir / rundir.FRONT_CSV),
+        problem, front, max_points, method=method, settings=settings, backend=backend, reference_log=reference,
+        progress=progress, source=str(run_dir / rundir.FRONT_CSV),
     )
     write_csv(with_bound_column(result.front, problem), run_dir / FRONT_REFINED_CSV)
-    summary = result.summary() | {"max_points": max_points, "settings": asdict(settings)}
+    summary = result.summary() | {"max_points": max_points, "method": method, "settings": asdict(settings)}
     summary["per_point"] = json.loads(result.points.to_json(orient="records"))
     rundir.atomic_write_json(run_dir / REFINE_JSON, summary)
     return result
