@@ -281,11 +281,14 @@ def cmd_analyse(args: argparse.Namespace) -> None:
     reference = np.loadtxt(out / "reference_front.csv.gz", delimiter=",", skiprows=1, ndmin=2)
     ratio = Ratio(reference)
     rows, times = [], []
-    grid = np.unique(np.round(np.logspace(2, np.log10(args.evaluations), 25)).astype(int))
+    grid = np.unique(np.concatenate([np.round(np.logspace(2, np.log10(args.evaluations), 25)).astype(int), BUDGETS]))
     for run in load_runs(Path(args.work), problem.name):
-        for n in grid[grid <= len(run["f"])]:
-            row = {"method": run["method"], "seed": run["seed"], "evaluations": int(n), "cpu_time_s": float(run["t"][n - 1])}
-            rows.append(row | {"ratio": ratio(run["f"][:n])})
+        # the archive after at most n evaluations: a run may end a few short of its budget
+        # (pymoo drops duplicate offspring), and is judged at the budget by its final archive
+        for n in grid[grid <= int(run["evaluations"])]:
+            used = min(int(n), len(run["f"]))
+            row = {"method": run["method"], "seed": run["seed"], "evaluations": int(n), "cpu_time_s": float(run["t"][used - 1])}
+            rows.append(row | {"ratio": ratio(run["f"][:used])})
         for target in TARGETS:
             hit = first_reaching(run, ratio, target)
             evaluations, seconds = (None, None) if hit is None else hit

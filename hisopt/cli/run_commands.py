@@ -227,12 +227,13 @@ def refine_cmd(
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Refine RUN_DIR's front by gradients (batched SLP, or CasADi/IPOPT).
+    """Refine RUN_DIR's front by gradients.
 
     Writes RUN_DIR/front_refined.csv. Each of up to --max-points designs spread over
     front.csv is moved towards the Pareto front by an NLP (its achievement scalarising
-    function) and kept only if, evaluated again, it weakly dominates its start. NLPs run
-    in this process, or on Dask with --workers or --scheduler. See docs/refine.md.
+    function) and kept only if, evaluated again, it weakly dominates its start. The NLPs
+    are solved by batched SLP on the evaluator (default) or by CasADi/IPOPT (--method
+    ipopt), in this process or on Dask with --workers or --scheduler. See docs/refine.md.
     """
     from hisopt.errors import ConfigError
 
