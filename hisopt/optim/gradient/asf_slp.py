@@ -136,6 +136,13 @@ class SlpResult:
     status: list[str]
 
 
+def asf_merit(gap: np.ndarray, rho: float | np.ndarray) -> np.ndarray:
+    """[-] The refinement NLP's objective at designs whose gaps are ``gap`` (``(..., k)``):
+    ``max_i a_i + rho sum_i a_i``, the augmented achievement scalarising function (both
+    methods judge designs by it)."""
+    return np.max(gap, axis=-1) + rho * np.sum(gap, axis=-1)
+
+
 def lp_steps(
     gap: np.ndarray, jac: np.ndarray, con: np.ndarray, con_jac: np.ndarray, low: np.ndarray, high: np.ndarray,
     rho: np.ndarray, s_cap: np.ndarray,
@@ -246,7 +253,7 @@ def solve_slp(
         return gap, g[:, :-1], valid, q
 
     def merit(gap: np.ndarray, rho: float | np.ndarray = settings.rho) -> np.ndarray:
-        return np.max(gap, axis=-1) + rho * np.sum(gap, axis=-1)
+        return asf_merit(gap, rho)
 
     every = np.arange(n)
     gap, con, valid, q = at(x0, every)

@@ -63,7 +63,7 @@ import pandas as pd
 from hisopt.errors import ConfigError, RunError
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.gradient.asf_nlp import Part, RefineSettings, node_plan, solve_asf
-from hisopt.optim.gradient.asf_slp import SlpSettings, refine_designs
+from hisopt.optim.gradient.asf_slp import SlpSettings, asf_merit, refine_designs
 from hisopt.optim.rundir import FRONT_REFINED_CSV, REFINE_JSON
 
 if TYPE_CHECKING:
@@ -211,7 +211,7 @@ def asf_weights(f: np.ndarray) -> np.ndarray:
 # --- one start design: trust-region rounds -----------------------------------------------------
 def _merit(gap: np.ndarray, rho: float) -> float:
     """[-] The NLP objective at a design whose weighted log10 changes are ``gap``."""
-    return float(np.max(gap) + rho * np.sum(gap))
+    return float(asf_merit(gap, rho))
 
 
 def _evaluate(problem: Problem, x: np.ndarray) -> dict[str, float]:
