@@ -330,3 +330,10 @@ def test_refinement_method_and_settings_are_checked(problem, small_run, tmp_path
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "--method" in out.stderr, out.stderr
     assert "Traceback" not in out.stderr
+
+
+def test_slp_settings_are_checked():
+    with pytest.raises(hisopt.ConfigError, match="starts >= 2"):
+        SlpSettings(starts=1)
+    with pytest.raises(hisopt.ConfigError, match="chunk >= 1"):
+        SlpSettings(chunk=0)

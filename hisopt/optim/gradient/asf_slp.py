@@ -47,6 +47,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hisopt.errors import ConfigError
+
 if TYPE_CHECKING:
     from hisopt.problem import Problem
 
@@ -95,6 +97,11 @@ class SlpSettings:
     starts: int = 4
     start_spread: float = 0.5
     chunk: int = 25
+
+    def __post_init__(self) -> None:
+        if self.starts < 2 or self.chunk < 1 or self.iterations < 0:
+            raise ConfigError(f"expected SlpSettings with starts >= 2, chunk >= 1 and iterations >= 0, got starts={self.starts}, "
+                              f"chunk={self.chunk}, iterations={self.iterations}")
 
 
 @dataclass(frozen=True)
@@ -387,8 +394,6 @@ def refine_designs(
     x0 = np.atleast_2d(np.asarray(x0, dtype=float))
     n, m = x0.shape
     s = settings.starts
-    if settings.starts < 2:
-        raise ValueError(f"expected at least 2 SLP starts per design, got {settings.starts}")
     starts = lower + span * start_points(np.clip((x0 - lower) / span, 0.0, 1.0), keys, settings)
     starts[:, :2] = x0[:, None, :]  # the design itself, exactly: kept dominating, then free
     owner = np.repeat(np.arange(n), s)
