@@ -221,7 +221,7 @@ def refine_cmd(
     ] = 40,
     method: Annotated[
         str,
-        typer.Option("--method", metavar="NAME", help="slp (every design at once, on the evaluator: milliseconds per design) "
+        typer.Option("--method", metavar="NAME", help="slp (every design at once, on the evaluator: about 0.05 s per design) "
                      "or ipopt (CasADi/IPOPT, one design at a time: about a second each)"),
     ] = "slp",
     workers: WorkersOpt = None,

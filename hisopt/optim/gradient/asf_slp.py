@@ -4,7 +4,7 @@
 CasADi/IPOPT solve of the same NLP as ``--method ipopt``. Every start design moves together,
 as one batch of the vectorised evaluator per iteration and one sparse linear programme
 (HiGHS, through scipy) holding every design's subproblem, so a design costs some hundred
-evaluations (milliseconds), not an NLP built and solved on its own.
+evaluations (about 0.05 s), not an NLP built and solved on its own.
 
 The NLP is the one of :mod:`hisopt.optim.gradient.refine`: in scaled variables ``u`` (the box
 is [0, 1]) with gaps ``a_i(u) = w_i (log10 f_i(u) - r_i)`` against the start design's

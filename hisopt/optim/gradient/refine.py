@@ -6,7 +6,7 @@ achievement-scalarising NLP moves the design towards the Pareto front; the stand
 evaluator then decides what to keep. Two solvers of the NLP:
 
 - ``method="slp"`` (default): trust-region SLP on the evaluator itself, every design at once
-  and from several starts each (:mod:`hisopt.optim.gradient.asf_slp`), milliseconds per design;
+  and from several starts each (:mod:`hisopt.optim.gradient.asf_slp`), about 0.05 s per design;
 - ``method="ipopt"``: IPOPT on the CasADi model with exact gradients
   (:mod:`hisopt.optim.gradient.casadi_model`), one design at a time, described below.
 
