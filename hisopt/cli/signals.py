@@ -31,5 +31,4 @@ def install_signal_handlers() -> None:
     callbacks, ``PyRun_String``) is swallowed (the command goes on and exits 0) or sets
     CPython's "unhandled Ctrl-C" flag, after which ``python -m`` kills itself with SIGINT
     whatever exit code the command chose (seen as exit -2 in about 1 in 10 interrupts)."""
-    signal.signal(signal.SIGINT, _quit_now)
-    signal.signal(signal.SIGTERM, _quit_now)
+    quit_on_signals()
