@@ -258,6 +258,7 @@ def test_optimize_with_refine_flag_writes_refined_front(tmp_path):
 # HiGHS meets its primal and dual feasibility tolerances (1e-7) on data of order 1: optimal
 # objective values of the same programme, however batched, agree within about 1e-6.
 LP_TOLERANCE = 1e-6
+LP_FEASIBILITY = 1e-7  # HiGHS's primal feasibility tolerance: how far a bound or row may be exceeded
 
 
 def test_batched_linear_programme_equals_one_per_design(rng):
@@ -276,8 +277,8 @@ def test_batched_linear_programme_equals_one_per_design(rng):
         d_i, p_i = lp_steps(gap[one], jac[one], con[one], con_jac[one], low[one], high[one], rho[one], s_cap[one])
         assert predicted[i] == pytest.approx(p_i[0], abs=LP_TOLERANCE)
     # the steps keep to their bounds and constraints, and the prediction is their merit
-    assert np.all(d >= low - 1e-9) and np.all(d <= high + 1e-9)
-    assert np.all(con + np.einsum("ncm,nm->nc", con_jac, d) <= 1e-7)
+    assert np.all(d >= low - LP_FEASIBILITY) and np.all(d <= high + LP_FEASIBILITY)
+    assert np.all(con + np.einsum("ncm,nm->nc", con_jac, d) <= LP_FEASIBILITY)
     linear = gap + np.einsum("nkm,nm->nk", jac, d)
     np.testing.assert_allclose(predicted, linear.max(axis=1) + rho * linear.sum(axis=1), atol=LP_TOLERANCE)
 
@@ -289,7 +290,7 @@ def test_linear_programme_of_one_objective_is_the_box_corner():
     a, r, rho = -0.1, 0.2, 0.05
     d, predicted = lp_steps(np.array([[a]]), g, np.zeros((1, 0)), np.zeros((1, 0, 3)), np.full((1, 3), -r), np.full((1, 3), r),
                             np.array([rho]), np.array([np.inf]))
-    np.testing.assert_allclose(d[0], -r * np.sign(g[0, 0]), atol=1e-9)
+    np.testing.assert_allclose(d[0], -r * np.sign(g[0, 0]), atol=LP_FEASIBILITY)
     assert predicted[0] == pytest.approx((1 + rho) * (a - r * np.abs(g).sum()), abs=LP_TOLERANCE)
 
 

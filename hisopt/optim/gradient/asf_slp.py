@@ -272,7 +272,8 @@ def solve_slp(
     monotone = np.zeros(n, dtype=bool) if monotone is None else np.asarray(monotone, dtype=bool) & dominating
     path_rho = np.where(monotone, 0.0, settings.rho)  # the merit each start's path descends
     current = merit(gap, path_rho)
-    best_u, best_gap, best = u.copy(), gap.copy(), np.where(dominating, current, np.inf)
+    # the result is judged by the full merit whatever merit the path descends
+    best_u, best_gap, best = u.copy(), gap.copy(), np.where(dominating, merit(gap), np.inf)
     status = np.array(["iterations"] * n, dtype=object)
     status[~active] = "start"
     radius = np.full(n, settings.radius)
