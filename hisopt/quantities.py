@@ -157,7 +157,30 @@ def to_si(value: Any, unit: str, *, file: str | None = None, key: str | None = N
             pass
         raise ConfigError(f"expected a number (SI) or a number with a unit, e.g. {_example(unit)}; got {text.strip()!r}", file=file, key=key)
     number, given = parts
+    if _is_scale(given):  # "20 degC": a point on a temperature scale, not a multiple of a unit
+        return _scale_point(number, given, unit, file=file, key=key, text=text.strip())
     return scaled(number, unit_factor(given, unit, file=file, key=key, text=text.strip()))
+
+
+_SCALES = {
+    **dict.fromkeys(("degc", "°c", "celsius", "degree_celsius"), "degC"),
+    **dict.fromkeys(("degf", "°f", "fahrenheit", "degree_fahrenheit"), "degF"),
+}
+"""Temperature scales with an offset from absolute zero, by their written (lower-case) names."""
+
+
+def _is_scale(given: str) -> bool:
+    return " ".join(given.split()).lower() in _SCALES
+
+
+def _scale_point(number: str, given: str, unit: str, *, file: str | None, key: str | None, text: str) -> float:
+    """[K] A temperature written on a scale with an offset (``"20 degC"`` is 293.15 K, not
+    20 times the size of a degree); only where a temperature is expected."""
+    if unit != "K":
+        raise ConfigError(f"{json.dumps(text, ensure_ascii=False)} is a temperature; expected {_kind(unit)} (e.g. {_example(unit)})", file=file, key=key)
+    scale = _SCALES[" ".join(given.split()).lower()]
+    value = float(_registry().Quantity(float(number), scale).to("K").magnitude)
+    return float(f"{value:.15g}")  # 20 degC is 293.15 K exactly as written, not 293.15000000000003
 
 
 def unit_factor(given: str, unit: str, *, file: str | None = None, key: str | None = None, text: str | None = None) -> float:
@@ -174,6 +197,9 @@ def unit_factor(given: str, unit: str, *, file: str | None = None, key: str | No
         ``given`` is unknown or of another kind than ``unit`` (naming ``file`` and ``key``).
     """
     given = " ".join(given.split())
+    if _is_scale(given):  # 0 degC is not 0 K: no factor turns one into the other
+        shown = json.dumps(text if text is not None else given, ensure_ascii=False)
+        raise ConfigError(f"{shown}: a temperature scale with an offset is not a factor; expected K (absolute)", file=file, key=key)
     if given in ("", unit):  # SI already: no units library needed
         return 1.0
     # the text as written, its line breaks and control characters escaped: a message is one line

@@ -11,10 +11,12 @@ import pytest
 import hisopt
 from hisopt.cli.console import summary_tables
 from hisopt.coupled.modal import modal_analysis
+from hisopt.errors import ConfigError
 from hisopt.io import read_csv, write_csv
 from hisopt.metrics import METRICS
 from hisopt.optim.run import optimize
 from hisopt.problem import problem_from_dict
+from hisopt.quantities import to_si, unit_factor
 from hisopt.units import (
     column_units,
     display_for,
@@ -178,3 +180,19 @@ def test_write_csv_takes_the_units_from_attrs_and_read_csv_gives_them_back(tmp_p
 def test_column_units_by_name():
     units = column_units(["f_hz", "elapsed_s", "error_pct", "bounce_damping_ratio", "seed", "mystery"])
     assert units == {"f_hz": "Hz", "elapsed_s": "s", "error_pct": "%", "bounce_damping_ratio": "-", "seed": "-", "mystery": ""}
+
+
+@pytest.mark.parametrize(
+    ("text", "kelvin"),
+    [("20 degC", 293.15), ("-20 °C", 253.15), ("60 celsius", 333.15), ("68 degF", 293.15), ("-40 degF", 233.15), ("300 K", 300.0), ("300", 300.0)],
+)
+def test_a_temperature_on_a_scale_is_read_as_a_point_not_a_multiple(text, kelvin):
+    # 20 degC is 293.15 K, not 20 x 274.15 K (a multiplicative factor would give 5483 K)
+    assert to_si(text, "K") == kelvin
+
+
+def test_a_temperature_scale_is_refused_where_another_kind_or_a_factor_is_expected():
+    with pytest.raises(ConfigError, match="is a temperature; expected a pressure"):
+        to_si("20 degC", "Pa", key="his.p0")
+    with pytest.raises(ConfigError, match="offset is not a factor"):
+        unit_factor("degC", "K")
