@@ -210,6 +210,12 @@ def given_warnings(spec: Any, given: Mapping[str, Any], precharges: Collection[s
                 out.append((key, f"a precharge of {value / 1e3:.4g} kPa is under {P0_MIN / 1e6:g} MPa (1 bar): the gas is near atmospheric "
                                  f"pressure, the accumulator hardly a spring, and the oil would cavitate as the pressure "
                                  f"swings; taken as given"))
+    for key, temperature in spec.temperatures():
+        oil = spec.his.oil
+        if oil.extrapolated(temperature):
+            out.append((key, f"{temperature - 273.15:.4g} degC is outside the oil's viscosity data ({oil.temperature_1 - 273.15:.4g} to "
+                             f"{oil.temperature_2 - 273.15:.4g} degC): its viscosity ({oil.kinematic_viscosity(temperature) * 1e6:.4g} mm^2/s) "
+                             f"is extrapolated by the Walther equation (ASTM D341)"))
     step = _given(given, "handling", "step_g")
     if step is not None and spec.handling.step_g > STEP_G_MAX:
         out.append(("handling.step_g", f"a lateral step of {spec.handling.step_g:g} g is beyond the grip of road tyres (about "

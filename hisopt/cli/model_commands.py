@@ -1,5 +1,5 @@
 """Commands on one problem's model: ``init``, ``modes``, ``layouts``, ``droptest``,
-``evaluate`` and ``response``; :func:`register` adds them to the app."""
+``evaluate``, ``response`` and ``envelope``; :func:`register` adds them to the app."""
 
 from __future__ import annotations
 
@@ -277,7 +277,40 @@ def response(
     typer.echo(f"wrote {out / 'response.csv'} and {out / 'response.html'}")
 
 
+def envelope(
+    problem: ProblemArg,
+    set_: SetOpt = None,
+    knee: Annotated[Path | None, typer.Option(help="a run directory: take its knee design (front.csv) instead of the baseline")] = None,
+    out: Annotated[Path | None, typer.Option(help="CSV of the table (SI units, with a units row)")] = None,
+) -> None:
+    """A design at every temperature and load of the problem.
+
+    docs/model.md §16. Per temperature and payload: the body's static ride height, each circuit's static
+    pressure, its accumulators' gas share and pressure over precharge, the roll gradient and
+    sigma_aw on the problem's [road]. The baseline design (with --set), or a run's knee.
+    """
+    from rich.console import Console
+
+    from hisopt.cli.console import units_table
+    from hisopt.io import write_csv
+    from hisopt.studies.envelope import envelope_table, knee_design, shown_envelope
+    from hisopt.units import display_frame
+
+    p = load(problem, set_)
+    design = None if knee is None else knee_design(p, knee)
+    table = envelope_table(p, design)
+    if out is not None:
+        write_csv(table, out)
+        typer.echo(f"wrote {out}")
+    model = table["model"].iloc[0]
+    which = f"knee of {knee}" if knee is not None else "baseline design"
+    title = f"{p.name}: {which}, {model} model, road {p.spec.road.road_class} at {p.spec.road.speed:g} m/s"
+    Console(width=220).print(units_table(display_frame(shown_envelope(table)), title))
+    if model == "ideal":
+        typer.echo("ideal: the paper's idealisation (accumulators at their precharge, no oil in them); [his.charge] models a charged HIS")
+
+
 def register(app: typer.Typer) -> None:
     """Add this module's commands to ``app``, in the order ``hisopt --help`` lists them."""
-    for command in (modes, layouts, droptest, evaluate, init, response):
+    for command in (modes, layouts, droptest, evaluate, init, response, envelope):
         app.command()(command)

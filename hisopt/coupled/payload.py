@@ -18,6 +18,7 @@ symbols evaluate the same expressions.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -226,6 +227,23 @@ def static_pressure_rise(vehicle: VehicleParams, payload: Payload, his: Hydrauli
         [Pa] numpy ``B + (n_circuits,)`` (NaN for a design whose solve did not converge, see
         :data:`NEWTON_TOLERANCE`) or a CasADi column ``(n_circuits, 1)``.
     """
+    storage = _storage(his)
+    return solve_static_balance(vehicle, payload, his, lambda dp, like: _stored_oil(storage, dp, like), steps)
+
+
+StoredOil = Callable[[list[Any], Any], tuple[Any, Any]]
+"""``(dp, like) -> (g, g')``: the oil stored in each circuit at the rises ``dp`` (one value
+per circuit) relative to the reference state, as a column, and its diagonal Jacobian as a
+matrix (CasADi when ``like`` is)."""
+
+
+def solve_static_balance(vehicle: VehicleParams, payload: Payload, his: HydraulicSystem, stored_oil: StoredOil, steps: int = NEWTON_STEPS) -> Any:
+    """[Pa] The rises ``dp`` that solve ``g(dp) + S dp = b`` (:func:`static_pressure_rise`) for
+    any oil balance ``g`` (``stored_oil``; :mod:`hisopt.coupled.operating_point` adds the
+    charged circuit's), by ``steps`` Newton steps from the linearised solution
+    ``(g'(0) + S) dp = b - g(0)``; numpy ``B + (n_circuits,)`` (NaN for a design whose
+    residual exceeds :data:`NEWTON_TOLERANCE` of the largest right-hand side) or a CasADi
+    column."""
     k = stiffness_matrix(vehicle)
     g = stroke_matrix(vehicle)
     flexibility = g @ np.linalg.solve(k, g.T)  # G K^-1 G^T, strokes per stroke force
@@ -233,20 +251,20 @@ def static_pressure_rise(vehicle: VehicleParams, payload: Payload, his: Hydrauli
     a = circuit_areas(his)
     s_mat = bk.matmul(bk.matmul(a, flexibility), bk.transpose(a))
     b = bk.matmul(a, stroke[:, None])
-    storage = _storage(his)
-    n = len(storage)
+    n = his.network.n_circuits
     like = s_mat if bk.is_casadi(s_mat) else 0.0
-    _, tangent0 = _stored_oil(storage, [0.0] * n, like)
-    dp = bk.solve(tangent0 + s_mat, b)
+    stored0, tangent0 = stored_oil([0.0] * n, like)
+    rhs = b - stored0
+    dp = bk.solve(tangent0 + s_mat, rhs)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         for _ in range(steps):
-            stored, tangent = _stored_oil(storage, _per_circuit(dp, n), like)
+            stored, tangent = stored_oil(_per_circuit(dp, n), like)
             dp = dp - bk.solve(tangent + s_mat, stored + bk.matmul(s_mat, dp) - b)
         if bk.is_casadi(dp):
             return dp
-        stored, _ = _stored_oil(storage, _per_circuit(dp, n), like)
+        stored, _ = stored_oil(_per_circuit(dp, n), like)
         residual = np.abs(stored + s_mat @ dp - b)[..., 0]
-        scale = np.max(np.abs(b[..., 0]), axis=-1, keepdims=True)
+        scale = np.max(np.abs(rhs[..., 0]), axis=-1, keepdims=True)
         ok = np.all(residual <= NEWTON_TOLERANCE * scale, axis=-1, keepdims=True)
     return np.where(ok, dp[..., 0], np.nan)
 

@@ -36,9 +36,10 @@ class ScenarioEvaluator:
         groups: dict[Any, list[int]] = {}
         for i, sc in enumerate(spec.scenarios):
             laden = sc.payload is not None and sc.payload.active  # a 0 kg payload is no payload (§13)
-            groups.setdefault(sc.payload if laden else None, []).append(i)
+            temperature = sc.temperature if sc.temperature is not None else spec.temperature
+            groups.setdefault((sc.payload if laden else None, temperature), []).append(i)
         self.groups = list(groups.values())
-        """Scenarios sharing a model (the same payload), by index, in file order."""
+        """Scenarios sharing a model (the same payload and temperature), by index, in file order."""
         for group in self.groups:  # a step steer constrained in the laden case only: not computed empty
             read = set(spec.objectives) | {c.name for c in spec.constraints if set(problem.constraint_scenarios(c.name)) & {self.scenarios[i] for i in group}}
             lead = self.evaluators[group[0]]

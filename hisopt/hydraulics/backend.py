@@ -116,6 +116,13 @@ def sinh(x: Any) -> Any:
     return np.sinh(x)
 
 
+def fmax(a: Any, b: Any) -> Any:
+    """The larger of two real arguments (elementwise)."""
+    if is_casadi(a) or is_casadi(b):
+        return _ca().fmax(a, b)
+    return np.maximum(a, b)
+
+
 def fabs(x: Any) -> Any:
     """Absolute value of a real argument."""
     if is_casadi(x):

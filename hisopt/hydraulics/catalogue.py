@@ -214,10 +214,11 @@ def his_layout(his: RollPlaneHIS) -> Layout:
     return catalogue()[his.layout].layout(pipes, chamber)
 
 
-def his_parameter_values(his: RollPlaneHIS, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def his_parameter_values(his: RollPlaneHIS, overrides: Mapping[str, Any] | None = None, temperature: float | None = None) -> dict[str, Any]:
     """Every parameter the layout and the cylinders read: ``[his]`` values, the layout's extra
-    parameters (:func:`layout_defaults`), then ``overrides`` (design variables)."""
-    return parameter_values(his, {**layout_defaults(his), **(overrides or {})})
+    parameters (:func:`layout_defaults`), then ``overrides`` (design variables); the fluid at
+    ``temperature`` [K] (None: the reference temperature; :func:`~hisopt.hydraulics.roll_plane.parameter_values`)."""
+    return parameter_values(his, {**layout_defaults(his), **(overrides or {})}, temperature)
 
 
 def known_parameters(his: RollPlaneHIS) -> tuple[str, ...]:

@@ -62,11 +62,16 @@ class HydraulicSystem:
     """[Pa] Static pressure rise of each circuit above its precharge under a payload (numpy
     ``B + (n_circuits,)`` or a CasADi column; :func:`hisopt.coupled.payload.static_pressure_rise`):
     the accumulators are linearised there. ``None``: at the precharge."""
+    static_pressure: Any = None
+    """[Pa] Absolute static pressure of each circuit of a charged HIS (numpy
+    ``B + (n_circuits,)`` or a CasADi column; :mod:`hisopt.coupled.charge`): the accumulators
+    are linearised there, each holding its gas at the oil's temperature. ``None``: the
+    accumulators at their precharge (plus ``static_rise``)."""
 
     @cached_property
     def values(self) -> ElementValues:
         """The constitutive laws applied to every element."""
-        return nw.element_values(self.network, self.params, self.static_rise)
+        return nw.element_values(self.network, self.params, self.static_rise, self.static_pressure)
 
     @cached_property
     def areas(self) -> tuple[Any, Any]:
@@ -126,16 +131,19 @@ class HydraulicSystem:
         rise = self.static_rise
         if rise is not None and np.ndim(rise) > 1:
             rise = np.asarray(rise)[rows]
-        return HydraulicSystem(self.network, params, rise)
+        pressure = self.static_pressure
+        if pressure is not None and np.ndim(pressure) > 1:
+            pressure = np.asarray(pressure)[rows]
+        return HydraulicSystem(self.network, params, rise, pressure)
 
     def contracted(self, shorted: frozenset[int]) -> HydraulicSystem:
         """The same designs with the valves ``shorted`` (element indices) merged away."""
         layout = nw.contract_shorts(self.network.layout, shorted)
-        return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params, self.static_rise)
+        return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params, self.static_rise, self.static_pressure)
 
     def lumped(self) -> HydraulicSystem:
         """The same designs with lumped (pi-section) pipes: the rational model whose state
         space places the frequency nodes of a distributed-pipe problem."""
         if self.network.fidelity == "lumped":
             return self
-        return HydraulicSystem(nw.compile_network(self.network.layout, "lumped"), self.params, self.static_rise)
+        return HydraulicSystem(nw.compile_network(self.network.layout, "lumped"), self.params, self.static_rise, self.static_pressure)

@@ -101,6 +101,24 @@ def accumulator_stiffness(v_gas: Any, p_abs: Any, gamma: Any) -> Any:
     return gamma * p_abs / v_gas
 
 
+def gas_pressure_at_temperature(p_abs: Any, temperature_ratio: Any) -> Any:
+    """[Pa] Absolute pressure of a gas held at constant volume when its temperature changes
+    by the ratio ``T / T_ref`` (ideal gas: ``p V = m R T``)."""
+    return p_abs * temperature_ratio
+
+
+def isothermal_gas_volume(p_abs: Any, content: Any) -> Any:
+    """[m^3] Volume of a gas of ``content = p V`` [Pa m^3] (``m R T`` at its temperature) at
+    absolute pressure ``p_abs`` [Pa]: the static law, the gas at the oil's temperature."""
+    return content / p_abs
+
+
+def charge_pressure(p0_abs: Any, gas_fraction: Any) -> Any:
+    """[Pa] Absolute pressure of a circuit charged until its accumulator's gas, precharged
+    to ``p0_abs`` at the full volume, fills ``gas_fraction`` of it (slow charging: isothermal)."""
+    return p0_abs / gas_fraction
+
+
 # --- oil volumes -------------------------------------------------------------------------------
 def oil_compliance(volume: Any, beta: Any) -> Any:
     """[m^3/Pa] Compressibility ``V / beta`` of an oil volume ``V`` [m^3], bulk modulus [Pa]."""
@@ -122,6 +140,17 @@ def valve_pressure_drop(q: Any, r: Any, kq: Any = 0.0) -> Any:
         discharge coefficient ``C_d`` has ``K_q = rho / (2 C_d^2 A_o^2)``
     """
     return r * q + kq * q * bk.fabs(q)
+
+
+def viscous_resistance(r: Any, laminar_fraction: Any, viscosity_ratio: Any, density_ratio: Any) -> Any:
+    """[Pa s m^-3] A valve's linear coefficient ``R`` (given at the reference temperature) at
+    another temperature: its laminar part follows the viscosity, its orifice part the density
+    (a turbulent orifice's drop is ``rho q^2 / (2 C_d^2 A^2)``, viscosity-free):
+
+        R(T) = R [f mu(T) / mu_ref + (1 - f) rho(T) / rho_ref]
+
+    with ``f`` = ``laminar_fraction``."""
+    return r * (laminar_fraction * viscosity_ratio + (1.0 - laminar_fraction) * density_ratio)
 
 
 def valve_tangent_resistance(q: Any, r: Any, kq: Any = 0.0) -> Any:

@@ -231,19 +231,29 @@ class ElementValues:
     orifice: dict[int, tuple[Any, Any]] = field(default_factory=dict)
 
 
-def element_values(network: Network, params: Mapping[str, Any], static_rise: Any = None) -> ElementValues:
+def element_values(network: Network, params: Mapping[str, Any], static_rise: Any = None, static_pressure: Any = None) -> ElementValues:
     """Apply the constitutive laws to every element (see :class:`ElementValues`).
 
     ``params`` maps every name the layout refers to, and ``rho``, ``mu``, ``beta``, to a value
     (float, numpy array of batch shape ``B`` or CasADi expression). An accumulator is
-    linearised about its precharge: gas volume ``V0`` at absolute pressure ``p0 + p_atm``.
+    linearised about its precharge: gas volume ``V0`` at absolute pressure ``p0 + p_atm``
+    times the optional ``gas_temperature_ratio`` ``T / T_ref`` of ``params`` (the precharge
+    is given at the reference temperature; the gas fills the accumulator at any temperature:
+    the paper's idealisation). ``static_pressure`` [Pa] (a charged HIS,
+    :mod:`hisopt.coupled.charge`): the absolute static pressure of each circuit; each
+    accumulator is then linearised there, its gas ``p0_abs V0 T / T_ref`` at the oil's
+    temperature filling ``V = p0_abs V0 (T / T_ref) / p`` (:func:`hisopt.hydraulics.laws.isothermal_gas_volume`).
+    Valves follow the fluid's temperature through ``params``' optional ``viscosity_ratio``,
+    ``density_ratio`` and ``valve_laminar_fraction`` (:func:`hisopt.hydraulics.laws.viscous_resistance`;
+    absent: 1, 1 and 1, the reference temperature).
 
-    ``static_rise`` [Pa]: the static pressure rise of each circuit above its precharge (a
+    ``static_rise`` [Pa]: the static pressure rise of each circuit above that point (a
     payload's, :func:`hisopt.coupled.payload.static_pressure_rise`), numpy ``B + (n_circuits,)`` or a
     CasADi column; each accumulator is then linearised at its laden point, gas volume
-    ``V0 - dV(dp)`` at ``p_abs0 + dp`` (docs/model.md §13). ``None``: the precharge itself.
+    ``V0 - dV(dp)`` at ``p_abs0 + dp`` (docs/model.md §13). ``None``: the point itself.
     """
     rho, mu, beta = (resolve(name, params) for name in FLUID_PARAMETERS)
+    thermal = (params.get("valve_laminar_fraction", 1.0), params.get("viscosity_ratio", 1.0), params.get("density_ratio", 1.0))
     out = ElementValues({}, {}, {}, {}, {}, {}, {})
     for k, (c, e) in enumerate(network.elements):
         where = f" (circuit {network.layout.circuits[c].name!r})"
@@ -251,6 +261,10 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
             v0 = resolve(e.volume, params, where)
             p_abs = laws.absolute_pressure(resolve(e.precharge, params, where))
             gamma = resolve(e.gamma, params, where)
+            p_abs = laws.gas_pressure_at_temperature(p_abs, params.get("gas_temperature_ratio", 1.0))
+            if static_pressure is not None:
+                p_static = circuit_entry(static_pressure, c)
+                v0, p_abs = laws.isothermal_gas_volume(p_static, v0 * p_abs), p_static
             if static_rise is not None:
                 dp = circuit_entry(static_rise, c)
                 v0, p_abs = v0 - laws.gas_volume(dp, v0, p_abs, gamma), p_abs + dp
@@ -260,10 +274,11 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
             out.shunt[k] = laws.oil_compliance(resolve(e.volume, params, where), beta)
         elif isinstance(e, Orifice):
             r, kq = resolve(e.resistance, params, where), resolve(e.kq, params, where)
+            r, kq = laws.viscous_resistance(r, 1.0, thermal[1], thermal[2]), laws.viscous_resistance(kq, 0.0, thermal[1], thermal[2])
             out.orifice[k] = (r, kq)
             out.resistance[k] = laws.orifice_equivalent_resistance(r, kq, resolve(e.flow_rms, params, where))
         elif isinstance(e, Valve):
-            out.resistance[k] = resolve(e.resistance, params, where)
+            out.resistance[k] = laws.viscous_resistance(resolve(e.resistance, params, where), *thermal)
         else:
             length = resolve(e.length, params, where)
             d = resolve(e.diameter, params, where)

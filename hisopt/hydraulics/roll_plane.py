@@ -14,8 +14,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from hisopt.hydraulics.charge import REFERENCE_TEMPERATURE, Charge
 from hisopt.hydraulics.coupling import HydraulicSystem
-from hisopt.hydraulics.fluid import Fluid
+from hisopt.hydraulics.fluid import Fluid, Oil, thermal_ratios
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
 from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
@@ -59,7 +60,12 @@ class RollPlaneHIS(BaseModel):
     V0: float = Field(1.0e-3, gt=0, description="accumulator gas volume at precharge", json_schema_extra=si("m^3"))
     gamma: float = Field(1.4, ge=GAMMA_RANGE[0], le=GAMMA_RANGE[1], description="polytropic exponent of the gas (1 to 2)", json_schema_extra=si("-"))
     chamber_volume: float = Field(0.0, ge=0, description="oil volume per chamber (0: off)", json_schema_extra=si("m^3"))
+    valve_laminar_fraction: float = Field(
+        1.0, ge=0, le=1, description="laminar share of the valves' coefficient at the reference temperature (the rest is orifice)", json_schema_extra=si("-")
+    )
     fluid: Fluid = Field(default_factory=Fluid)
+    oil: Oil = Field(default_factory=Oil)
+    charge: Charge | None = None
     pipes: PipeLayout | None = None
     pipe_model: PipeModel = "lumped"
     layout: str = Field("roll_plane", min_length=1, description="[-] catalogue layout (hisopt layouts) or 'custom'")
@@ -107,12 +113,36 @@ def roll_plane_layout(pipes: bool = False, chamber: bool = False) -> Layout:
     return Layout(tuple(circuits), "roll_plane")
 
 
-def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | None = None) -> dict[str, Any]:
+def reference_temperature(base: RollPlaneHIS) -> float:
+    """[K] The temperature ``[his]`` values are given at: the charge's, else 20 C."""
+    return base.charge.temperature if base.charge is not None else REFERENCE_TEMPERATURE
+
+
+def thermal_parameters(base: RollPlaneHIS, temperature: float | None) -> dict[str, float]:
+    """[-] What the temperature changes, as parameters of :func:`hisopt.hydraulics.network.element_values`
+    and :mod:`hisopt.coupled.operating_point`: the gas's temperature ratio ``T / T_ref`` and
+    the oil's density, viscosity and volume ratios (:func:`hisopt.hydraulics.fluid.thermal_ratios`),
+    the valves' laminar share; at the reference temperature every ratio is 1 exactly."""
+    reference = reference_temperature(base)
+    at = reference if temperature is None else temperature
+    ratios = thermal_ratios(base.oil, at, reference)
+    gas = 1.0 if at == reference else at / reference
+    return {
+        "gas_temperature_ratio": gas,
+        "viscosity_ratio": ratios.viscosity,
+        "density_ratio": ratios.density,
+        "oil_volume_ratio": ratios.volume,
+    }
+
+
+def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | None = None, temperature: float | None = None) -> dict[str, Any]:
     """Every parameter the roll-plane layout and the cylinders read, for a batch of designs.
 
     ``[his]`` values of ``base`` with ``overrides`` (design variables: arrays of one batch
     shape ``B``, or CasADi expressions); rear-axle ``dA``, ``lam``, ``Rv`` follow the front ones
-    unless given; the pipe set and the fluid are spelt out (``pipe_*``, ``rho``, ``mu``, ``beta``).
+    unless given; the pipe set and the fluid at ``temperature`` [K] (None: the reference
+    temperature) are spelt out (``pipe_*``, ``rho``, ``mu``, ``beta``), with the
+    :func:`thermal_parameters` and, for a charged HIS, its ``gas_fraction``.
     """
     values: dict[str, Any] = {
         k: getattr(base, k) for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)
@@ -127,7 +157,11 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
             "pipe_length_front": base.pipes.length_front,
             "pipe_length_rear": base.pipes.length_rear,
         }
-    values |= {"rho": base.fluid.rho, "mu": base.fluid.mu, "beta": base.fluid.beta}
+    thermal = thermal_parameters(base, temperature)
+    values |= thermal
+    values |= {"rho": base.fluid.rho * thermal["density_ratio"], "mu": base.fluid.mu * thermal["viscosity_ratio"], "beta": base.fluid.beta}
+    if base.charge is not None:
+        values["gas_fraction"] = base.charge.gas_fraction
     return {k: (np.asarray(v, dtype=float) if isinstance(v, (list, np.ndarray)) else v) for k, v in values.items()}
 
 

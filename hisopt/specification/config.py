@@ -122,7 +122,8 @@ class Constraint(_Strict):
 
 
 class Scenario(_Strict):
-    """A load case: a road at a speed, an optional payload, and its weight (docs/model.md §14).
+    """A load case: a road at a speed, an optional payload and temperature, and its weight
+    (docs/model.md §14, §16).
 
     ``road`` defaults to the problem's ``[road]``; the weight is relative (normalised over the
     problem's scenarios) and enters ``expected`` and ``cvar`` aggregation.
@@ -131,6 +132,7 @@ class Scenario(_Strict):
     name: str = Field(min_length=1, max_length=40)
     road: Road | None = None
     payload: Payload | None = None
+    temperature: float | None = Field(None, description="oil and gas temperature (default: the problem's)", json_schema_extra=si("K"))
     weight: float = Field(1.0, gt=0, json_schema_extra=si("-"))
 
     @field_validator("name")
@@ -208,6 +210,9 @@ class ProblemSpec(_Strict):
     constraints: list[Constraint] = Field(default_factory=list)
     optimizer: Optimizer = Field(default_factory=Optimizer)
     payload: Payload | None = None
+    temperature: float | None = Field(
+        None, description="oil and gas temperature of every load case that names none (None: the reference temperature)", json_schema_extra=si("K")
+    )
     scenarios: list[Scenario] = Field(default_factory=list)
     robust: Robust = Field(default_factory=Robust)
 
@@ -248,6 +253,10 @@ class ProblemSpec(_Strict):
             problem = None if sc.payload is None else laden_problem(self.vehicle, sc.payload)
             if problem:
                 raise ValueError(f"scenario {sc.name!r}: {problem}")
+        for key, temperature in self.temperatures():
+            problem = self.his.oil.temperature_problem(temperature)
+            if problem:
+                raise ValueError(f"{key}: {problem}")
         for c in self.constraints:
             unknown = [n for n in c.scenarios or [] if n not in names]
             if unknown:
@@ -264,6 +273,12 @@ class ProblemSpec(_Strict):
             raise ValueError("robust: [robust] combines the results of [[scenarios]] and this problem has none; "
                              "expected at least one [[scenarios]] table, or no [robust] table")
         return self
+
+    def temperatures(self) -> list[tuple[str, float]]:
+        """[K] Every operating temperature the problem names, by key (the problem's, then each
+        scenario's)."""
+        out = [("temperature", self.temperature)] if self.temperature is not None else []
+        return out + [(f"scenarios.{i}.temperature", sc.temperature) for i, sc in enumerate(self.scenarios) if sc.temperature is not None]
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:

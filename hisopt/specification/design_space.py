@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Self
 import numpy as np
 
 from hisopt.coupled.model import CoupledModel
+from hisopt.coupled.operating_point import charged_static_pressure
 from hisopt.coupled.payload import laden_vehicle, static_pressure_rise
 from hisopt.errors import ConfigError
 from hisopt.hydraulics.catalogue import his_layout, his_parameter_values, layout_defaults
@@ -129,7 +130,14 @@ class DesignSpace:
             sc = next(s for s in self.spec.scenarios if s.name == name)
             quantities = list(dict.fromkeys(self.spec.objectives + [c.name for c in self.spec.constraints]))
             spec = self.spec.model_copy(
-                update={"road": sc.road or self.spec.road, "payload": sc.payload, "scenarios": [], "objectives": quantities, "constraints": []}
+                update={
+                    "road": sc.road or self.spec.road,
+                    "payload": sc.payload,
+                    "temperature": sc.temperature if sc.temperature is not None else self.spec.temperature,
+                    "scenarios": [],
+                    "objectives": quantities,
+                    "constraints": [],
+                }
             )
             self._cache[key] = type(self)(spec, self.path)
         return self._cache[key]
@@ -204,10 +212,15 @@ class DesignSpace:
     def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
         """The HIS with design variables set from ``overrides`` (numpy arrays of one batch
         shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values.
-        With a ``[payload]`` the accumulators are linearised at the laden static pressures
-        (:func:`hisopt.coupled.payload.static_pressure_rise`)."""
-        his = HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides))
+        The fluid and the gas are at the problem's ``temperature``. With a ``[payload]`` the
+        accumulators are linearised at the laden static pressures
+        (:func:`hisopt.coupled.payload.static_pressure_rise`); a charged HIS (``[his.charge]``)
+        at its static pressures at that temperature and payload
+        (:func:`hisopt.coupled.operating_point.charged_static_pressure`)."""
+        his = HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides, self.spec.temperature))
         payload = self.spec.payload
+        if self.spec.his.charge is not None:
+            return HydraulicSystem(his.network, his.params, static_pressure=charged_static_pressure(self.spec.vehicle, payload, his))
         if payload is None or not payload.active:
             return his
         return HydraulicSystem(his.network, his.params, static_pressure_rise(self.spec.vehicle, payload, his))
