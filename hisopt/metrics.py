@@ -39,6 +39,12 @@ METRICS: dict[str, Metric] = {
         Metric("rms_stroke", "rms", "stroke_fl", "m", "RMS FL suspension stroke over the band"),
         Metric("rms_tire_load", "rms", "tire_load_fl", "N", "RMS FL dynamic tyre load over the band"),
         Metric("roll_gradient", "static", None, "rad/g", "static roll angle per 1 g lateral acceleration"),
+        Metric(
+            "static_gas_fraction", "static", None, "-", "largest static gas share V/V0 of any accumulator (1: no oil in it; a constraint only)", objective=False
+        ),
+        Metric(
+            "static_pressure_ratio", "static", None, "-", "largest static accumulator pressure over precharge (absolute; a constraint only)", objective=False
+        ),
         Metric("roll_step_peak", "transient", None, "rad", "largest roll angle after a lateral-acceleration step of [handling] step_g"),
         Metric("roll_step_overshoot", "transient", None, "-", "roll step peak over its steady state, minus 1"),
         Metric("roll_rate_peak", "transient", None, "rad/s", "largest roll rate after a lateral-acceleration step of [handling] step_g"),

@@ -22,7 +22,7 @@ from hisopt.errors import ConfigError
 from hisopt.hydraulics.fluid import Oil, expanded_density, thermal_ratios
 from hisopt.problem import problem_from_dict
 from tests.cli_inprocess import run_cli
-from tests.conftest import DEFAULT_PROBLEM
+from tests.conftest import DEFAULT_PROBLEM, ROOT, random_designs
 
 T20, T_COLD, T_HOT = 293.15, 253.15, 333.15
 
@@ -212,3 +212,67 @@ def test_an_extrapolated_viscosity_warns_and_a_scenario_temperature_is_its_own_m
         assert out[f"{name}@winter"][0] == pytest.approx(winter.evaluator()(p.baseline[None, :])[name][0], rel=1e-12)
         assert out[f"{name}@summer"][0] == pytest.approx(summer.evaluator()(p.baseline[None, :])[name][0], rel=1e-12)
         assert out[f"{name}@winter"][0] != out[f"{name}@summer"][0]
+
+
+# --- the accumulator quantities -----------------------------------------------------------------
+ACCUMULATOR_QUANTITIES = ["sigma_aw", "static_gas_fraction", "static_pressure_ratio"]
+
+
+def with_quantities(p: hisopt.Problem) -> hisopt.Problem:
+    data = p.spec.model_dump(by_alias=True)
+    data["objectives"] = ["sigma_aw"]
+    data["constraints"] = [{"name": "static_gas_fraction", "limit": 0.9}, {"name": "static_pressure_ratio", "limit": 4.0}]
+    return problem_from_dict(data, warn_implausible=False)
+
+
+def test_the_idealisation_holds_no_oil_and_a_payload_compresses_its_gas_by_hand(rng):
+    """Ideal, unladen: ``V = V0`` at ``p0`` exactly. Laden: ``V / V0 = (p0 / (p0 + dp))^(1/gamma)``."""
+    ideal = with_quantities(problem_at())
+    x = random_designs(ideal, 5, rng)
+    out = ideal.evaluate(x)
+    assert np.all(out["static_gas_fraction"] == 1.0) and np.all(out["static_pressure_ratio"] == 1.0)
+    laden = with_quantities(problem_at(None, None, {"mass": 400.0, "x": -0.5}))
+    dp = laden.model(x).his.static_rise  # (n, 2)
+    p_abs0 = x[:, :1] + P_ATM_PA
+    out = laden.evaluate(x)
+    np.testing.assert_allclose(out["static_gas_fraction"], np.max((p_abs0 / (p_abs0 + dp)) ** (1 / 1.4), axis=1), rtol=1e-14)
+    np.testing.assert_allclose(out["static_pressure_ratio"], np.max((p_abs0 + dp) / p_abs0, axis=1), rtol=1e-14)
+
+
+def test_a_charged_accumulator_at_its_charge_holds_the_gas_fraction_it_was_charged_to(rng):
+    charged = with_quantities(problem_at(None, {"gas_fraction": 0.65}, chamber_volume=2e-4))
+    x = random_designs(charged, 6, rng)
+    x = x[x[:, 0] > 0]  # p0 = 0 has its own plausibility warning, not this test's subject
+    out = charged.evaluate(x)
+    np.testing.assert_allclose(out["static_gas_fraction"], 0.65, rtol=1e-14)
+    np.testing.assert_allclose(out["static_pressure_ratio"], 1 / 0.65, rtol=1e-14)
+
+
+def test_numpy_and_casadi_give_the_same_accumulator_quantities(rng):
+    import casadi as ca
+
+    from hisopt.optim.gradient.casadi_model import CasadiModel
+
+    p = with_quantities(problem_at(T_COLD, {"gas_fraction": 0.7}, {"mass": 300.0, "x": -0.4, "y": 0.2}, chamber_volume=2e-4))
+    model = CasadiModel(p, compile=False)
+    x_sym = ca.MX.sym("x", len(p.variable_names))
+    values = model.accumulators(x_sym)
+    fn = ca.Function("acc", [x_sym], [values["static_gas_fraction"], values["static_pressure_ratio"]])
+    x = random_designs(p, 4, rng, corners=False)
+    numeric = p.evaluator()(x)
+    for i, xi in enumerate(x):
+        fraction, ratio = (float(v) for v in fn(xi))
+        assert fraction == pytest.approx(numeric["static_gas_fraction"][i], rel=1e-12)
+        assert ratio == pytest.approx(numeric["static_pressure_ratio"][i], rel=1e-12)
+    assert np.all(np.abs(numeric["static_gas_fraction"] - 0.7) > 1e-3)  # away from the charge: a real test
+
+
+def test_a_gas_fraction_limit_holds_in_every_load_case_of_the_envelope_problem():
+    with pytest.warns(hisopt.PlausibilityWarning, match="extrapolated"):
+        p = with_quantities(hisopt.load_problem(ROOT / "problems" / "roll_plane_his_envelope.toml"))
+    x = np.vstack([p.baseline, [1.0e6, 3e-4, 0.3, 8e5]])
+    out = p.evaluate(x)
+    columns = [f"static_gas_fraction@{s}" for s in p.scenario_names]
+    np.testing.assert_array_equal(out["static_gas_fraction"], out[columns].max(axis=1))
+    within = (out["static_gas_fraction"] <= 0.9) & (out["static_pressure_ratio"] <= 4.0)
+    assert not np.any(out["feasible"] & ~within)  # feasible only within both limits in every case

@@ -155,3 +155,37 @@ def static_displacement(vehicle: VehicleParams, payload: Payload | None, his: Hy
     else:
         dp = np.zeros(his.batch_shape + (his.network.n_circuits,))
     return static_deflection(vehicle, payload or Payload(), his, dp)
+
+
+STATIC_ACCUMULATOR_QUANTITIES = ("static_gas_fraction", "static_pressure_ratio")
+"""The accumulator quantities of a static operating point (:func:`accumulator_quantities`)."""
+
+
+def accumulator_quantities(his: HydraulicSystem) -> dict[str, Any]:
+    """[-] The accumulators at the static operating point ``his`` is linearised at, for numpy
+    batches and CasADi alike (docs/model.md §16.8):
+
+    - ``static_gas_fraction``: the largest gas share ``V / V0`` of any accumulator (1: it
+      holds no oil, as the paper's idealisation always has it; a charged accumulator near 1
+      runs dry as soon as the oil contracts or the struts extend);
+    - ``static_pressure_ratio``: the largest ``p / p0`` of any accumulator, absolute, ``p0``
+      at the temperature (an accumulator is rated for a largest ratio: about 4 for a
+      bladder, 8 for a diaphragm).
+    """
+    params, net = his.params, his.network
+    tau = params.get("gas_temperature_ratio", 1.0)
+    fraction: Any = None
+    ratio: Any = None
+    for k, (_, e) in enumerate(net.elements):
+        if not isinstance(e, Accumulator):
+            continue
+        v, p_abs, _ = his.values.gas[k]
+        precharge = laws.gas_pressure_at_temperature(laws.absolute_pressure(resolve(e.precharge, params)), tau)
+        f, r = v / resolve(e.volume, params), p_abs / precharge
+        fraction = f if fraction is None else bk.fmax(fraction, f)
+        ratio = r if ratio is None else bk.fmax(ratio, r)
+    if fraction is None:  # a layout without accumulators: nothing to run dry
+        fraction = ratio = np.full(his.batch_shape, np.nan)
+    if not bk.is_casadi(fraction) and not bk.is_casadi(ratio):  # one value per design, though V0 and p0 be fixed
+        fraction, ratio = (np.broadcast_to(np.asarray(v, dtype=float), his.batch_shape) for v in (fraction, ratio))
+    return {"static_gas_fraction": fraction, "static_pressure_ratio": ratio}

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.coupled.operating_point import accumulator_quantities
 from hisopt.coupled.response import Output, standard_outputs
 from hisopt.errors import ModelError
 from hisopt.evaluation import psd as psd_kernels
@@ -400,7 +401,7 @@ class Evaluator:
             lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
             integral,
             lambda output: maxima[output],
-            lambda name: roll_gradient(model),
+            lambda name: roll_gradient(model) if name == "roll_gradient" else accumulator_quantities(model.his)[name],
             steps.__getitem__,
         )
 

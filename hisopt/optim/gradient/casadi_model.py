@@ -42,6 +42,7 @@ import casadi as ca
 import numpy as np
 
 from hisopt.coupled.model import coupled_stiffness
+from hisopt.coupled.operating_point import accumulator_quantities
 from hisopt.evaluation.psd import channel_power, comfort_gain_squared, reduce_metrics, roll_gradient
 from hisopt.hydraulics import backend as bk
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
@@ -335,6 +336,11 @@ class CasadiModel:
         k_his = self.problem.hydraulic_system(params).static_stiffness()
         return roll_gradient(coupled_stiffness(stiffness_matrix(veh), veh, k_his), veh)
 
+    def accumulators(self, x: ca.MX) -> dict[str, ca.MX]:
+        """[-] The accumulators' static quantities (:func:`hisopt.coupled.operating_point.accumulator_quantities`)."""
+        params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
+        return accumulator_quantities(self.problem.hydraulic_system(params))
+
     def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool, transient: Any = None) -> dict[str, ca.MX]:
         def integral(output: str, weighting: str | None) -> ca.MX:
             weights = fs.weight_hz if weighting is None else fs.comfort_weight[output]
@@ -350,7 +356,7 @@ class CasadiModel:
             lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
             integral,
             maximum,
-            lambda name: self.roll_gradient(x),
+            lambda name: self.roll_gradient(x) if name == "roll_gradient" else self.accumulators(x)[name],
             transient,
         )
 
