@@ -401,7 +401,7 @@ class Evaluator:
             lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
             integral,
             lambda output: maxima[output],
-            lambda name: roll_gradient(model) if name == "roll_gradient" else accumulator_quantities(model.his)[name],
+            lambda name: static_quantity(model, name),
             steps.__getitem__,
         )
 
@@ -559,6 +559,16 @@ def poles(model: CoupledModel) -> np.ndarray:
     the evaluator computes them (with eigenvectors: the same LAPACK path), so nodes placed
     from them are the evaluator's own."""
     return np.linalg.eig(model.state_space().a)[0]
+
+
+def static_quantity(model: CoupledModel, name: str) -> np.ndarray:
+    """A ``static`` metric of a batch of models with HIS: :func:`roll_gradient` or one of
+    :func:`hisopt.coupled.operating_point.accumulator_quantities`."""
+    if name == "roll_gradient":
+        return roll_gradient(model)
+    if model.his is None:
+        raise ValueError(f"{name}: a model without HIS has no accumulators")
+    return np.asarray(accumulator_quantities(model.his)[name])
 
 
 def roll_gradient(model: CoupledModel) -> np.ndarray:
