@@ -93,3 +93,16 @@ def test_the_cli_names_the_ideal_model_and_takes_a_runs_knee(tmp_path):
     assert "paper's idealisation" in result.stdout
     missing = run_cli("envelope", str(DEFAULT_PROBLEM), "--knee", str(tmp_path))
     assert missing.code == 2 and len(missing.error_lines) == 1 and "front.csv: missing" in missing.stderr
+
+
+def test_the_report_shows_the_knee_against_temperature_only_where_temperature_matters(tmp_path):
+    from hisopt.report.html import build_report
+
+    run = tmp_path / "run"
+    assert run_cli("optimize", str(ENVELOPE), "--out", str(run), "--pop", "8", "--gens", "2").code == 0
+    page = build_report(run).read_text()
+    assert "Operating envelope of the knee design" in page and "charged model" in page
+    assert "[degC]" in page  # the table's temperatures
+    plain = tmp_path / "plain"
+    assert run_cli("optimize", str(DEFAULT_PROBLEM), "--out", str(plain), "--pop", "8", "--gens", "2").code == 0
+    assert "Operating envelope" not in build_report(plain).read_text()

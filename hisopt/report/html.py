@@ -181,6 +181,24 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
 
 
 # --- the report --------------------------------------------------------------------------------
+def envelope_sections(problem: Any, x: np.ndarray, label: str) -> list[tuple[str, Any]]:
+    """The design at every temperature and load (docs/model.md §16.7): a figure against
+    temperature and the table."""
+    from hisopt.plotting.envelope import envelope_figure
+    from hisopt.studies.envelope import envelope_table, shown_envelope
+
+    table = envelope_table(problem, x[None, :])
+    model = table["model"].iloc[0]
+    road = problem.spec.road
+    charge = "charged above the precharge, [his.charge]" if model == "charged" else "the paper's idealisation: accumulators at their precharge"
+    about = f"{model} model ({charge}); ride and handling on the [road], class {road.road_class} at {format_quantity(road.speed, 'm/s')}"
+    return [
+        (f"Operating envelope of the {label} design", envelope_figure(table, table.attrs["units"], f"{problem.name}: {about}")),
+        (f"Operating envelope of the {label} design: the table",
+         html_table(display_frame(shown_envelope(table)), f"Every temperature and load of the problem; {about}")),
+    ]
+
+
 def build_report(run_dir: str | Path, color_by: str | None = None, design: str = "knee") -> Path:
     """Write ``RUN_DIR/report.html`` and return its path.
 
@@ -279,6 +297,8 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
                                                      if spec.robust.aggregate == "per_scenario"
                                                      else f"objectives aggregated as {spec.robust.aggregate}"),
                                                   text_columns=("quantity [unit]",))))
+    if spec.his.charge is not None or spec.temperatures():
+        sections += envelope_sections(problem, x, chosen_label)
     if run["generations"] is not None:
         sections.insert(2, ("Convergence", figures.convergence(run["generations"], len(objectives))))
     sections.append(("Run settings and timings",
