@@ -118,7 +118,7 @@ def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.
 
     values = reduce_metrics(
         ev.metrics, spec.comfort, lambda n: ev.outputs[n].weighting, integral,
-        lambda output: float(psd[:, ev.output_index[output]].max()), lambda name: float(hisopt.evaluation.evaluate.roll_gradient(model)[0]),
+        lambda output: float(psd[:, ev.output_index[output]].max()), lambda name: float(hisopt.evaluation.evaluate.static_quantity(model, name)[0]),
     )
     return {k: float(np.squeeze(v)) for k, v in values.items()}
 

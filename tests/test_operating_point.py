@@ -276,3 +276,13 @@ def test_a_gas_fraction_limit_holds_in_every_load_case_of_the_envelope_problem()
     np.testing.assert_array_equal(out["static_gas_fraction"], out[columns].max(axis=1))
     within = (out["static_gas_fraction"] <= 0.9) & (out["static_pressure_ratio"] <= 4.0)
     assert not np.any(out["feasible"] & ~within)  # feasible only within both limits in every case
+
+
+@pytest.mark.parametrize("temperature", [T_COLD, T_HOT])
+def test_oil_without_an_element_weighs_in_the_static_balance_as_chamber_oil_does(temperature, rng):
+    """``[his.charge] oil_volume`` is the circuit's chamber oil for the statics (4 chambers of
+    0.25 L = 1 L per circuit), without the chambers' stiff compliances in the dynamics."""
+    with_chambers = problem_at(temperature, {"gas_fraction": 0.7}, chamber_volume=2.5e-4)
+    with_volume = problem_at(temperature, {"gas_fraction": 0.7, "oil_volume": 1e-3})
+    x = random_designs(with_volume, 4, rng, corners=False)
+    np.testing.assert_allclose(with_volume.model(x).his.static_pressure, with_chambers.model(x).his.static_pressure, rtol=1e-13)

@@ -4,7 +4,8 @@ Reference state: the unladen car at its design position (``X = 0``) at the charg
 temperature ``T_c``, each circuit charged to ``p_c = max_k p0_abs,k / phi``
 (:func:`hisopt.hydraulics.laws.charge_pressure`, ``phi`` the gas fraction at charge), so
 accumulator ``k`` holds gas ``V_c,k = p0_abs,k V0_k / p_c`` and the circuit oil
-``V_oil = V_lines + sum_k (V0_k - V_c,k)`` (chambers and pipes: ``V_lines``).
+``V_oil = V_lines + sum_k (V0_k - V_c,k)`` (chambers, pipes and ``[his.charge] oil_volume``:
+``V_lines``).
 
 At temperature ``T`` (``tau = T / T_c``) under a payload the circuits sit at ``p_c + dp``
 with the car at ``X``. The oil mass is fixed: its volume is ``V_oil e (1 - dp / beta)`` with
@@ -48,7 +49,7 @@ def circuit_charges(his: HydraulicSystem) -> list[CircuitCharge]:
     and gas contents, from ``his.params``' ``gas_fraction`` and the layout's elements."""
     net, params = his.network, his.params
     beta = resolve("beta", params)
-    lines: list[Any] = [0.0] * net.n_circuits
+    lines: list[Any] = [params.get("charge_oil_volume", 0.0)] * net.n_circuits  # oil no element models
     gas: list[list[tuple[Any, Any]]] = [[] for _ in range(net.n_circuits)]
     values = his.values
     for k, (c, e) in enumerate(net.elements):

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hisopt.evaluation.channels import DirectOutputs
-from hisopt.evaluation.evaluate import Evaluator, roll_gradient
+from hisopt.evaluation.evaluate import Evaluator, static_quantity
 from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
 from hisopt.evaluation.transient import transient_quantities
 
@@ -44,7 +44,7 @@ def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, 
         lambda name: ev.outputs[name].weighting,  # type: ignore[arg-type,return-value]
         integral,
         lambda output: spectra[output].max(axis=1),
-        lambda name: roll_gradient(model),
+        lambda name: static_quantity(model, name),
         transient.__getitem__,
     )
 

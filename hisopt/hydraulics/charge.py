@@ -29,12 +29,18 @@ class Charge(BaseModel):
     below some designs' precharge). Charging is slow, so the gas stays at the charge
     temperature: the circuit's absolute pressure is then ``p0_abs / gas_fraction``. A
     circuit with several accumulators is charged until the one of highest precharge holds
-    that fraction. ``gas_fraction -> 1`` is the paper's idealisation.
+    that fraction. ``gas_fraction -> 1`` is the paper's idealisation. ``oil_volume`` is oil the
+    static balance counts (it expands with temperature) but the dynamic model does not: the
+    compliance ``V / beta`` of a cylinder's oil is a thousandth of an accumulator's, and
+    chamber elements of it make the state matrix stiff for nothing.
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     gas_fraction: float = Field(gt=0, lt=1, description="gas volume over accumulator volume at charge, unladen", json_schema_extra=si("-"))
+    oil_volume: float = Field(
+        0.0, ge=0, description="oil per circuit in cylinders and lines that no chamber or pipe element models", json_schema_extra=si("m^3")
+    )
     temperature: float = Field(
         REFERENCE_TEMPERATURE, gt=0, description="charge temperature: the precharge and the fluid's values are given at it", json_schema_extra=si("K")
     )

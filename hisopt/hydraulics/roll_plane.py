@@ -162,6 +162,7 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
     values |= {"rho": base.fluid.rho * thermal["density_ratio"], "mu": base.fluid.mu * thermal["viscosity_ratio"], "beta": base.fluid.beta}
     if base.charge is not None:
         values["gas_fraction"] = base.charge.gas_fraction
+        values["charge_oil_volume"] = base.charge.oil_volume
     return {k: (np.asarray(v, dtype=float) if isinstance(v, (list, np.ndarray)) else v) for k, v in values.items()}
 
 
