@@ -121,8 +121,8 @@ def reference_temperature(base: RollPlaneHIS) -> float:
 def thermal_parameters(base: RollPlaneHIS, temperature: float | None) -> dict[str, float]:
     """[-] What the temperature changes, as parameters of :func:`hisopt.hydraulics.network.element_values`
     and :mod:`hisopt.coupled.operating_point`: the gas's temperature ratio ``T / T_ref`` and
-    the oil's density, viscosity and volume ratios (:func:`hisopt.hydraulics.fluid.thermal_ratios`),
-    the valves' laminar share; at the reference temperature every ratio is 1 exactly."""
+    the oil's density, viscosity and volume ratios (:func:`hisopt.hydraulics.fluid.thermal_ratios`);
+    at the reference temperature every ratio is 1 exactly."""
     reference = reference_temperature(base)
     at = reference if temperature is None else temperature
     ratios = thermal_ratios(base.oil, at, reference)
@@ -142,7 +142,8 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
     shape ``B``, or CasADi expressions); rear-axle ``dA``, ``lam``, ``Rv`` follow the front ones
     unless given; the pipe set and the fluid at ``temperature`` [K] (None: the reference
     temperature) are spelt out (``pipe_*``, ``rho``, ``mu``, ``beta``), with the
-    :func:`thermal_parameters` and, for a charged HIS, its ``gas_fraction``.
+    :func:`thermal_parameters` and, for a charged HIS, its ``gas_fraction`` and
+    ``charge_oil_volume``.
     """
     values: dict[str, Any] = {
         k: getattr(base, k) for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)
