@@ -127,19 +127,19 @@ def charged_static_pressure(vehicle: VehicleParams, payload: Payload | None, his
     return np.where(empty[..., None] | ~(pressure > 0.0), np.nan, pressure)
 
 
-def accumulator_state(his: HydraulicSystem, static_pressure: Any) -> dict[int, Any]:
+def accumulator_state(his: HydraulicSystem, static_pressure: np.ndarray) -> dict[int, np.ndarray]:
     """[-] Static gas volume over accumulator volume of every accumulator (by element index)
-    at the circuits' absolute ``static_pressure`` [Pa]: at 1 or above the accumulator holds
-    no oil (its gas would need more than its volume: the separator rests on its seat), and
-    the small-signal model there is not the system's."""
+    at the circuits' absolute ``static_pressure`` [Pa], numpy ``B + (n_circuits,)``: at 1 or
+    above the accumulator holds no oil (its gas would need more than its volume: the
+    separator rests on its seat), and the small-signal model there is not the system's."""
     net, params = his.network, his.params
     tau = params.get("gas_temperature_ratio", 1.0)
     out = {}
     for k, (c, e) in enumerate(net.elements):
         if isinstance(e, Accumulator):
             p0_abs = laws.absolute_pressure(resolve(e.precharge, params))
-            p = static_pressure[..., c] if not bk.is_casadi(static_pressure) else static_pressure[c]
-            out[k] = laws.isothermal_gas_volume(p, tau * p0_abs * resolve(e.volume, params)) / resolve(e.volume, params)
+            v0 = resolve(e.volume, params)
+            out[k] = laws.isothermal_gas_volume(static_pressure[..., c], tau * p0_abs * v0) / v0
     return out
 
 
@@ -156,10 +156,6 @@ def static_displacement(vehicle: VehicleParams, payload: Payload | None, his: Hy
     else:
         dp = np.zeros(his.batch_shape + (his.network.n_circuits,))
     return static_deflection(vehicle, payload or Payload(), his, dp)
-
-
-STATIC_ACCUMULATOR_QUANTITIES = ("static_gas_fraction", "static_pressure_ratio")
-"""The accumulator quantities of a static operating point (:func:`accumulator_quantities`)."""
 
 
 def accumulator_quantities(his: HydraulicSystem) -> dict[str, Any]:
