@@ -59,6 +59,7 @@ def atomic_write(path: str | Path, write: Callable[[str], None]) -> Path:
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically."""
+
     def write(tmp: str) -> None:
         Path(tmp).write_bytes(data)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-Kind = Literal["comfort", "max", "rms", "static", "transient"]
+Kind = Literal["comfort", "max", "rms", "static", "transient", "swing"]
 
 
 @dataclass(frozen=True)
@@ -45,13 +45,26 @@ METRICS: dict[str, Metric] = {
         Metric(
             "static_pressure_ratio", "static", None, "-", "largest static accumulator pressure over precharge (absolute; a constraint only)", objective=False
         ),
+        Metric(
+            "pressure_rating_usage",
+            "static",
+            None,
+            "-",
+            "static_pressure_ratio over the accumulators' pressure_rating (above 1: beyond the part's rating; a constraint only)",
+            objective=False,
+        ),
+        Metric(
+            "accumulator_swing",
+            "swing",
+            None,
+            "-",
+            "largest RMS road-induced swing of an accumulator's oil volume over the static oil (or gas) volume it can give (or take)",
+        ),
         Metric("roll_step_peak", "transient", None, "rad", "largest roll angle after a lateral-acceleration step of [handling] step_g"),
         Metric("roll_step_overshoot", "transient", None, "-", "roll step peak over its steady state, minus 1"),
         Metric("roll_rate_peak", "transient", None, "rad/s", "largest roll rate after a lateral-acceleration step of [handling] step_g"),
         Metric("roll_gain_peak", "transient", None, "rad/(m/s^2)", "largest roll angle per lateral acceleration over 0.1-4 Hz"),
-        Metric(
-            "roll_gain_peak_hz", "transient", None, "Hz", "frequency of roll_gain_peak (a constraint only: lower is not better)", objective=False
-        ),
+        Metric("roll_gain_peak_hz", "transient", None, "Hz", "frequency of roll_gain_peak (a constraint only: lower is not better)", objective=False),
     )
 }
 

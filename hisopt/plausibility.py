@@ -111,23 +111,31 @@ def payload_problem(vehicle: Any, payload: Any) -> str | None:
         return None
     front, rear = vehicle.l_f + vehicle.overhang_f, vehicle.l_r + vehicle.overhang_r
     if not -rear <= payload.x <= front:
-        return (f"payload.x: {payload.x:g} m from the CG is outside the body, which runs from {rear:g} m behind the CG "
-                f"(l_r + overhang_r) to {front:g} m ahead of it (l_f + overhang_f); expected {-rear:g} m <= x <= {front:g} m")
+        return (
+            f"payload.x: {payload.x:g} m from the CG is outside the body, which runs from {rear:g} m behind the CG "
+            f"(l_r + overhang_r) to {front:g} m ahead of it (l_f + overhang_f); expected {-rear:g} m <= x <= {front:g} m"
+        )
     side = vehicle.y_cg + payload.y
     if abs(side) > vehicle.body_half_width:
-        return (f"payload.y: {payload.y:g} m from the CG puts the payload {abs(side):g} m from the centre line, outside the "
-                f"body (body_half_width {vehicle.body_half_width:g} m); expected |y_cg + y| <= {vehicle.body_half_width:g} m")
+        return (
+            f"payload.y: {payload.y:g} m from the CG puts the payload {abs(side):g} m from the centre line, outside the "
+            f"body (body_half_width {vehicle.body_half_width:g} m); expected |y_cg + y| <= {vehicle.body_half_width:g} m"
+        )
     if payload.z < -vehicle.h_cg:
-        return (f"payload.z: {payload.z:g} m puts the payload's centre {-(vehicle.h_cg + payload.z):g} m under the road "
-                f"(the CG is h_cg = {vehicle.h_cg:g} m above it); expected z >= {-vehicle.h_cg:g} m")
+        return (
+            f"payload.z: {payload.z:g} m puts the payload's centre {-(vehicle.h_cg + payload.z):g} m under the road "
+            f"(the CG is h_cg = {vehicle.h_cg:g} m above it); expected z >= {-vehicle.h_cg:g} m"
+        )
     stiffness = sprung_vertical_stiffness(vehicle)
     if stiffness > 0:
         sag = payload.mass * G_MPS2 / stiffness
         if sag > vehicle.h_cg:
-            return (f"payload.mass: {payload.mass:g} kg would sag the body {sag:.3g} m on its springs and tyres "
-                    f"({stiffness / 1e3:.4g} kN/m), more than the CG's height above the road (h_cg = {vehicle.h_cg:g} m): "
-                    f"the body would rest on the road and the model would be meaningless; "
-                    f"expected at most {vehicle.h_cg * stiffness / G_MPS2:.4g} kg")
+            return (
+                f"payload.mass: {payload.mass:g} kg would sag the body {sag:.3g} m on its springs and tyres "
+                f"({stiffness / 1e3:.4g} kN/m), more than the CG's height above the road (h_cg = {vehicle.h_cg:g} m): "
+                f"the body would rest on the road and the model would be meaningless; "
+                f"expected at most {vehicle.h_cg * stiffness / G_MPS2:.4g} kg"
+            )
     return None
 
 
@@ -145,16 +153,20 @@ def sprung_vertical_stiffness(vehicle: Any) -> float:
 def speed_problem(speed: float) -> str | None:
     """Why a road speed [m/s] is impossible (None: it is not)."""
     if speed > SPEED_MAX:
-        return (f"expected a road vehicle's speed of at most {SPEED_MAX:g} m/s ({SPEED_MAX * 3.6:g} km/h: faster than any "
-                f"road vehicle, the fastest production cars reach about 136 m/s; a speed in km/h?)")
+        return (
+            f"expected a road vehicle's speed of at most {SPEED_MAX:g} m/s ({SPEED_MAX * 3.6:g} km/h: faster than any "
+            f"road vehicle, the fastest production cars reach about 136 m/s; a speed in km/h?)"
+        )
     return None
 
 
 def seed_count_problem(count: int) -> str | None:
     """Why a study of ``count`` seeds is refused (None: it is not; :data:`MAX_SEEDS`)."""
     if count > MAX_SEEDS:
-        return (f"expected at most {MAX_SEEDS} seeds, got {count}: each seed is a whole optimisation run (about 25 s at the "
-                f"default budget), and {MAX_SEEDS} seeds resolve what a study reports across seeds to 1 %")
+        return (
+            f"expected at most {MAX_SEEDS} seeds, got {count}: each seed is a whole optimisation run (about 25 s at the "
+            f"default budget), and {MAX_SEEDS} seeds resolve what a study reports across seeds to 1 %"
+        )
     return None
 
 
@@ -168,8 +180,10 @@ def rule_reason(name: str) -> str:
 def payload_warning(vehicle: Any, payload: Any) -> tuple[str, str] | None:
     """``("payload.mass", reason)`` if a possible ``payload`` is implausible, else None."""
     if payload.mass > vehicle.m_s:
-        return "payload.mass", (f"{payload.mass:g} kg is more than the car's own sprung mass ({vehicle.m_s:g} kg): it compresses "
-                                f"the suspension further than the car's weight does, beyond the travel of most cars; taken as given")
+        return "payload.mass", (
+            f"{payload.mass:g} kg is more than the car's own sprung mass ({vehicle.m_s:g} kg): it compresses "
+            f"the suspension further than the car's weight does, beyond the travel of most cars; taken as given"
+        )
     return None
 
 
@@ -207,19 +221,34 @@ def given_warnings(spec: Any, given: Mapping[str, Any], precharges: Collection[s
         named += [(f"his.parameters.{k}", k, spec.his.parameters.get(k)) for k in _given(his, "parameters") or {}]
         for key, name, value in named:
             if name in precharges and isinstance(value, (int, float)) and value < P0_MIN:
-                out.append((key, f"a precharge of {value / 1e3:.4g} kPa is under {P0_MIN / 1e6:g} MPa (1 bar): the gas is near atmospheric "
-                                 f"pressure, the accumulator hardly a spring, and the oil would cavitate as the pressure "
-                                 f"swings; taken as given"))
+                out.append(
+                    (
+                        key,
+                        f"a precharge of {value / 1e3:.4g} kPa is under {P0_MIN / 1e6:g} MPa (1 bar): the gas is near atmospheric "
+                        f"pressure, the accumulator hardly a spring, and the oil would cavitate as the pressure "
+                        f"swings; taken as given",
+                    )
+                )
     for key, temperature in spec.temperatures():
         oil = spec.his.oil
         if oil.extrapolated(temperature):
-            out.append((key, f"{temperature - 273.15:.4g} degC is outside the oil's viscosity data ({oil.temperature_1 - 273.15:.4g} to "
-                             f"{oil.temperature_2 - 273.15:.4g} degC): its viscosity ({oil.kinematic_viscosity(temperature) * 1e6:.4g} mm^2/s) "
-                             f"is extrapolated by the Walther equation (ASTM D341)"))
+            out.append(
+                (
+                    key,
+                    f"{temperature - 273.15:.4g} degC is outside the oil's viscosity data ({oil.temperature_1 - 273.15:.4g} to "
+                    f"{oil.temperature_2 - 273.15:.4g} degC): its viscosity ({oil.kinematic_viscosity(temperature) * 1e6:.4g} mm^2/s) "
+                    f"is extrapolated by the Walther equation (ASTM D341)",
+                )
+            )
     step = _given(given, "handling", "step_g")
     if step is not None and spec.handling.step_g > STEP_G_MAX:
-        out.append(("handling.step_g", f"a lateral step of {spec.handling.step_g:g} g is beyond the grip of road tyres (about "
-                                       f"{STEP_G_MAX:g} g): the car would slide or roll over first; taken as given"))
+        out.append(
+            (
+                "handling.step_g",
+                f"a lateral step of {spec.handling.step_g:g} g is beyond the grip of road tyres (about "
+                f"{STEP_G_MAX:g} g): the car would slide or roll over first; taken as given",
+            )
+        )
     if _given(given, "payload") is not None and spec.payload is not None:
         heavy = payload_warning(spec.vehicle, spec.payload)
         out += [heavy] if heavy else []
@@ -233,9 +262,13 @@ def given_warnings(spec: Any, given: Mapping[str, Any], precharges: Collection[s
             unit = METRICS[c.name].unit
             if isinstance(raw, Mapping) and _is_number(raw.get("limit")) and unit in ROLL_LIMIT_WARN and c.limit > ROLL_LIMIT_WARN[unit]:
                 shown, top = unit.replace("rad", "deg"), ROLL_LIMIT_WARN[unit] * 180.0 / math.pi
-                out.append((f"constraints.{i}.limit",
-                            f"{c.name} <= {c.limit:g} is read in {unit} ({c.limit * 180.0 / math.pi:.4g} {shown}), more than the "
-                            f"{top:.3g} {shown} a road car's body rolls; if you meant degrees write limit = \"{c.limit:g} {shown}\""))
+                out.append(
+                    (
+                        f"constraints.{i}.limit",
+                        f"{c.name} <= {c.limit:g} is read in {unit} ({c.limit * 180.0 / math.pi:.4g} {shown}), more than the "
+                        f'{top:.3g} {shown} a road car\'s body rolls; if you meant degrees write limit = "{c.limit:g} {shown}"',
+                    )
+                )
     return out
 
 

@@ -247,7 +247,8 @@ def check_si_label(label: str, unit: str, *, file: str | None = None, key: str |
         raise ConfigError(
             f"{label!r} is not the SI unit {unit!r}, and bare numbers are SI; expected unit = {unit!r}, "
             f'or values written with their unit (e.g. upper = "{shown}")',
-            file=file, key=key,
+            file=file,
+            key=key,
         )
 
 

@@ -66,15 +66,35 @@ _STEPS: dict[str, tuple[tuple[float, str, float], ...]] = {
 
 _FIXED: dict[str, str] = {
     # labels and flags
-    "mode": NO_UNIT, "motion": NO_UNIT, "dominant": NO_UNIT, "case": NO_UNIT, "source": NO_UNIT,
-    "status": NO_UNIT, "design": NO_UNIT, "feasible": NO_UNIT, "valid": NO_UNIT, "accepted": NO_UNIT,
+    "mode": NO_UNIT,
+    "motion": NO_UNIT,
+    "dominant": NO_UNIT,
+    "case": NO_UNIT,
+    "source": NO_UNIT,
+    "status": NO_UNIT,
+    "design": NO_UNIT,
+    "feasible": NO_UNIT,
+    "valid": NO_UNIT,
+    "accepted": NO_UNIT,
     # counts and indices
-    "generation": NO_UNIT, "generations": NO_UNIT, "evaluation": NO_UNIT, "evaluations": NO_UNIT,
-    "front_size": NO_UNIT, "seed": NO_UNIT, "source_index": NO_UNIT, "rounds": NO_UNIT, "iterations": NO_UNIT,
+    "generation": NO_UNIT,
+    "generations": NO_UNIT,
+    "evaluation": NO_UNIT,
+    "evaluations": NO_UNIT,
+    "front_size": NO_UNIT,
+    "seed": NO_UNIT,
+    "source_index": NO_UNIT,
+    "rounds": NO_UNIT,
+    "iterations": NO_UNIT,
     # ratios
-    "feasible_share": NO_UNIT, "mechanical_share": NO_UNIT, "damping": NO_UNIT, "asf": NO_UNIT, "merit": NO_UNIT,
+    "feasible_share": NO_UNIT,
+    "mechanical_share": NO_UNIT,
+    "damping": NO_UNIT,
+    "asf": NO_UNIT,
+    "merit": NO_UNIT,
     # times
-    "seconds": "s", "f_hz": "Hz",
+    "seconds": "s",
+    "f_hz": "Hz",
 }
 _SUFFIXES = (("_hz", "Hz"), ("_s", "s"), ("_pct", "%"), ("_ratio", NO_UNIT), ("_share", NO_UNIT))
 _PREFIXES = (("shape_", NO_UNIT),)  # mode shapes, normalised to a largest entry of +1

@@ -64,6 +64,17 @@ def test_every_quantity_within_1e3_of_converged_reference(problem, rng, speed, c
 
 
 @pytest.mark.slow
+def test_charged_quantities_within_1e3_of_converged_reference(problem, rng):
+    """A charged HIS with chamber volumes, every quantity and the accumulators' swing (docs/model.md §16.9)."""
+    data = variant(problem, 20.0, {"charge": {"gas_fraction": 0.7}, "chamber_volume": 1e-4}).spec.model_dump(by_alias=True)
+    data["objectives"], data["constraints"] = every_quantity(steps=False, swing=True)
+    p = problem_from_dict(data, "charged")
+    x = random_designs(p, 4, rng, corners=False)
+    for name, err in relative_errors(p, x).items():
+        assert err.max() < 1e-3, (name, err.max(), x[np.argmax(err)])
+
+
+@pytest.mark.slow
 def test_isotropic_road_and_band_method_within_1e3(problem, rng):
     data = variant(problem, 20.0, {}, coherence="isotropic").spec.model_dump(by_alias=True)
     isotropic = problem_from_dict(data)

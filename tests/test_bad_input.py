@@ -64,8 +64,7 @@ def test_duplicate_objectives_are_refused_in_evaluate_and_optimize(tmp_path):
 def test_design_rows_are_flagged_and_never_feasible(tmp_path):
     designs = tmp_path / "designs.csv"
     designs.write_text(
-        "p0,dA,lam,Rv\n2e6,1e-3,0.5,8e5\n-1,1e-3,0.5,8e5\n2e6,1e-3,1.5,8e5\n2e6,-1e-3,0.5,8e5\nnan,1e-3,0.5,8e5\n"
-        "inf,1e-3,0.5,8e5\n9e6,1e-3,0.5,8e5\n"
+        "p0,dA,lam,Rv\n2e6,1e-3,0.5,8e5\n-1,1e-3,0.5,8e5\n2e6,1e-3,1.5,8e5\n2e6,-1e-3,0.5,8e5\nnan,1e-3,0.5,8e5\ninf,1e-3,0.5,8e5\n9e6,1e-3,0.5,8e5\n"
     )
     results = tmp_path / "out.csv"
     out = run_cli("evaluate", DEFAULT_PROBLEM, "--designs", designs, "--out", results)

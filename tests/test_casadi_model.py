@@ -34,6 +34,7 @@ def assert_discriminating_unless_shorted(problem: hisopt.Problem, x: np.ndarray,
     assert open_valve.sum() >= 5
     assert_discriminating(np.asarray(budget)[open_valve])
 
+
 HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"
 
 
@@ -58,9 +59,7 @@ def evaluator_nodes(problem: hisopt.Problem, x: np.ndarray) -> tuple[np.ndarray,
     return f, np.bincount(inverse, weights=w[0], minlength=f.size)
 
 
-def numpy_quantities(
-    problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.ndarray, at: dict[str, int] | None = None
-) -> dict[str, float]:
+def numpy_quantities(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.ndarray, at: dict[str, int] | None = None) -> dict[str, float]:
     """The evaluator's quantities with nodes ``f``, weights ``w`` fixed; maxima over the nodes.
 
     ``at`` fixes the node of a maximum (its derivative is that node's, where the maximum is

@@ -114,9 +114,11 @@ USAGE_ERRORS = [
     (["bogus"], "error: no such command 'bogus'; expected one of "),
     (["optimize", "{P}", "--popp", "3"], "error: no such option --popp; did you mean --pop?"),
     (["optimise", "{P}"], "error: no such command 'optimise' (did you mean 'optimize'?); expected one of "),
-    (["droptest", "{P}", "--out", "x", "--height", "five"], "error: --height: expected a number (SI) or a number with a unit, e.g. "
-     "\"25 mm\" or 0.025 [m]; got 'five'"),
-    (["droptest", "{P}", "--out", "x", "--height", "5kg"], "error: --height: \"5kg\" is a mass; expected a length (e.g. \"25 mm\" or 0.025 [m])"),
+    (
+        ["droptest", "{P}", "--out", "x", "--height", "five"],
+        "error: --height: expected a number (SI) or a number with a unit, e.g. \"25 mm\" or 0.025 [m]; got 'five'",
+    ),
+    (["droptest", "{P}", "--out", "x", "--height", "5kg"], 'error: --height: "5kg" is a mass; expected a length (e.g. "25 mm" or 0.025 [m])'),
     (["droptest", "{P}"], "error: missing option --out"),
     (["optimize", "{P}", "--pop"], "error: --pop: expected a value"),
 ]
@@ -202,7 +204,7 @@ def test_set_keys_are_derived_from_the_his_model(tmp_path, monkeypatch):
     from hisopt.cli.usage import scalar_fields
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
-    today = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "valve_laminar_fraction", "pipe_model", "layout")
+    today = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "valve_laminar_fraction", "separator", "pressure_rating", "pipe_model", "layout")
     assert SET_KEYS == today
     assert set(SET_KEYS) <= set(RollPlaneHIS.model_fields)
 
@@ -351,9 +353,7 @@ def test_usage_error_lines_from_plain_click_exceptions():
         return usage_error_line(info.value, args)
 
     assert line("optimize", "p.toml", "--out", "o", "--pop", "abc") == "--pop: expected an integer, got 'abc'"
-    assert line("optimize", "p.toml", "--out", "o", "--bogus", "1") == (
-        "no such option --bogus; see `hisopt optimize --help`"
-    )
+    assert line("optimize", "p.toml", "--out", "o", "--bogus", "1") == ("no such option --bogus; see `hisopt optimize --help`")
     assert line("optimize", "p.toml", "--out", "o", "--popp", "1") == "no such option --popp; did you mean --pop?"
     assert line("optimize", "--out", "o") == "missing argument PROBLEM"
     assert line("optimize", "p.toml") == "missing option --out"

@@ -117,8 +117,12 @@ def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.
         return float(np.sum(w * gain * psd[:, ev.output_index[output]]))
 
     values = reduce_metrics(
-        ev.metrics, spec.comfort, lambda n: ev.outputs[n].weighting, integral,
-        lambda output: float(psd[:, ev.output_index[output]].max()), lambda name: float(hisopt.evaluation.evaluate.static_quantity(model, name)[0]),
+        ev.metrics,
+        spec.comfort,
+        lambda n: ev.outputs[n].weighting,
+        integral,
+        lambda output: float(psd[:, ev.output_index[output]].max()),
+        lambda name: float(hisopt.evaluation.evaluate.static_quantity(model, name)[0]),
     )
     return {k: float(np.squeeze(v)) for k, v in values.items()}
 
@@ -230,7 +234,10 @@ def test_chamber_compliance_with_rv_zero_is_the_limit_of_small_rv():
 def test_cli_evaluates_chamber_problem_with_rv_zero():
     done = subprocess.run(
         [sys.executable, "-m", "hisopt", "evaluate", str(ROOT / "problems" / "roll_plane_his_chamber.toml"), "--set", "Rv=0"],
-        capture_output=True, text=True, timeout=300, cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
     )
     assert done.returncode == 0, done.stderr
     assert "sigma_aw" in done.stdout

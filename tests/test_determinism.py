@@ -54,7 +54,11 @@ def _env(threads: int) -> dict[str, str]:
 def _optimize(out: Path, threads: int) -> None:
     proc = subprocess.run(
         [sys.executable, "-m", "hisopt", "optimize", str(HANDLING_PROBLEM), "--out", str(out), *ARGS],
-        cwd=ROOT, capture_output=True, text=True, timeout=300, env=_env(threads),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=_env(threads),
     )
     assert proc.returncode == 0, proc.stderr
 
@@ -87,7 +91,11 @@ def test_same_seed_gives_identical_files(runs, pair):
 def test_stored_front_reevaluates_within_1e12_alone_and_in_any_batch(runs, threads):
     proc = subprocess.run(
         [sys.executable, "-c", REEVALUATE, str(HANDLING_PROBLEM), str(runs[f"{threads}a"] / "front.csv")],
-        cwd=ROOT, capture_output=True, text=True, timeout=300, env=_env(threads),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=_env(threads),
     )
     assert proc.returncode == 0, proc.stderr
     assert float(proc.stdout.strip()) <= 1e-12

@@ -45,7 +45,13 @@ def optimize(run_dir: Path, hook: str | None = None) -> subprocess.CompletedProc
         env[TEST_HOOK_ENV] = hook
     return subprocess.run(
         [sys.executable, "-m", "hisopt", "optimize", str(DEFAULT_PROBLEM), "--out", str(run_dir), *ARGS],
-        check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300, preexec_fn=_default_sigint,
+        check=False,
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        preexec_fn=_default_sigint,
     )
 
 
@@ -85,9 +91,7 @@ def test_interrupt_then_resume_gives_the_identical_front(tmp_path, reference, si
         assert last == f"SIG{sig} arrived during the final write, which completed: the run is finished ({run_dir / 'front.csv'})"
     else:
         assert state.status == "interrupted"
-        assert last == (
-            f"interrupted by SIG{sig} after {saved} of {GENERATIONS} generations; checkpoint saved. Resume with: hisopt resume {run_dir}"
-        )
+        assert last == (f"interrupted by SIG{sig} after {saved} of {GENERATIONS} generations; checkpoint saved. Resume with: hisopt resume {run_dir}")
         refused = run_cli("optimize", DEFAULT_PROBLEM, "--out", run_dir, *ARGS)  # a new run may not overwrite it
         assert refused.code == 2 and len(refused.error_lines) == 1
         assert f"continue it with `hisopt resume {run_dir}`" in refused.stderr and "to start over" in refused.stderr

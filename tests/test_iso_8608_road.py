@@ -39,9 +39,7 @@ def test_temporal_psd_closed_form() -> None:
     f = np.geomspace(0.1, 100.0, 50)
     expected = GD_C * iso.N0_CYCLES_PER_M**2 * SPEED / f**2
     np.testing.assert_allclose(iso.temporal_psd(f, GD_C, SPEED), expected, rtol=1e-13)
-    np.testing.assert_allclose(
-        iso.temporal_psd(f, GD_C, SPEED, 2.5), iso.spatial_psd(f / SPEED, GD_C, 2.5) / SPEED, 1e-13
-    )
+    np.testing.assert_allclose(iso.temporal_psd(f, GD_C, SPEED, 2.5), iso.spatial_psd(f / SPEED, GD_C, 2.5) / SPEED, 1e-13)
     with pytest.raises(ValueError, match="speed_mps > 0"):
         iso.temporal_psd(f, GD_C, 0.0)
 
@@ -139,9 +137,7 @@ def test_random_profile_matches_iso_psd_and_variance() -> None:
     variance = iso.temporal_variance(F_MIN, F_MAX, GD_C, SPEED)
     np.testing.assert_allclose(z.var(axis=0), variance, rtol=0.1)
     # same seed, same road; another seed, another road
-    np.testing.assert_array_equal(
-        z, random_profile(T, "C", SPEED, 2.5, np.random.default_rng(1), F_MIN, F_MAX)
-    )
+    np.testing.assert_array_equal(z, random_profile(T, "C", SPEED, 2.5, np.random.default_rng(1), F_MIN, F_MAX))
     other = random_profile(T, GD_C, SPEED, 2.5, np.random.default_rng(2), F_MIN, F_MAX)
     assert abs(np.corrcoef(z[:, 0], other[:, 0])[0, 1]) < 0.1
     # independent tracks: left and right uncorrelated
@@ -163,9 +159,7 @@ def test_rear_track_is_delayed_front_track() -> None:
 
 
 def test_random_profile_isotropic_coherence() -> None:
-    z = random_profile(
-        T, "C", SPEED, 2.5, np.random.default_rng(4), F_MIN, F_MAX, "isotropic", track_m=1.5
-    )
+    z = random_profile(T, "C", SPEED, 2.5, np.random.default_rng(4), F_MIN, F_MAX, "isotropic", track_m=1.5)
     measured, expected = _band_powers(z, 1.0, 16.0)
     np.testing.assert_allclose(measured, expected, rtol=0.2)
     f, c = csd(z[:, 0], z[:, 1], fs=1 / DT, nperseg=4096)

@@ -108,15 +108,11 @@ def modules(root: Path) -> dict[str, Path]:
 
 
 def _is_type_checking(test: ast.expr) -> bool:
-    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
-        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
-    )
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
 
 
 def _is_import_module(func: ast.expr) -> bool:
-    return (isinstance(func, ast.Name) and func.id in {"import_module", "__import__"}) or (
-        isinstance(func, ast.Attribute) and func.attr == "import_module"
-    )
+    return (isinstance(func, ast.Name) and func.id in {"import_module", "__import__"}) or (isinstance(func, ast.Attribute) and func.attr == "import_module")
 
 
 class _Collector(ast.NodeVisitor):
@@ -242,11 +238,7 @@ def cycles(root: Path) -> list[list[str]]:
 
 def plotly_outside(root: Path, allowed: tuple[str, ...] = PLOTLY_ALLOWED) -> list[str]:
     """Imports of plotly by modules outside ``allowed``."""
-    return [
-        _where(root, imp)
-        for imp in imports(root)
-        if _under(imp.target, "plotly") and not any(_under(imp.source, a) for a in allowed)
-    ]
+    return [_where(root, imp) for imp in imports(root) if _under(imp.target, "plotly") and not any(_under(imp.source, a) for a in allowed)]
 
 
 def plotting_beyond_leaves(root: Path, layers: list[list[str]], plotting: str = PLOTTING) -> list[str]:

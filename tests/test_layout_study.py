@@ -236,7 +236,8 @@ def _scenario_problem(folder: Path) -> Path:
     that the runs' logs hold it."""
     text = (ROOT / "problems" / "roll_plane_his_robust.toml").read_text()
     text = text[: text.index("[[scenarios]]")].replace(
-        'objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "max_roll_psd"]')
+        'objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "max_roll_psd"]'
+    )
     text += """
 [[scenarios]]
 name = "city"
@@ -271,8 +272,7 @@ def test_cli_study_of_a_scenario_problem_including_a_limit_no_design_meets(tmp_p
     so in layouts.csv, on the terminal and in the report."""
     problem = _scenario_problem(tmp_path)
     out = tmp_path / "study"
-    args = ("compare-layouts", problem, "--layouts", "axle_roll", "--seeds", "1", "--pop", "10", "--gens", "3", "--out", out,
-            "--handling", "roll_gradient")
+    args = ("compare-layouts", problem, "--layouts", "axle_roll", "--seeds", "1", "--pop", "10", "--gens", "3", "--out", out, "--handling", "roll_gradient")
     first = run_cli(*args)
     assert first.code == 0, first.stderr
     table = read_csv(out / "layouts.csv").set_index("layout")

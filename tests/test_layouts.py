@@ -177,8 +177,14 @@ def test_gas_volume_of_each_catalogue_layout():
     V0_rear per circuit); axle_roll and side_front_rear carry four accumulators of V0, twice the
     gas, each as its description says."""
     p = random_parameters(np.random.default_rng(9))
-    want = {"roll_plane": 2 * p["V0"], "roll_plane_accumulator_valves": 2 * p["V0"], "pitch_plane": 2 * p["V0"],
-            "roll_plane_twin_accumulator": 2 * (p["V0_front"] + p["V0_rear"]), "axle_roll": 4 * p["V0"], "side_front_rear": 4 * p["V0"]}
+    want = {
+        "roll_plane": 2 * p["V0"],
+        "roll_plane_accumulator_valves": 2 * p["V0"],
+        "pitch_plane": 2 * p["V0"],
+        "roll_plane_twin_accumulator": 2 * (p["V0_front"] + p["V0_rear"]),
+        "axle_roll": 4 * p["V0"],
+        "side_front_rear": 4 * p["V0"],
+    }
     for name in CATALOGUE_NAMES:
         volumes = [e.volume for c in catalogue()[name].layout().circuits for e in c.elements if isinstance(e, Accumulator)]
         assert sum(p[v] if isinstance(v, str) else v for v in volumes) == pytest.approx(want[name], rel=1e-15), name
@@ -473,13 +479,13 @@ def test_bad_custom_layouts_give_one_clear_line_and_exit_2(case, tmp_path):
 def test_design_variables_of_a_layout_are_checked_against_it(tmp_path):
     text = (ROOT / "problems" / "layout_roll_plane_twin_accumulator.toml").read_text(encoding="utf-8")
     path = tmp_path / "twin.toml"
-    path.write_text(text.replace('Rv_link = { lower = 1.0e6', 'V0 = { lower = 1e-4, upper = 1e-3 }\nRv_link = { lower = 1.0e6'), encoding="utf-8")
+    path.write_text(text.replace("Rv_link = { lower = 1.0e6", "V0 = { lower = 1e-4, upper = 1e-3 }\nRv_link = { lower = 1.0e6"), encoding="utf-8")
     out = run_cli("evaluate", path)
     assert out.code == 2 and out.error_lines == [
         f"error: {path}: variables.V0: not read by layout 'roll_plane_twin_accumulator', so it would do nothing; "
         "expected one of p0, dA, lam, Rv, dA_rear, lam_rear, Rv_rear, gamma, V0_front, V0_rear, Rv_link"
     ]
-    path.write_text(text.replace('Rv_link = { lower = 1.0e6', 'Rv_link = { lower = -1.0e6'), encoding="utf-8")
+    path.write_text(text.replace("Rv_link = { lower = 1.0e6", "Rv_link = { lower = -1.0e6"), encoding="utf-8")
     out = run_cli("evaluate", path)
     assert out.code == 2 and "variables.Rv_link: expected bounds inside the parameter's range Rv_link >= 0, got lower bound -1e+06" in out.stderr
     path.write_text(text.replace("Rv_link = 5.0e8   #", "Rv_link = -5.0e8   #"), encoding="utf-8")

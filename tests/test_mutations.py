@@ -121,6 +121,7 @@ def mutated_problem(draw):
 
 def must_refuse(data) -> str | None:
     """The oracle: why this problem must be refused (exit 2), or None if it may load."""
+
     def walk(v):
         if isinstance(v, dict):
             for x in v.values():

@@ -180,8 +180,8 @@ def test_cooling_empties_a_full_accumulator_and_the_design_is_refused_not_misrea
         ('temperature = "-300 degC"', "temperature", "at or below absolute zero"),
         ("temperature = 20.0", "temperature", 'a bare number is kelvin; for Celsius write "20 degC"'),
         ('temperature = "150 degC"', "temperature", "outside the range the oil is used in"),
-        ('[his.charge]\ngas_fraction = 1.0', "his.charge.gas_fraction", "less than 1"),
-        ('[his.charge]\ngas_fraction = 0.0', "his.charge.gas_fraction", "greater than 0"),
+        ("[his.charge]\ngas_fraction = 1.0", "his.charge.gas_fraction", "less than 1"),
+        ("[his.charge]\ngas_fraction = 0.0", "his.charge.gas_fraction", "greater than 0"),
         ('[his.oil]\ntemperature_1 = "40 degC"\nviscosity_1 = "46 cSt"', "his.oil", "needs two data points; temperature_2, viscosity_2 missing"),
     ],
 )
@@ -198,7 +198,7 @@ def test_bad_operating_input_is_one_line_exit_2(tmp_path, extra, key, expect):
 
 
 def test_an_extrapolated_viscosity_warns_and_a_scenario_temperature_is_its_own_model(tmp_path):
-    text = DEFAULT_PROBLEM.read_text() + '\n[his.charge]\ngas_fraction = 0.7\n'
+    text = DEFAULT_PROBLEM.read_text() + "\n[his.charge]\ngas_fraction = 0.7\n"
     text += '\n[[scenarios]]\nname = "winter"\ntemperature = "-20 degC"\n\n[[scenarios]]\nname = "summer"\ntemperature = "40 degC"\n'
     path = tmp_path / "p.toml"
     path.write_text(text)

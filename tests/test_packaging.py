@@ -33,8 +33,12 @@ def test_wheel_ships_every_package_file(tmp_path):
     package = sorted(p.relative_to(src).as_posix() for p in (src / "hisopt").rglob("*") if p.is_file())
     assert [name for name in package if name not in shipped] == []
     # The files the code opens at run time (importlib.resources), named explicitly.
-    assert {"hisopt/data/iso8608_classes.csv", "hisopt/data/roll_plane_his.toml", "hisopt/data/layouts/roll_plane.toml",
-            "hisopt/data/layouts/pitch_plane.toml"} <= shipped  # the layout catalogue too
+    assert {
+        "hisopt/data/iso8608_classes.csv",
+        "hisopt/data/roll_plane_his.toml",
+        "hisopt/data/layouts/roll_plane.toml",
+        "hisopt/data/layouts/pitch_plane.toml",
+    } <= shipped  # the layout catalogue too
     assert "hisopt/cli/application.py" in shipped and any(n.endswith("entry_points.txt") for n in shipped)
     # The distribution's version is hisopt/version.py's (pyproject reads it: one home).
     from hisopt.version import __version__

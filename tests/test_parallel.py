@@ -41,7 +41,9 @@ def test_cli_evaluate_with_workers_matches_serial(tmp_path, problem, rng):
         out = tmp_path / f"out{len(extra)}.csv"
         proc = subprocess.run(
             [sys.executable, "-m", "hisopt", "evaluate", str(DEFAULT_PROBLEM), "--designs", str(designs), "--out", str(out), *extra],
-            capture_output=True, text=True, timeout=300,
+            capture_output=True,
+            text=True,
+            timeout=300,
         )
         assert proc.returncode == 0, proc.stderr
         outs.append(read_csv(out))
@@ -51,7 +53,9 @@ def test_cli_evaluate_with_workers_matches_serial(tmp_path, problem, rng):
 def test_unreachable_scheduler_is_a_user_error(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "hisopt", "evaluate", str(DEFAULT_PROBLEM), "--designs", str(tmp_path / "none.csv"), "--scheduler", "tcp://127.0.0.1:1"],
-        capture_output=True, text=True, timeout=120,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
 

@@ -126,14 +126,12 @@ def test_a_polytropic_exponent_outside_1_to_2_is_refused_everywhere(tmp_path, va
 
 
 def test_a_polytropic_exponent_box_or_layout_value_above_2_is_refused(tmp_path):
-    box = edited(tmp_path, "# paper Table 2 bounds\n", '# paper Table 2 bounds\ngamma = { lower = 1.0, upper = 3.0 }\n')
+    box = edited(tmp_path, "# paper Table 2 bounds\n", "# paper Table 2 bounds\ngamma = { lower = 1.0, upper = 3.0 }\n")
     refused(run_cli("evaluate", box), "variables.gamma", "1 <= gamma <= 2", "polytropic exponent")
     text = CUSTOM.read_text(encoding="utf-8")
-    literal = edited(tmp_path, 'node = "A", volume = "V0", precharge = "p0", gamma = "gamma"',
-                     'node = "A", volume = "V0", precharge = "p0", gamma = 2.5', text)
+    literal = edited(tmp_path, 'node = "A", volume = "V0", precharge = "p0", gamma = "gamma"', 'node = "A", volume = "V0", precharge = "p0", gamma = 2.5', text)
     refused(run_cli("evaluate", literal), "gamma: expected gamma <= 2", "polytropic exponent")
-    named = text.replace('node = "A", volume = "V0", precharge = "p0", gamma = "gamma"',
-                         'node = "A", volume = "V0", precharge = "p0", gamma = "gamma_a"')
+    named = text.replace('node = "A", volume = "V0", precharge = "p0", gamma = "gamma"', 'node = "A", volume = "V0", precharge = "p0", gamma = "gamma_a"')
     named = named.replace('layout = "custom"', 'layout = "custom"\nparameters = { gamma_a = 3.0 }')
     refused(run_cli("evaluate", written(tmp_path, named, "named.toml")), "his.parameters.gamma_a", "expected gamma_a <= 2")
     # a design row above 2 is flagged invalid, not evaluated (docs/input.md: row statuses)
@@ -374,9 +372,8 @@ def test_the_report_marks_the_knee_and_a_constructed_design_at_a_bound(bound_run
     write_csv(front, run / "front.csv")
     assert run_cli("report", run, "--design", "0").code == 0
     page = (run / "report.html").read_text(encoding="utf-8")
-    table = page[page.index("Highlighted designs"):]
-    cells = {name: re.findall(r"<td>([^<]*)</td>", re.search(rf'<tr><td class="text">{name} \[[^<]*</td>(.*?)</tr>', table).group(1))
-             for name in ("p0", "Rv")}
+    table = page[page.index("Highlighted designs") :]
+    cells = {name: re.findall(r"<td>([^<]*)</td>", re.search(rf'<tr><td class="text">{name} \[[^<]*</td>(.*?)</tr>', table).group(1)) for name in ("p0", "Rv")}
     assert [c.endswith("(at lower bound)") for c in cells["p0"]] == [True, True, False]  # knee, ASF pick, row 0
     assert [c.endswith("(at upper bound)") for c in cells["Rv"]] == [False, False, True]
     assert cells["Rv"][-1] == "1.600 (at upper bound)"  # 16e5 Pa s m^-3 in MPa s/m^3

@@ -104,10 +104,12 @@ def test_the_check_finds_every_kind_of_crossing(tmp_path):
         "def f(other):\n"
         "    return lo._secret + hisopt.sub.low._helper() + other._cache + lo.SHOWN + lo.__name__\n"  # 12: two
     )
-    assert sorted(private_crossings(tmp_path)) == sorted([
-        "hisopt.user:2: from hisopt import _hidden",
-        "hisopt.user:4: from hisopt.sub.low import _helper",
-        "hisopt.user:5: from hisopt.sub.low import _secret",
-        "hisopt.user:12: hisopt.sub.low._secret",
-        "hisopt.user:12: hisopt.sub.low._helper",
-    ])
+    assert sorted(private_crossings(tmp_path)) == sorted(
+        [
+            "hisopt.user:2: from hisopt import _hidden",
+            "hisopt.user:4: from hisopt.sub.low import _helper",
+            "hisopt.user:5: from hisopt.sub.low import _secret",
+            "hisopt.user:12: hisopt.sub.low._secret",
+            "hisopt.user:12: hisopt.sub.low._helper",
+        ]
+    )

@@ -152,4 +152,3 @@ def test_balancing_evens_rows_and_columns():
     ratio = lambda m: np.abs(m)[:, off].reshape(4, 6, 5).sum(2) / np.abs(np.swapaxes(m, 1, 2))[:, off].reshape(4, 6, 5).sum(2)  # noqa: E731
     assert np.max(np.abs(np.log2(ratio(b)))) < np.max(np.abs(np.log2(ratio(a))))
     assert np.all(np.log2(d) == np.round(np.log2(d)))  # powers of two: exact similarity
-

@@ -147,13 +147,46 @@ def test_a_unit_pint_would_compute_forever_is_refused_at_once():
     assert to_si("3 1/s", "Hz") == 3.0 and to_si("1 (m/s^2)^2/Hz", "(m/s^2)^2/Hz") == 1.0
 
 
-UNIT_ATOMS = ["m", "km", "Gm", "^", "99", "-3", "2", "/", "*", "(", ")", " ", "g", "deg", "Pa", "s", "1", "%", "-", "µ", "L", "kg",
-              "**", "e", "°", "²", "degC", "min", "'", "[", ",", "_", "0", "."]
+UNIT_ATOMS = [
+    "m",
+    "km",
+    "Gm",
+    "^",
+    "99",
+    "-3",
+    "2",
+    "/",
+    "*",
+    "(",
+    ")",
+    " ",
+    "g",
+    "deg",
+    "Pa",
+    "s",
+    "1",
+    "%",
+    "-",
+    "µ",
+    "L",
+    "kg",
+    "**",
+    "e",
+    "°",
+    "²",
+    "degC",
+    "min",
+    "'",
+    "[",
+    ",",
+    "_",
+    "0",
+    ".",
+]
 
 
 @settings(max_examples=300, derandomize=True, database=None, deadline=None)
-@given(st.lists(st.sampled_from(UNIT_ATOMS), min_size=1, max_size=8).map("".join) | st.text(max_size=8),
-       st.sampled_from(sorted(KINDS)))
+@given(st.lists(st.sampled_from(UNIT_ATOMS), min_size=1, max_size=8).map("".join) | st.text(max_size=8), st.sampled_from(sorted(KINDS)))
 def test_any_text_is_a_number_in_si_or_one_config_error(unit_text, si_unit):
     """Whatever follows a number, the reading is a finite SI number or a ConfigError naming
     the expected kind; never another exception (pint raises many), never a hang."""
@@ -198,8 +231,17 @@ def _float_fields(model: Any, seen: set[Any]) -> list[tuple[Any, str]]:
 def test_every_float_field_of_a_problem_file_declares_a_known_si_unit():
     fields = _float_fields(ProblemSpec, set())
     names = {(m.__name__, n) for m, n in fields}
-    assert {("VehicleParams", "m_s"), ("RollPlaneHIS", "p0"), ("PipeLayout", "diameter"), ("Fluid", "mu"), ("Road", "speed"),
-            ("Band", "f_max_hz"), ("Handling", "step_g"), ("Payload", "I_x"), ("Scenario", "weight")} <= names
+    assert {
+        ("VehicleParams", "m_s"),
+        ("RollPlaneHIS", "p0"),
+        ("PipeLayout", "diameter"),
+        ("Fluid", "mu"),
+        ("Road", "speed"),
+        ("Band", "f_max_hz"),
+        ("Handling", "step_g"),
+        ("Payload", "I_x"),
+        ("Scenario", "weight"),
+    } <= names
     missing = [f"{m.__name__}.{n}" for m, n in fields if field_unit(m, n) is None and (m.__name__, n) not in _DYNAMIC]
     assert not missing, missing
     for model, name in fields:
@@ -308,7 +350,8 @@ def test_scenario_roads_payloads_and_weights_take_units(tmp_path):
     edited = replaced(text, ('road = { class = "B", speed = 20.0 }', 'road = { class = "B", speed = "72 km/h" }'))
     spec = hisopt.load_problem(write(tmp_path, edited, "robust.toml")).spec
     assert [sc.road.speed for sc in spec.scenarios if sc.road is not None] == [
-        sc.road.speed for sc in hisopt.load_problem(robust).spec.scenarios if sc.road is not None]  # 72 km/h is exactly 20 m/s
+        sc.road.speed for sc in hisopt.load_problem(robust).spec.scenarios if sc.road is not None
+    ]  # 72 km/h is exactly 20 m/s
     bad = replaced(text, ('road = { class = "B", speed = 20.0 }', 'road = { class = "B", speed = "20 m" }'))
     path = write(tmp_path, bad, "bad.toml")
     one_line(run_cli("evaluate", path), f'{path}: scenarios.1.road.speed: "20 m" is a length; expected a speed')
@@ -330,9 +373,11 @@ def test_set_with_a_unit_equals_set_in_si(tmp_path):
         (("evaluate", "{P}", "--set", "p0=2 m"), ('--set p0=2 m: "2 m" is a length; expected a pressure (e.g. "2.5 MPa" or 2.5e6 [Pa])',)),
         (("evaluate", "{P}", "--set", "p0=abc"), ("--set p0=abc: expected a valid number, got 'abc'",)),
         (("droptest", "{P}", "--out", "{T}", "--p0", "1 MPa,2 m"), ('--p0: "2 m" is a length; expected a pressure',)),
-        (("droptest", "{P}", "--out", "{T}", "--measured-p0", "2 bar/s"), ("--measured-p0: \"2 bar/s\" is of dimension",)),
-        (("compare-layouts", "{P}", "--out", "{T}", "--handling-limit", "1.8 deg"),
-         ('--handling-limit: "1.8 deg" is an angle; expected a roll gradient (angle per g) (e.g. "1.8 deg/g"',)),
+        (("droptest", "{P}", "--out", "{T}", "--measured-p0", "2 bar/s"), ('--measured-p0: "2 bar/s" is of dimension',)),
+        (
+            ("compare-layouts", "{P}", "--out", "{T}", "--handling-limit", "1.8 deg"),
+            ('--handling-limit: "1.8 deg" is an angle; expected a roll gradient (angle per g) (e.g. "1.8 deg/g"',),
+        ),
         (("compare-layouts", "{P}", "--out", "{T}", "--handling-limit", "steep"), ("--handling-limit: expected a number (SI) or a number with a unit",)),
     ],
 )
@@ -348,7 +393,7 @@ def test_options_refuse_a_unit_of_the_wrong_kind_in_one_line(tmp_path, args, par
         ("p0 = 2.0e6", 'p0 = "2 m"', "his.p0", '"2 m" is a length; expected a pressure (e.g. "2.5 MPa" or 2.5e6 [Pa])'),
         ("speed = 10.0", 'speed = "10 Hz"', "road.speed", '"10 Hz" is a frequency; expected a speed (e.g. "72 km/h" or 20 [m/s])'),
         ("m_s = 1210.0", 'm_s = "1210 N"', "vehicle.m_s", '"1210 N" is a force; expected a mass'),
-        ("p0 = 2.0e6", 'p0 = "2 MPascals"', "his.p0", '"2 MPascals": unknown unit \'MPascals\'; expected a pressure'),
+        ("p0 = 2.0e6", 'p0 = "2 MPascals"', "his.p0", "\"2 MPascals\": unknown unit 'MPascals'; expected a pressure"),
         ("p0 = 2.0e6", 'p0 = "lots"', "his.p0", "expected a valid number, got 'lots'"),  # today's message
         ('unit = "Pa"', 'unit = "MPa"', "variables.p0.unit", "'MPa' is not the SI unit 'Pa'"),
         ("lam = 0.5", 'lam = "0.5 deg"', "his.lam", '"0.5 deg" is an angle; expected a dimensionless number'),
@@ -364,7 +409,7 @@ def test_a_roll_limit_in_deg_is_read_as_deg(tmp_path):
     path = write(tmp_path, TEXT + '\n[[constraints]]\nname = "roll_step_peak"\nlimit = "1.5 deg"\n')
     assert hisopt.load_problem(path).spec.constraints[0].limit == pytest.approx(1.5 * DEG, rel=CONVERSION_RTOL)
     bad = write(tmp_path, TEXT + '\n[[constraints]]\nname = "roll_step_peak"\nlimit = "1.5 m"\n', "bad.toml")
-    one_line(run_cli("evaluate", bad), f"{bad}: constraints.0.limit: \"1.5 m\" is a length; expected an angle (e.g. \"1.5 deg\"")
+    one_line(run_cli("evaluate", bad), f'{bad}: constraints.0.limit: "1.5 m" is a length; expected an angle (e.g. "1.5 deg"')
 
 
 # --- designs files and frames ----------------------------------------------------------------
@@ -391,8 +436,10 @@ def test_a_designs_file_in_engineering_units_evaluates_as_the_si_file(tmp_path, 
 def test_a_designs_units_row_of_the_wrong_kind_is_refused(tmp_path, problem):
     path = tmp_path / "d.csv"
     path.write_text("p0,dA,lam,Rv\n[m],[cm^2],[-],[MPa s/m^3]\n2.5,12.5,0.5,0.8\n")
-    one_line(run_cli("evaluate", DEFAULT_PROBLEM, "--designs", path),
-             f"{path}: line 2, column 'p0': [m] is a length; expected a pressure (e.g. \"2.5 MPa\" or 2.5e6 [Pa])")
+    one_line(
+        run_cli("evaluate", DEFAULT_PROBLEM, "--designs", path),
+        f"{path}: line 2, column 'p0': [m] is a length; expected a pressure (e.g. \"2.5 MPa\" or 2.5e6 [Pa])",
+    )
     with pytest.raises(ConfigError, match=r"column 'p0' \(attrs\['units'\]\): \[m\] is a length"):
         problem.evaluate(read_csv(path))
     path.write_text("p0,dA,lam,Rv\n2.5 MPa,12.5e-4,0.5,8e5\n")
@@ -428,10 +475,15 @@ def _paste_back(printed: str, unit: str, si_value: float, si_unit: str, seen: se
 
 def _roll_problem(tmp_path: Path) -> Path:
     """The default problem evaluating a quantity of every unit hisopt shows, V0 a variable."""
-    objectives = '["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "rms_roll", "rms_stroke", "rms_tire_load", ' \
-                 '"roll_gradient", "roll_step_peak", "roll_rate_peak", "roll_gain_peak"]'
-    text = replaced(TEXT, ('objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', f"objectives = {objectives}"),
-                    ('Rv = { lower', 'V0 = { lower = 0.5e-3, upper = 2e-3 }\nRv = { lower'))
+    objectives = (
+        '["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd", "rms_roll", "rms_stroke", "rms_tire_load", '
+        '"roll_gradient", "roll_step_peak", "roll_rate_peak", "roll_gain_peak"]'
+    )
+    text = replaced(
+        TEXT,
+        ('objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', f"objectives = {objectives}"),
+        ("Rv = { lower", "V0 = { lower = 0.5e-3, upper = 2e-3 }\nRv = { lower"),
+    )
     return write(tmp_path, text + '\n[[constraints]]\nname = "roll_gain_peak_hz"\nlimit = 100.0\n', "roll.toml")
 
 
@@ -469,8 +521,9 @@ def test_every_printed_unit_pastes_back_to_the_same_value(tmp_path):
     limit = f"{printed['roll_gradient'][1]} {printed['roll_gradient'][0]}"
     assert printed["roll_gradient"][0] == "deg/g"
     study = tmp_path / "study"
-    out = run_cli("compare-layouts", DEFAULT_PROBLEM, "--layouts", "roll_plane", "--seeds", "1", "--pop", "4", "--gens", "1",
-                  "--handling-limit", limit, "--out", study)
+    out = run_cli(
+        "compare-layouts", DEFAULT_PROBLEM, "--layouts", "roll_plane", "--seeds", "1", "--pop", "4", "--gens", "1", "--handling-limit", limit, "--out", study
+    )
     assert out.code == 0, out
     table = read_csv(study / "layouts.csv")
     assert table.attrs["units"]["handling_limit"] == "rad/g"

@@ -125,9 +125,7 @@ def test_every_readme_command_runs_as_written(tmp_path):
         (tmp_path / name).symlink_to(ROOT / name, target_is_directory=True)
     runs, _ = plan(README.read_text(encoding="utf-8"))
     for words in runs:
-        done = subprocess.run(
-            [*hisopt_executable(), *words[1:]], cwd=tmp_path, capture_output=True, text=True, timeout=600
-        )
+        done = subprocess.run([*hisopt_executable(), *words[1:]], cwd=tmp_path, capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, f"`{shlex.join(words)}` exited {done.returncode}:\n{done.stderr[-3000:]}"
     assert (tmp_path / "runs" / "paper" / "report.html").is_file()
     assert len(read_csv(tmp_path / "results.csv")) == len(read_csv(ROOT / "examples" / "designs.csv"))

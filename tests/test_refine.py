@@ -185,7 +185,9 @@ def test_refine_run_and_cli_write_the_refined_front(problem, tmp_path):
     (run_dir / FRONT_REFINED_CSV).unlink()
     out = subprocess.run(
         [sys.executable, "-m", "hisopt", "refine", str(run_dir), "--max-points", "2", "--workers", "1"],
-        capture_output=True, text=True, timeout=300,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert out.returncode == 0, out.stderr
     assert "hypervolume" in out.stdout and (run_dir / FRONT_REFINED_CSV).is_file()
@@ -204,8 +206,10 @@ def test_refine_runs_on_chamber_and_distributed_pipe_problems(tmp_path, name):
 
     run_dir = tmp_path / name
     env = dict(os.environ)
-    for args in (("optimize", str(ROOT / "problems" / f"{name}.toml"), "--out", str(run_dir), "--pop", "16", "--gens", "4", "--seed", "2"),
-                 ("refine", str(run_dir), "--max-points", "2")):
+    for args in (
+        ("optimize", str(ROOT / "problems" / f"{name}.toml"), "--out", str(run_dir), "--pop", "16", "--gens", "4", "--seed", "2"),
+        ("refine", str(run_dir), "--max-points", "2"),
+    ):
         done = subprocess.run([sys.executable, "-m", "hisopt", *args], capture_output=True, text=True, timeout=600, env=env, cwd=ROOT)
         assert done.returncode == 0, done.stderr
     problem = hisopt.load_problem(ROOT / "problems" / f"{name}.toml")
@@ -243,9 +247,10 @@ def test_optimize_with_refine_flag_writes_refined_front(tmp_path):
 
     out = tmp_path / "run"
     proc = subprocess.run(
-        [sys.executable, "-m", "hisopt", "optimize", str(DEFAULT_PROBLEM), "--out", str(out), "--pop", "12", "--gens", "3",
-         "--refine", "--max-points", "2"],
-        capture_output=True, text=True, timeout=600,
+        [sys.executable, "-m", "hisopt", "optimize", str(DEFAULT_PROBLEM), "--out", str(out), "--pop", "12", "--gens", "3", "--refine", "--max-points", "2"],
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
     refined = read_csv(out / "front_refined.csv")
@@ -288,8 +293,9 @@ def test_linear_programme_of_one_objective_is_the_box_corner():
     # (1 + rho)(a - r sum |g|)
     g = np.array([[[0.5, -2.0, 1.0]]])
     a, r, rho = -0.1, 0.2, 0.05
-    d, predicted = lp_steps(np.array([[a]]), g, np.zeros((1, 0)), np.zeros((1, 0, 3)), np.full((1, 3), -r), np.full((1, 3), r),
-                            np.array([rho]), np.array([np.inf]))
+    d, predicted = lp_steps(
+        np.array([[a]]), g, np.zeros((1, 0)), np.zeros((1, 0, 3)), np.full((1, 3), -r), np.full((1, 3), r), np.array([rho]), np.array([np.inf])
+    )
     np.testing.assert_allclose(d[0], -r * np.sign(g[0, 0]), atol=LP_FEASIBILITY)
     assert predicted[0] == pytest.approx((1 + rho) * (a - r * np.abs(g).sum()), abs=LP_TOLERANCE)
 
@@ -327,8 +333,7 @@ def test_refinement_method_and_settings_are_checked(problem, small_run, tmp_path
         refine_front(problem, small_run.front, max_points=2, method="slp", settings=RefineSettings())
     run_dir = tmp_path / "run"
     optimize(problem, out=run_dir, seed=5, pop_size=16, generations=3, algorithm="nsga2")
-    out = subprocess.run([sys.executable, "-m", "hisopt", "refine", str(run_dir), "--method", "newton"],
-                         capture_output=True, text=True, timeout=300)
+    out = subprocess.run([sys.executable, "-m", "hisopt", "refine", str(run_dir), "--method", "newton"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "--method" in out.stderr, out.stderr
     assert "Traceback" not in out.stderr
 

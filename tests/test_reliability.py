@@ -26,7 +26,7 @@ def _paths(data, prefix=()):
 PATHS = list(_paths(BASE))
 VALUES = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
-    st.integers(-10**6, 10**6),
+    st.integers(-(10**6), 10**6),
     st.text(max_size=8),
     st.booleans(),
     st.lists(st.floats(-1e3, 1e3), max_size=3),

@@ -23,7 +23,9 @@ def run_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs") / "small"
     proc = subprocess.run(
         [sys.executable, "-m", "hisopt", "optimize", str(DEFAULT_PROBLEM), "--out", str(out), "--pop", "16", "--gens", "4", "--seed", "3"],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
     return out
@@ -44,7 +46,7 @@ def test_report_is_self_contained(run_dir):
         assert title in html
     # Tables are HTML tables with units in their headers; names keep their underscores.
     assert html.count('<table class="data">') == 3 and '<td class="text">front_axle_hop</td>' in html
-    for header in ("f with HIS<span class=\"unit\">[Hz]</span>", "zeta with HIS<span class=\"unit\">[-]</span>"):
+    for header in ('f with HIS<span class="unit">[Hz]</span>', 'zeta with HIS<span class="unit">[-]</span>'):
         assert header in html
     for row in ("sigma_aw [m/s^2]", "max_roll_psd [rad^2/Hz]", "max_tire_load_psd [N^2/Hz]", "lam [-]", "decades^4", " s</td>"):
         assert row in html
@@ -295,8 +297,8 @@ def test_report_of_a_per_scenario_run(tmp_path):
 
     text = (DEFAULT_PROBLEM.parent / "roll_plane_his_robust.toml").read_text()
     text = text.replace('aggregate = "expected"', 'aggregate = "per_scenario"').replace(
-        'objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]',
-        'objectives = ["sigma_aw", "max_roll_psd", "max_tire_load_psd"]')
+        'objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "max_roll_psd", "max_tire_load_psd"]'
+    )
     text = text.replace('[[scenarios]]\nname = "rural"\nroad = { class = "B", speed = 20.0 }\nweight = 0.3\n', "")
     path = tmp_path / "per_scenario.toml"
     path.write_text(text)

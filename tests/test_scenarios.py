@@ -221,8 +221,9 @@ def test_cli_evaluates_load_cases_sharing_a_model_without_any_psd_maximum(tmp_pa
 
     text = (ROOT / "problems" / "roll_plane_his.toml").read_text()
     text = text.replace('objectives = ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]', 'objectives = ["sigma_aw", "rms_roll"]')
-    text += "".join(f'\n[[scenarios]]\nname = "{name}"\nroad = {{ class = "{r["class"]}", speed = {r["speed"]} }}\n'
-                    for name, r in ROADS.items() if name != "motorway")  # independent tracks both: one model, two roads
+    text += "".join(
+        f'\n[[scenarios]]\nname = "{name}"\nroad = {{ class = "{r["class"]}", speed = {r["speed"]} }}\n' for name, r in ROADS.items() if name != "motorway"
+    )  # independent tracks both: one model, two roads
     path = tmp_path / "two_roads.toml"
     path.write_text(text)
     rows = tmp_path / "designs.csv"

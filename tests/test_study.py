@@ -85,7 +85,9 @@ def test_study_front_is_the_non_dominated_set_of_the_union(problem, tmp_path):
 def test_cli_study_reports_each_seed(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "hisopt", "study", str(DEFAULT_PROBLEM), "--seeds", "1-2", "--pop", "12", "--gens", "2"],
-        capture_output=True, text=True, timeout=300,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if line.startswith("seed ")]

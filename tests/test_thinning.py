@@ -213,8 +213,8 @@ def test_bad_tolerances_in_the_python_api_name_the_argument():
     "entry,key,expect",
     [
         ('{ sigma_aw = "1 kg" }', "optimizer.epsilon.sigma_aw", "is a mass; expected an acceleration"),
-        ('{ sigma_aw = -0.1 }', "optimizer.epsilon.sigma_aw", "expected a finite tolerance >= 0"),
-        ('{ sigma_aw = true }', "optimizer.epsilon.sigma_aw", "got true"),
+        ("{ sigma_aw = -0.1 }", "optimizer.epsilon.sigma_aw", "expected a finite tolerance >= 0"),
+        ("{ sigma_aw = true }", "optimizer.epsilon.sigma_aw", "got true"),
         ('{ roll_gradient = "1 %" }', "optimizer.epsilon.roll_gradient", "is not an objective of this problem"),
         ('"1 %"', "optimizer.epsilon", "expected a table"),
     ],
@@ -294,8 +294,20 @@ def test_resume_keeps_the_tolerances(tmp_path):
 
 
 def test_the_summary_says_both_counts(tmp_path):
-    out = run_cli("optimize", DEFAULT_PROBLEM, "--out", tmp_path / "run", "--pop", "16", "--gens", "3", "--epsilon", "sigma_aw=2%",
-                  "--epsilon", "max_roll_psd=5 %,max_stroke_psd=5 %")
+    out = run_cli(
+        "optimize",
+        DEFAULT_PROBLEM,
+        "--out",
+        tmp_path / "run",
+        "--pop",
+        "16",
+        "--gens",
+        "3",
+        "--epsilon",
+        "sigma_aw=2%",
+        "--epsilon",
+        "max_roll_psd=5 %,max_stroke_psd=5 %",
+    )
     assert out.code == 0, out.stderr
     info = json.loads((tmp_path / "run" / "run.json").read_text())
     full, thin = info["result"]["front_size"], info["result"]["thinned_front_size"]

@@ -137,10 +137,7 @@ def test_random_road_rms_matches_frequency_domain(problem):
     delay = np.exp(-s * tau)
     g = temporal_psd(f, class_gd_n0("C"), speed)
     frf = {"ddz_s": s[:, None] ** 2 * hx[:, 0], "phi": hx[:, 1], "stroke_fl": stroke_matrix(v)[0] @ hx}
-    rms_fd = {
-        k: np.sqrt(np.trapezoid(g * (np.abs(h[:, 0] + h[:, 2] * delay) ** 2 + np.abs(h[:, 1] + h[:, 3] * delay) ** 2), f))
-        for k, h in frf.items()
-    }
+    rms_fd = {k: np.sqrt(np.trapezoid(g * (np.abs(h[:, 0] + h[:, 2] * delay) ** 2 + np.abs(h[:, 1] + h[:, 3] * delay) ** 2), f)) for k, h in frf.items()}
 
     z = random_profile(t, "C", speed, v.wheelbase, np.random.default_rng(7), f_min, f_max)
     keep = t >= 3.0  # the car starts at rest on a road that does not: let the transient pass

@@ -43,7 +43,6 @@ def test_rules_are_the_pydantic_field_rules():
     assert parameter_rule("dA").text == "dA > 0"
 
 
-
 def test_a_design_variable_that_would_do_nothing_is_refused(problem):
     import tomllib
 

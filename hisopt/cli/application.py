@@ -24,8 +24,7 @@ app = typer.Typer(
     no_args_is_help=True,
     rich_markup_mode=None,
     context_settings={"help_option_names": ["-h", "--help"]},
-    help="Design optimiser for hydraulically interconnected suspensions (HIS): layouts, load cases, Pareto fronts. "
-    "Start with `hisopt init problem.toml`.",
+    help="Design optimiser for hydraulically interconnected suspensions (HIS): layouts, load cases, Pareto fronts. Start with `hisopt init problem.toml`.",
 )
 
 
@@ -40,9 +39,7 @@ def _show_version(value: bool) -> None:
 @app.callback()
 def _main(
     debug: Annotated[bool, typer.Option("--debug", help="show tracebacks of internal errors")] = False,
-    version: Annotated[
-        bool, typer.Option("--version", callback=_show_version, is_eager=True, help="print the version and exit")
-    ] = False,
+    version: Annotated[bool, typer.Option("--version", callback=_show_version, is_eager=True, help="print the version and exit")] = False,
 ) -> None:
     DEBUG["on"] = debug
 

@@ -18,15 +18,25 @@ def register(app: typer.Typer) -> None:
     def compare_layouts_cmd(
         problem: ProblemArg,
         out: Annotated[Path, typer.Option("--out", help="study directory: <layout>/seed-<n>/ runs, layouts.csv, report.html")],
-        layouts: Annotated[str | None, typer.Option(metavar="A,B,...", help="catalogue layouts and custom layouts' problem "
-                                                    "files (default: the whole catalogue; roll_plane is always included)")] = None,
+        layouts: Annotated[
+            str | None,
+            typer.Option(
+                metavar="A,B,...", help="catalogue layouts and custom layouts' problem files (default: the whole catalogue; roll_plane is always included)"
+            ),
+        ] = None,
         seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds per layout, e.g. 1-3 or 1,3,5")] = "1-3",
         pop: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")] = None,
         gens: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
         handling: Annotated[str | None, typer.Option(metavar="QUANTITY", help="quantity held equal (default roll_gradient)")] = None,
-        handling_limit: Annotated[str | None, typer.Option(
-            "--handling-limit", metavar="VALUE", help="its limit, a bare number in SI (rad/g for roll_gradient) or with a unit, "
-                                                      "e.g. \"1.8 deg/g\" (default: the roll-plane baseline design's value)")] = None,
+        handling_limit: Annotated[
+            str | None,
+            typer.Option(
+                "--handling-limit",
+                metavar="VALUE",
+                help="its limit, a bare number in SI (rad/g for roll_gradient) or with a unit, "
+                'e.g. "1.8 deg/g" (default: the roll-plane baseline design\'s value)',
+            ),
+        ] = None,
         workers: WorkersOpt = None,
         scheduler: SchedulerOpt = None,
     ) -> None:
@@ -71,18 +81,21 @@ def compare_layouts_command(
     read_study_record(out, problem, study_budget(problem, pop, gens))
 
     def progress(run: dict[str, Any]) -> None:
-        typer.echo(f"{run['layout']} seed {run['seed']} done: {run['evaluations']} designs, "
-                   f"{run['feasible_designs']} feasible", err=True)
+        typer.echo(f"{run['layout']} seed {run['seed']} done: {run['evaluations']} designs, {run['feasible_designs']} feasible", err=True)
 
     try:
         with interrupt.signals_as_interrupts(), open_backend(workers, scheduler) as backend:
             where = f"on {backend.n_workers} Dask workers" if backend.is_distributed else "one after the other"
             typer.echo(f"{problem.name}: layout study in {out}, runs {where}", err=True)
-            result = run_layout_study(problem, layouts, seeds, out=out, pop_size=pop, generations=gens, handling=handling,
-                                      handling_limit=limit, backend=backend, progress=progress)
+            result = run_layout_study(
+                problem, layouts, seeds, out=out, pop_size=pop, generations=gens, handling=handling, handling_limit=limit, backend=backend, progress=progress
+            )
     except KeyboardInterrupt as exc:
-        print(f"interrupted by {interrupt.signal_name(exc)}; finished runs are kept and the others saved their "
-              f"checkpoints. Resume with the same command (--out {out})", file=sys.stderr)
+        print(
+            f"interrupted by {interrupt.signal_name(exc)}; finished runs are kept and the others saved their "
+            f"checkpoints. Resume with the same command (--out {out})",
+            file=sys.stderr,
+        )
         return interrupt.exit_code(exc)
     report = write_layout_report(result)
     Console(width=200).print(_table(result))
@@ -123,12 +136,22 @@ def _table(result: Any) -> Any:
 
     from hisopt.units import display_frame, format_quantity
 
-    columns = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "vorobev_deviation", "sigma_aw_at_limit",
-               "handling_at_best", "gain_vs_roll_plane_pct", "k_roll", "k_warp"]
+    columns = [
+        "layout",
+        "hv_mean",
+        "hv_std",
+        "hv_min",
+        "hv_max",
+        "vorobev_deviation",
+        "sigma_aw_at_limit",
+        "handling_at_best",
+        "gain_vs_roll_plane_pct",
+        "k_roll",
+        "k_warp",
+    ]
     shown = display_frame(result.table[columns]).replace("nan", "–")  # e.g. a layout without a design at the limit
     limit = format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"])  # with its unit: pasted back as is
-    table = Table(title=Text(f"Layouts at equal handling: {result.handling} <= {limit} "
-                             f"(normalised hypervolume across seeds; gain in comfort over roll_plane)"))
+    table = Table(title=Text(f"Layouts at equal handling: {result.handling} <= {limit} (normalised hypervolume across seeds; gain in comfort over roll_plane)"))
     for col in shown.columns:
         table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith("layout") else "right")
     for row in shown.itertuples(index=False):

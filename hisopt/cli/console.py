@@ -50,9 +50,7 @@ def console_progress(total: int, start: int = 0) -> tuple[Any, ProgressFn]:
     return progress, update
 
 
-def run_with_console(
-    start: Callable[[ProgressFn], OptimizationResult], *, total: int, done: int, run_dir: Path, debug: bool = False
-) -> int:
+def run_with_console(start: Callable[[ProgressFn], OptimizationResult], *, total: int, done: int, run_dir: Path, debug: bool = False) -> int:
     """Run ``start(progress_callback)`` under a live progress bar, then print the summary.
 
     Parameters
@@ -116,8 +114,11 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
     totals.add_column("value", justify="right")
     rows = [
         ("front size", f"{len(result.front)} designs"),
-        *([] if result.thinned is None or result.epsilon is None else [
-            ("thinned front", f"{len(result.thinned)} designs (within {result.epsilon.describe()}; front_thinned.csv)")]),
+        *(
+            []
+            if result.thinned is None or result.epsilon is None
+            else [("thinned front", f"{len(result.thinned)} designs (within {result.epsilon.describe()}; front_thinned.csv)")]
+        ),
         ("evaluations", f"{len(result.history)}"),
         ("generations", f"{len(result.generations)} of {result.settings.generations}"),
         ("population / seed", f"{result.settings.pop_size} / {result.settings.seed}"),
@@ -163,8 +164,10 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
             marked = marked or any(notes)
             picks.add_row(Text(shown.label(name)), *[Text(shown.number(d[name]) + n) for d, n in zip((knee, asf), notes, strict=True)])
         if marked:
-            picks.caption = Text(f"at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
-                                 "that bound; the box, not the physics, chose that value")
+            picks.caption = Text(
+                f"at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
+                "that bound; the box, not the physics, chose that value"
+            )
         tables.append(picks)
     return tables
 
@@ -251,8 +254,9 @@ def refine_with_progress(run_dir: Path, max_points: int, method: str, workers: i
     problem = run_problem(run_dir)[0]
     front = read_front(run_dir / FRONT_CSV)
     start_designs(problem, front, str(run_dir / FRONT_CSV))
-    bar = Progress(TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"),
-                   TimeElapsedColumn(), console=Console(stderr=True))
+    bar = Progress(
+        TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"), TimeElapsedColumn(), console=Console(stderr=True)
+    )
     task = bar.add_task("refine", total=min(max_points, len(front)))
     with open_backend(workers, scheduler) as backend, bar:
         result = refine_run(run_dir, max_points, method=method, backend=backend, progress=lambda _: bar.update(task, advance=1))
@@ -281,5 +285,4 @@ def bound_summary(front: Any, problem: Any) -> str | None:
     if not counts:
         return None
     each = ", ".join(f"{part}: {counts[part]}" for part in (f"{n} ({side})" for n in names for side in ("lower", "upper")) if part in counts)
-    return (f"{sum(map(bool, labels))} of {len(labels)} designs sit at a bound of the [variables] box, within "
-            f"{100 * BOUND_TOLERANCE:g} % of its width ({each})")
+    return f"{sum(map(bool, labels))} of {len(labels)} designs sit at a bound of the [variables] box, within {100 * BOUND_TOLERANCE:g} % of its width ({each})"

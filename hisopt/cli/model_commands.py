@@ -28,9 +28,7 @@ def modes(problem: ProblemArg, set_: SetOpt = None, scenario: ScenarioOpt = None
 
 
 def layouts(
-    problem: Annotated[
-        Path | None, typer.Argument(metavar="PROBLEM", help="problem file whose [his] values are used (default: the paper's problem)")
-    ] = None,
+    problem: Annotated[Path | None, typer.Argument(metavar="PROBLEM", help="problem file whose [his] values are used (default: the paper's problem)")] = None,
     set_: SetOpt = None,
 ) -> None:
     """Catalogue of HIS layouts and what each one stiffens.
@@ -69,13 +67,18 @@ def droptest(
     out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
     p0: Annotated[
         str,
-        typer.Option("--p0", metavar="PRESSURES",
-                     help="accumulator precharges (gauge), comma-separated; bare numbers in Pa, or with a unit, e.g. \"1 MPa,2 MPa\""),
+        typer.Option(
+            "--p0", metavar="PRESSURES", help='accumulator precharges (gauge), comma-separated; bare numbers in Pa, or with a unit, e.g. "1 MPa,2 MPa"'
+        ),
     ] = "1e6,2e6,3e6",
     height: Annotated[
         float,
-        typer.Option("--height", parser=quantity("m"), metavar="HEIGHT",
-                     help="drop height (the wheels roll off blocks this high); a bare number in m, or with a unit, e.g. 5cm"),
+        typer.Option(
+            "--height",
+            parser=quantity("m"),
+            metavar="HEIGHT",
+            help="drop height (the wheels roll off blocks this high); a bare number in m, or with a unit, e.g. 5cm",
+        ),
     ] = 0.05,
     measured: Annotated[
         Path | None,
@@ -86,14 +89,14 @@ def droptest(
             "uniformly sampled above 40 Hz; see docs/droptest.md",
         ),
     ] = None,
-    case: Annotated[
-        str | None, typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")
-    ] = None,
+    case: Annotated[str | None, typer.Option("--case", help="drop test the --measured file records: front_axle, left_side or all_wheels")] = None,
     measured_p0: Annotated[
         float | None,
         typer.Option(
-            "--measured-p0", parser=quantity("Pa"), metavar="PRESSURE",
-            help="precharge (gauge) of the measured test, a bare number in Pa or with a unit, e.g. \"2 MPa\" (default: the problem's p0)",
+            "--measured-p0",
+            parser=quantity("Pa"),
+            metavar="PRESSURE",
+            help='precharge (gauge) of the measured test, a bare number in Pa or with a unit, e.g. "2 MPa" (default: the problem\'s p0)',
         ),
     ] = None,
     mode: Annotated[str, typer.Option("--mode", help="simulation model: linear or nonlinear (gas law, tyre lift-off)")] = "linear",
@@ -179,8 +182,10 @@ def evaluate(
     set_: SetOpt = None,
     designs: Annotated[
         Path | None,
-        typer.Option(help="CSV with one column per design variable, e.g. examples/designs.csv; an optional units row "
-                     "below the header ([MPa], [cm^2], [-]) gives each column's unit, else SI"),
+        typer.Option(
+            help="CSV with one column per design variable, e.g. examples/designs.csv; an optional units row "
+            "below the header ([MPa], [cm^2], [-]) gives each column's unit, else SI"
+        ),
     ] = None,
     out: Annotated[Path | None, typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
     workers: WorkersOpt = None,

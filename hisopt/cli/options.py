@@ -20,7 +20,7 @@ SetOpt = Annotated[
     typer.Option(
         "--set",
         metavar="KEY=VALUE",
-        help="override a [his] value of the problem file, e.g. --set p0=3e6 or --set \"p0=2.5 MPa\" (repeatable; "
+        help='override a [his] value of the problem file, e.g. --set p0=3e6 or --set "p0=2.5 MPa" (repeatable; '
         f"bare numbers are SI, a value may carry its unit); KEY is one of {', '.join(SET_KEYS)}",
     ),
 ]

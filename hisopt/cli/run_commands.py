@@ -18,31 +18,27 @@ if TYPE_CHECKING:
 def optimize_cmd(
     problem: ProblemArg,
     out: Annotated[Path | None, typer.Option("--out", help="run directory (default runs/NAME-TIMESTAMP)")] = None,
-    seed: Annotated[
-        int | None, typer.Option("--seed", parser=integer, metavar="N", help="random seed (default: problem file)")
-    ] = None,
-    pop: Annotated[
-        int | None, typer.Option("--pop", parser=integer, metavar="N", help="population size (default: problem file, 100)")
-    ] = None,
-    gens: Annotated[
-        int | None, typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")
-    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", parser=integer, metavar="N", help="random seed (default: problem file)")] = None,
+    pop: Annotated[int | None, typer.Option("--pop", parser=integer, metavar="N", help="population size (default: problem file, 100)")] = None,
+    gens: Annotated[int | None, typer.Option("--gens", parser=integer, metavar="N", help="generations (default: problem file, 200)")] = None,
     until: Annotated[
         str | None,
-        typer.Option("--until", metavar="RULE", help="generations (run them all) or converged (stop when the hypervolume "
-                     "stalls; tolerance and window from the problem file; --gens is the cap); default: problem file"),
+        typer.Option(
+            "--until",
+            metavar="RULE",
+            help="generations (run them all) or converged (stop when the hypervolume "
+            "stalls; tolerance and window from the problem file; --gens is the cap); default: problem file",
+        ),
     ] = None,
     refine: Annotated[bool, typer.Option("--refine", help="refine the front afterwards (front_refined.csv; see `hisopt refine`)")] = False,
-    max_points: Annotated[
-        int, typer.Option("--max-points", parser=integer, metavar="N", help="with --refine: most front designs to refine")
-    ] = 40,
+    max_points: Annotated[int, typer.Option("--max-points", parser=integer, metavar="N", help="with --refine: most front designs to refine")] = 40,
     epsilon: Annotated[
         list[str] | None,
         typer.Option(
             "--epsilon",
             metavar="NAME=TOL",
             help="tolerance of an objective for the thinned front (front_thinned.csv), relative (--epsilon sigma_aw=1%) or in "
-            "its unit (--epsilon \"sigma_aw=0.01 m/s^2\"; bare numbers are SI); repeatable, overrides [optimizer] epsilon",
+            'its unit (--epsilon "sigma_aw=0.01 m/s^2"; bare numbers are SI); repeatable, overrides [optimizer] epsilon',
         ),
     ] = None,
 ) -> None:
@@ -147,9 +143,7 @@ def study(
     problem: ProblemArg,
     seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds to run, e.g. 1-8 or 1,3,5")] = "1-4",
     out: Annotated[Path | None, typer.Option(help="study directory: seed-<n>/ run dirs, merged front.csv, runs.csv")] = None,
-    pop: Annotated[
-        int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")
-    ] = None,
+    pop: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")] = None,
     gens: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
@@ -221,8 +215,11 @@ def refine_cmd(
     ] = 40,
     method: Annotated[
         str,
-        typer.Option("--method", metavar="NAME", help="slp (every design at once, on the evaluator: about 0.05 s per design) "
-                     "or ipopt (CasADi/IPOPT, one design at a time: about a second each)"),
+        typer.Option(
+            "--method",
+            metavar="NAME",
+            help="slp (every design at once, on the evaluator: about 0.05 s per design) or ipopt (CasADi/IPOPT, one design at a time: about a second each)",
+        ),
     ] = "slp",
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,

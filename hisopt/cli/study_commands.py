@@ -15,9 +15,7 @@ from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
 def sweep_cmd(
     problem: ProblemArg,
     vary: Annotated[str, typer.Option("--vary", metavar="NAME", help="design variable to sweep across its bounds, e.g. p0")],
-    points: Annotated[
-        int, typer.Option("--points", parser=integer, metavar="N", help="values between the bounds (both included)")
-    ] = 41,
+    points: Annotated[int, typer.Option("--points", parser=integer, metavar="N", help="values between the bounds (both included)")] = 41,
     out: Annotated[Path, typer.Option("--out", help="output directory for sweep_NAME.csv and sweep_NAME.html")] = Path("."),
     set_: SetOpt = None,
     workers: WorkersOpt = None,

@@ -83,11 +83,7 @@ def scalar_fields(module: str, model: str) -> tuple[str, ...]:
         return False
 
     body = next(node for node in tree.body if isinstance(node, ast.ClassDef) and node.name == model).body
-    return tuple(
-        node.target.id
-        for node in body
-        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and not is_table(node.annotation)
-    )
+    return tuple(node.target.id for node in body if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and not is_table(node.annotation))
 
 
 def _source(module: str) -> str:
@@ -98,9 +94,7 @@ def _source(module: str) -> str:
 
 
 # Option types several commands share (the hisopt.cli command modules).
-ProblemArg = Annotated[
-    Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")
-]
+ProblemArg = Annotated[Path, typer.Argument(metavar="PROBLEM", help="problem file (TOML), e.g. problems/roll_plane_his.toml")]
 WorkersOpt = Annotated[
     int | None,
     typer.Option("--workers", parser=integer, metavar="N", help="start a local Dask cluster with N worker processes"),

@@ -134,6 +134,30 @@ class CoupledModel:
         rhs = np.broadcast_to(self.road_input(s), kdyn.shape[:-1] + (4,))
         return np.linalg.solve(kdyn, rhs)
 
+    def accumulator_response(self, s: ArrayLike, h_x: np.ndarray) -> np.ndarray:
+        """[m^3/m] Each accumulator's oil volume per wheel input, ``B + (F, n_accumulators, 4)``,
+        from the motion ``h_x = X / z_g`` (:meth:`frequency_response`) by direct solve, either
+        pipe fidelity: the compliance times the node pressure the port flows ``s N G X`` raise
+        (docs/model.md §16.9)."""
+        if self.his is None:
+            return np.zeros(np.shape(h_x)[:-2] + (0, 4), dtype=complex)
+        s = np.asarray(s, dtype=complex)
+        flows = s[..., None, None] * (np.asarray(self.his.incidence)[..., None, :, :] @ stroke_matrix(self.vehicle) @ h_x)  # (.., F, ports, 4)
+        pressure = self.his.accumulator_pressures(s) @ flows
+        return self.his.accumulator_compliances()[..., None, :, None] * pressure
+
+    def accumulator_states(self, ss: StateSpace) -> np.ndarray:
+        """[m^3] Each accumulator's oil volume from the states of ``ss`` (this model's
+        :meth:`state_space`), ``B + (n_accumulators, n_states)``: its compliance times its
+        node pressure's row of the realisation's map back to the unknowns (docs/model.md §16.9)."""
+        if self.his is None or ss.realisation is None:
+            return np.zeros(ss.a.shape[:-2] + (0, ss.a.shape[-1]))
+        lumped = self if self.pipe_model == "lumped" else CoupledModel(self.vehicle, self.his.lumped())
+        his = lumped.groups()[0][1].his  # the network the realisation was built on (lumped, shorts merged)
+        assert his is not None
+        rows = [14 + row for _, _, row in his.network.accumulators()]
+        return his.accumulator_compliances()[..., :, None] * ss.realisation.full_map()[..., rows, :]
+
     def descriptor(self) -> Descriptor:
         """The coupled lumped model ``diag(e) dz/dt = A z + B0 u + B1 du/dt``, ``z = [X, V, h]``.
 
@@ -159,9 +183,7 @@ class CoupledModel:
         a[..., 7:14, 14:] = -np.swapaxes(coupling, -1, -2)  # f = -G^T N^T p_port
         a[..., 14:, 7:14] = coupling
         a[..., 14:, 14:] = a_h
-        e = np.concatenate(
-            [np.ones(batch + (7,)), np.broadcast_to(m_diag, batch + (7,)), np.broadcast_to(e_h, batch + (n_h,))], axis=-1
-        )
+        e = np.concatenate([np.ones(batch + (7,)), np.broadcast_to(m_diag, batch + (7,)), np.broadcast_to(e_h, batch + (n_h,))], axis=-1)
         b0 = np.zeros((size, 4))
         b1 = np.zeros((size, 4))
         b0[7:14], b1[7:14] = road_stiffness_input(v), road_damping_input(v)
@@ -201,9 +223,7 @@ class CoupledModel:
             labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES)
             weights = np.r_[np.zeros(7), m_diag]
             b0, b1 = road_stiffness_input(v), road_damping_input(v)
-            return StateSpace(
-                a, np.vstack([zeros, b0 / m_diag[:, None]]), np.vstack([zeros, b1 / m_diag[:, None]]), labels, weights
-            )
+            return StateSpace(a, np.vstack([zeros, b0 / m_diag[:, None]]), np.vstack([zeros, b1 / m_diag[:, None]]), labels, weights)
         if self.his.network.fidelity != "lumped":
             return CoupledModel(self.vehicle, self.his.lumped()).state_space()
         groups = self.groups()

@@ -26,6 +26,7 @@ payload model of §13 (the accumulator holds no oil at charge).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -167,7 +168,9 @@ def accumulator_quantities(his: HydraulicSystem) -> dict[str, Any]:
       runs dry as soon as the oil contracts or the struts extend);
     - ``static_pressure_ratio``: the largest ``p / p0`` of any accumulator, absolute, ``p0``
       at the temperature (an accumulator is rated for a largest ratio: about 4 for a
-      bladder, 8 for a diaphragm).
+      bladder, 8 for a diaphragm);
+    - ``pressure_rating_usage``: ``static_pressure_ratio`` over the accumulators' rating
+      ``pressure_rating`` (above 1 the design asks more than the part is rated for).
     """
     params, net = his.params, his.network
     tau = params.get("gas_temperature_ratio", 1.0)
@@ -185,4 +188,19 @@ def accumulator_quantities(his: HydraulicSystem) -> dict[str, Any]:
         fraction = ratio = np.full(his.batch_shape, np.nan)
     if not bk.is_casadi(fraction) and not bk.is_casadi(ratio):  # one value per design, though V0 and p0 be fixed
         fraction, ratio = (np.broadcast_to(np.asarray(v, dtype=float), his.batch_shape) for v in (fraction, ratio))
-    return {"static_gas_fraction": fraction, "static_pressure_ratio": ratio}
+    rating = params.get("pressure_rating", math.nan)
+    return {"static_gas_fraction": fraction, "static_pressure_ratio": ratio, "pressure_rating_usage": ratio / rating}
+
+
+def accumulator_rooms(his: HydraulicSystem) -> list[np.ndarray]:
+    """[m^3] Each accumulator's static room, in element order, numpy ``B``: the lesser of its
+    static oil volume (what an outflow can draw before it runs dry) and its static gas volume
+    (what an inflow can fill before the separator bottoms), at the operating point ``his`` is
+    linearised at; 0 for an accumulator without oil (the paper's idealisation,
+    docs/model.md §16.9)."""
+    out = []
+    for k, e, _ in his.network.accumulators():
+        gas = np.asarray(his.values.gas[k][0], dtype=float)
+        volume = np.asarray(resolve(e.volume, his.params), dtype=float)
+        out.append(np.broadcast_to(np.minimum(gas, volume - gas), his.batch_shape))
+    return out

@@ -19,7 +19,9 @@ from hisopt.vehicle import VehicleParams, stroke_matrix
 
 @dataclass(frozen=True)
 class Output:
-    """A linear response: ``c`` (P, 7) weights ``s^p X``, ``d`` (P, 4) weights ``s^p z_g``."""
+    """A linear response: ``c`` (P, 7) weights ``s^p X``, ``d`` (P, 4) weights ``s^p z_g``;
+    a ``c`` of ``7 + E`` columns also weights the ``E`` accumulators' oil volumes
+    (:func:`accumulator_outputs`)."""
 
     name: str
     unit: str
@@ -33,13 +35,14 @@ class Output:
         Parameters
         ----------
         h_x : np.ndarray
-            X / z_g, shape ``(..., F, 7, 4)``
+            X / z_g, shape ``(..., F, 7, 4)``, or with the accumulators' oil volumes
+            after ``X`` (``(..., F, 7 + E, 4)``)
         s : np.ndarray
             [rad/s] Laplace variable, shape ``(..., F)``
         """
         out = np.zeros(np.broadcast_shapes(h_x.shape[:-2], s.shape) + (4,), dtype=np.result_type(h_x, s))
         for p in range(self.c.shape[0]):
-            term = bmm(self.c[p][None, :], h_x)[..., 0, :] + self.d[p]
+            term = bmm(self.c[p][None, :], h_x[..., : self.c.shape[1], :])[..., 0, :] + self.d[p]
             out = out + s[..., None] ** p * term
         return out
 
@@ -82,3 +85,15 @@ def standard_outputs(vehicle: VehicleParams) -> dict[str, Output]:
             poly(-v.k_tf * _unit(0, 4), -v.c_tf * _unit(0, 4)),
         ),
     }
+
+
+def accumulator_outputs(n_accumulators: int) -> dict[str, Output]:
+    """The oil volume in each accumulator [m^3], in the network's element order, keyed
+    ``oil_volume_<j>`` (docs/model.md §16.9): an output over ``[X, V_acc]`` (its ``c`` has
+    ``7 + n_accumulators`` columns), which the engines read from the hydraulic unknowns."""
+    out = {}
+    for j in range(n_accumulators):
+        c = np.zeros((1, 7 + n_accumulators))
+        c[0, 7 + j] = 1.0
+        out[f"oil_volume_{j}"] = Output(f"oil_volume_{j}", "m^3", c, np.zeros((1, 4)))
+    return out

@@ -121,15 +121,17 @@ class ModalChannels:
         outs = list(outputs.values())
         feed = channel_feedthrough(outs) if feed is None else feed
         halves = split(ss, state_mirror(model, ss))
+        # outputs over [X, V_acc]: the accumulators' oil volumes are rows of the states too
+        volumes = model.accumulator_states(ss) if any(o.c.shape[1] > 7 for o in outs) else None
         if halves is not None:
-            self.forms = {name: PoleResidue(h.a, h.inputs, h.positions, outs, feed[name]) for name, h in halves.items()}
+            self.forms = {name: PoleResidue(h.a, h.inputs, _with_volumes(h.positions, volumes, h.basis), outs, feed[name]) for name, h in halves.items()}
             self.lam = np.concatenate([f.lam for f in self.forms.values()], axis=1)
             self.conditioning = np.maximum(self.forms["sym"].conditioning, self.forms["anti"].conditioning)
         else:
             chan = channel_inputs(ss.b0 + ss.a @ ss.b1)
             inputs = np.concatenate([chan["sym"], chan["anti"]], axis=-1)
             both = [np.concatenate([s_, a_], axis=-1) for s_, a_ in zip(feed["sym"], feed["anti"], strict=True)]
-            form = PoleResidue(ss.a, inputs, np.eye(ss.a.shape[-1])[:7], outs, both)
+            form = PoleResidue(ss.a, inputs, _with_volumes(np.eye(ss.a.shape[-1])[:7], volumes, None), outs, both)
             self.forms = {"both": form}
             self.lam = form.lam
             self.conditioning = form.conditioning
@@ -168,6 +170,15 @@ class ModalChannels:
         return {name: form(omega) for name, form in self.forms.items()}
 
 
+def _with_volumes(positions: np.ndarray, volumes: np.ndarray | None, basis: np.ndarray | None) -> np.ndarray:
+    """The position map ``(7, m)``, with the accumulators' oil volumes ``(n, E, k)`` (over the
+    full states; ``basis`` ``(k, m)``: a half's states) as rows after it, ``(n, 7 + E, m)``."""
+    if volumes is None:
+        return positions
+    rows = volumes if basis is None else volumes @ basis
+    return np.concatenate([np.broadcast_to(positions, (len(rows),) + positions.shape), rows], axis=-2)
+
+
 class DirectOutputs:
     """The road channels' FRFs by direct solve of the dynamic stiffness (any pipe model; the
     reference path)."""
@@ -184,6 +195,8 @@ class DirectOutputs:
         h_x = self.model.frequency_response(s)
         outputs = list(self.outputs.values())
         chosen = outputs if output is None else [outputs[output]]
+        if any(o.c.shape[1] > 7 for o in chosen):  # outputs over [X, V_acc]
+            h_x = np.concatenate([h_x, self.model.accumulator_response(s, h_x)], axis=-2)
         wheels = np.stack([o.frf(h_x, s) for o in chosen], axis=-1)  # (n, F, 4, n_out)
         fl, fr, rl, rr = (wheels[..., k, :] for k in range(4))
         sym, anti = np.stack([fl + fr, rl + rr], axis=-2), np.stack([fl - fr, rl - rr], axis=-2)

@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from hisopt.coupled.operating_point import accumulator_quantities
-from hisopt.coupled.response import Output, standard_outputs
+from hisopt.coupled.operating_point import accumulator_quantities, accumulator_rooms
+from hisopt.coupled.response import Output, accumulator_outputs, standard_outputs
 from hisopt.errors import ModelError
 from hisopt.evaluation import psd as psd_kernels
 from hisopt.evaluation.channels import (
@@ -62,6 +62,7 @@ if TYPE_CHECKING:
     from hisopt.coupled.model import CoupledModel
     from hisopt.specification.config import Comfort
     from hisopt.specification.design_space import DesignSpace
+
 
 class Evaluator:
     """Objective/constraint evaluator of one problem, reusable across many calls.
@@ -109,11 +110,14 @@ class Evaluator:
         # sweeps), whose quantities are never "<quantity>@<scenario>" columns (per_scenario).
         self.names = tuple(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
         self.metrics = [METRICS[n] for n in self.names]
-        self.all_outputs = standard_outputs(problem.vehicle)
+        self.n_accumulators = len(problem.network().accumulators())
+        self.all_outputs = standard_outputs(problem.vehicle) | accumulator_outputs(self.n_accumulators)
         wanted: list[str] = []
         for m in self.metrics:
             if m.kind == "comfort":
                 wanted += list(COMFORT_OUTPUTS.values())
+            elif m.kind == "swing":
+                wanted += list(accumulator_outputs(self.n_accumulators))
             elif m.output is not None:
                 wanted.append(m.output)
         wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
@@ -141,7 +145,7 @@ class Evaluator:
         self.fixed_singularities = np.unique(np.round(fixed.real, 12) + 1j * np.round(np.abs(fixed.imag), 12))
         forced = np.unique(self.forced_edges)
         self._forced = forced[(forced > self.f_lo) & (forced < self.f_hi)]
-        self.integrals = _integral_keys(self.metrics, spec.comfort, self.outputs)
+        self.integrals = _integral_keys(self.metrics, spec.comfort, self.outputs, self.n_accumulators)
         self.weightings = sorted({wt for _, wt in self.integrals if wt})
         self._gain_polynomials = _padded_polynomials(self.weightings if spec.comfort.method == "filter" else [])
         derived = [self.derived[output] for output, _ in self.integrals]
@@ -294,8 +298,15 @@ class Evaluator:
         rho = design_rho(self.order, self.tolerance / POLE_MARGIN)
         x, w = gauss_legendre(self.order)
         return lay_nodes(
-            np.ascontiguousarray(lam, dtype=complex), self.fixed_singularities.astype(complex), self._forced, self.f_lo, self.f_hi,
-            0.5 * (rho + 1.0 / rho), x, w, MAX_PANELS,
+            np.ascontiguousarray(lam, dtype=complex),
+            self.fixed_singularities.astype(complex),
+            self._forced,
+            self.f_lo,
+            self.f_hi,
+            0.5 * (rho + 1.0 / rho),
+            x,
+            w,
+            MAX_PANELS,
         )
 
     def _panels(self, lam: np.ndarray) -> np.ndarray:
@@ -403,6 +414,7 @@ class Evaluator:
             lambda output: maxima[output],
             lambda name: static_quantity(model, name),
             steps.__getitem__,
+            lambda: accumulator_rooms(model.his) if model.his is not None else [],
         )
 
     def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
@@ -480,7 +492,7 @@ class Samples:
     psd_all: np.ndarray
 
 
-def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, Output]) -> list[tuple[str, str | None]]:
+def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, Output], n_accumulators: int) -> list[tuple[str, str | None]]:
     """The ``(output, weighting)`` integrals :func:`hisopt.evaluation.psd.reduce_metrics` asks for (found
     by running it once on placeholders, so the dispatch stays in one place)."""
     keys: list[tuple[str, str | None]] = []
@@ -489,7 +501,16 @@ def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, O
         keys.append((output, weighting))
         return 0.0
 
-    reduce_metrics(metrics, comfort, lambda name: outputs[name].weighting, record, lambda o: 0.0, lambda n: 0.0, lambda n: 0.0)  # type: ignore[arg-type,return-value]
+    reduce_metrics(
+        metrics,
+        comfort,
+        lambda name: outputs[name].weighting,  # type: ignore[arg-type,return-value]
+        record,
+        lambda o: 0.0,
+        lambda n: 0.0,
+        lambda n: 0.0,
+        lambda: [1.0] * n_accumulators,
+    )
     return list(dict.fromkeys(keys))
 
 
@@ -544,7 +565,7 @@ def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[
         p, vec = int(rows[0]), out.c[rows[0]]
         k = int(np.flatnonzero(vec)[0])
         for bname, bvec in pure.items():
-            if np.allclose(vec * bvec[k], bvec * vec[k], rtol=0, atol=0):
+            if bvec.shape == vec.shape and np.allclose(vec * bvec[k], bvec * vec[k], rtol=0, atol=0):
                 derived[name] = (bname, float(vec[k] / bvec[k]), p)
                 break
         else:

@@ -92,9 +92,24 @@ def _channel_frfs(w: float, lam_p: np.ndarray, alpha: np.ndarray, beta: np.ndarr
 
 @njit(cache=True, inline="always")
 def _roads_psd(
-    w: float, f: float, i: int, q: int, first: int, last: int, tau: np.ndarray, coherence: np.ndarray, coherent: bool, road: np.ndarray,
-    col_s: np.ndarray, col_a: np.ndarray, hs_re: np.ndarray, hs_im: np.ndarray, ha_re: np.ndarray, ha_im: np.ndarray,
-    gather: np.ndarray, out: np.ndarray,
+    w: float,
+    f: float,
+    i: int,
+    q: int,
+    first: int,
+    last: int,
+    tau: np.ndarray,
+    coherence: np.ndarray,
+    coherent: bool,
+    road: np.ndarray,
+    col_s: np.ndarray,
+    col_a: np.ndarray,
+    hs_re: np.ndarray,
+    hs_im: np.ndarray,
+    ha_re: np.ndarray,
+    ha_im: np.ndarray,
+    gather: np.ndarray,
+    out: np.ndarray,
 ) -> None:
     """:func:`channel_psd` at one frequency on every road: the FRFs of each output gathered
     once (rows: sym front, sym rear, anti front, anti rear; re, im), then per road the same
@@ -403,9 +418,10 @@ def modal_terms(
     lam, vec, w_inv : np.ndarray
         ``(n, k)`` poles, ``(n, k, k)`` right eigenvectors and their inverse
     bp, pos : np.ndarray
-        ``(n, k, m)`` input map ``B'``, ``(n, 7, k)`` the DOFs from the states
+        ``(n, k, m)`` input map ``B'``, ``(n, W, k)`` the DOFs (and any accumulator volumes)
+        from the states
     c : np.ndarray
-        ``(O, 7)`` each output's DOF combination
+        ``(O, W)`` each output's combination of them
     columns : np.ndarray
         ``(C, 2)`` the input and output of each column
     lam_p, alpha, beta, lam_1, r_re, r_im : np.ndarray
@@ -428,7 +444,7 @@ def modal_terms(
         for o in range(c.shape[0]):
             for kk in range(k):
                 acc = 0j
-                for j in range(7):
+                for j in range(c.shape[1]):
                     if c[o, j] != 0.0:
                         v = 0j
                         for s in range(k):

@@ -47,9 +47,7 @@ class Backend:
             return 1
         return max(1, len(self.client.scheduler_info().get("workers", {})))
 
-    def map(
-        self, fn: Callable[..., R], items: Sequence[T], *args: Any, on_result: Callable[[int, R], None] | None = None
-    ) -> list[R]:
+    def map(self, fn: Callable[..., R], items: Sequence[T], *args: Any, on_result: Callable[[int, R], None] | None = None) -> list[R]:
         """``[fn(item, *args) for item in items]``, in order; shared ``args`` are sent once.
 
         ``on_result(index, result)`` is called as each item finishes (in completion order on

@@ -55,16 +55,15 @@ class PoleResidue:
     inputs : np.ndarray
         ``(n, k, m)`` input map ``B' = B0 + A B1`` of the inputs
     positions : np.ndarray
-        ``(7, k)`` or ``(n, 7, k)``: the DOFs ``X = P x``
+        ``(7, k)`` or ``(n, 7, k)``: the DOFs ``X = P x``, or ``(n, 7 + E, k)`` with the
+        accumulators' oil volumes after them (outputs with ``7 + E`` columns)
     outputs : Sequence[Output]
         the outputs (their road feedthrough ``d`` already mapped to the ``m`` inputs)
     feedthrough : Sequence[np.ndarray]
         per output, ``(P, m)`` road terms ``d_p`` on the ``m`` inputs
     """
 
-    def __init__(
-        self, a: np.ndarray, inputs: np.ndarray, positions: np.ndarray, outputs: Sequence[Output], feedthrough: Sequence[np.ndarray]
-    ):
+    def __init__(self, a: np.ndarray, inputs: np.ndarray, positions: np.ndarray, outputs: Sequence[Output], feedthrough: Sequence[np.ndarray]):
         n, k, m = inputs.shape
         d = balance(a)
         self._ab = a * (d[:, None, :] / d[:, :, None])
@@ -74,13 +73,14 @@ class PoleResidue:
         # Eigenvalue condition numbers ||v_k|| ||w_k|| (columns of v have unit norm).
         self.conditioning = np.max(np.linalg.norm(w_inv, axis=-1), axis=-1)
         self._bp = inputs / d[:, :, None]  # balanced coordinates: x = diag(d) x'
-        self._pos = np.broadcast_to(positions * d[:, None, :], (n, 7, k))  # (n, 7, k)
+        width = positions.shape[-2]  # 7, or 7 + E with the accumulators' oil volumes
+        self._pos = np.broadcast_to(positions * d[:, None, :], (n, width, k))  # (n, W, k)
         self._positions = positions
         n_pow = max(o.c.shape[0] for o in outputs)
-        c = np.zeros((n_pow, len(outputs), 7))  # c_p of every output, (P, O, 7)
+        c = np.zeros((n_pow, len(outputs), width))  # c_p of every output, (P, O, W)
         feed = np.zeros((n_pow, len(outputs), m))
         for i, (o, dd) in enumerate(zip(outputs, feedthrough, strict=True)):
-            c[: o.c.shape[0], i] = o.c
+            c[: o.c.shape[0], i, : o.c.shape[1]] = o.c
             feed[: dd.shape[0], i] = dd
         used = np.flatnonzero(np.any(c != 0, axis=(1, 2)) | np.any(feed != 0, axis=(1, 2)))
         n_pow = int(used[-1]) + 1 if used.size else 1  # the highest power with a term
@@ -93,10 +93,10 @@ class PoleResidue:
         lam, vec, pos, bp, c = self.lam, self._vec, self._pos, self._bp, self._c
         n, n_pow = len(lam), c.shape[0]
         wb = self._w_inv @ bp  # (n, k, m), complex
-        pv = pos @ vec  # (n, 7, k), complex
+        pv = pos @ vec  # (n, W, k), complex
         weight = c[0] @ pv  # sum_p lambda^p c_p P v_k, (n, O, k)
         lam_p = np.ones_like(lam)
-        powers = [pos @ bp]  # c-free Markov parameters P A^j B' (balanced), (n, 7, m)
+        powers = [pos @ bp]  # c-free Markov parameters P A^j B' (balanced), (n, W, m)
         for p in range(1, n_pow):
             lam_p = lam_p * lam
             weight = weight + lam_p[:, None, :] * (c[p] @ pv)

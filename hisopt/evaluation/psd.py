@@ -18,6 +18,7 @@ and frequencies) and CasADi expressions alike.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -92,6 +93,7 @@ def reduce_metrics(
     maximum: Callable[[str], Any],
     static: Callable[[str], Any],
     transient: Callable[[str], Any] | None = None,
+    rooms: Callable[[], Sequence[Any]] | None = None,
 ) -> dict[str, Any]:
     """Every metric from its spectra: the one dispatch of docs/model.md §6.
 
@@ -100,7 +102,10 @@ def reduce_metrics(
     - ``max``: ``maximum(output)`` (continuous, or over nodes, as the engine provides);
     - ``static``: ``static(name)`` (``roll_gradient``);
     - ``transient``: ``transient(name)`` (:mod:`hisopt.evaluation.transient`; an engine without it
-      raises ``ValueError`` naming the quantity).
+      raises ``ValueError`` naming the quantity);
+    - ``swing`` (``accumulator_swing``): the largest ``sqrt(integral(S_oil_volume_j)) / room_j``
+      over the accumulators, ``rooms()`` their static rooms
+      (:func:`hisopt.coupled.operating_point.accumulator_rooms`; NaN without accumulators).
 
     Parameters
     ----------
@@ -124,6 +129,14 @@ def reduce_metrics(
             if transient is None:
                 raise ValueError(f"{m.name}: this engine has no transient roll quantities")
             out[m.name] = transient(m.name)
+        elif m.kind == "swing":
+            if rooms is None:
+                raise ValueError(f"{m.name}: this engine has no accumulator oil volumes")
+            worst: Any = math.nan
+            for j, room in enumerate(rooms()):
+                share = bk.sqrt(integral(f"oil_volume_{j}", None)) / room
+                worst = share if j == 0 else bk.fmax(worst, share)
+            out[m.name] = worst
         else:
             out[m.name] = static(m.name)
     return out

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hisopt.coupled.operating_point import accumulator_rooms
 from hisopt.evaluation.channels import DirectOutputs
 from hisopt.evaluation.evaluate import Evaluator, static_quantity
 from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
@@ -46,6 +47,7 @@ def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, 
         lambda output: spectra[output].max(axis=1),
         lambda name: static_quantity(model, name),
         transient.__getitem__,
+        lambda: accumulator_rooms(model.his) if model.his is not None else [],
     )
 
 

@@ -82,11 +82,14 @@ class Half:
         ``(n, m, 2)`` the half's road channel (front axle, rear axle), ``B' = B0 + A B1``
     positions : np.ndarray
         ``(7, m)`` the DOFs ``X`` from the half's states
+    basis : np.ndarray
+        ``(k, m)`` the full states from the half's: ``x = basis @ x_half``
     """
 
     a: np.ndarray
     inputs: np.ndarray
     positions: np.ndarray
+    basis: np.ndarray
 
 
 def _bases(image: np.ndarray, sign: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -137,7 +140,7 @@ def split(ss: StateSpace, mirror: tuple[np.ndarray, np.ndarray] | None) -> dict[
     halves = {}
     for name, basis in zip(("sym", "anti"), _bases(image, sign), strict=True):
         ab = _times_basis(a, basis)  # A V, then V^T (A V): V has one or two entries per column
-        halves[name] = Half(np.swapaxes(_times_basis(np.swapaxes(ab, -1, -2), basis), -1, -2), basis.T @ channels[name], basis[:7])
+        halves[name] = Half(np.swapaxes(_times_basis(np.swapaxes(ab, -1, -2), basis), -1, -2), basis.T @ channels[name], basis[:7], basis)
     return halves
 
 

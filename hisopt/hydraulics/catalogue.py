@@ -145,8 +145,9 @@ def _read_entry(name: str) -> CatalogueEntry:
     stray = [k for k, b in data.variables.items() if k not in data.parameters or not b.lower <= data.parameters[k] <= b.upper]
     if stray:
         raise ModelError(f"hisopt/data/layouts/{name}.toml: variables.{stray[0]}: expected bounds around a [parameters] default")
-    return CatalogueEntry(name, data.summary, " ".join(data.description.split()), data.source, dict(data.parameters),
-                          build_layout(data.circuits, name), dict(data.variables))
+    return CatalogueEntry(
+        name, data.summary, " ".join(data.description.split()), data.source, dict(data.parameters), build_layout(data.circuits, name), dict(data.variables)
+    )
 
 
 @functools.cache
@@ -242,7 +243,7 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
     read by the layout or breaks the rule of an element field that reads it, an element that
     refers to an unknown parameter, a circuit whose compliance is zero at these values."""
     if his.layout != CUSTOM and his.layout not in CATALOGUE_NAMES:
-        return f"his.layout: unknown layout {his.layout!r}; expected one of {', '.join(CATALOGUE_NAMES)} or \"custom\" (see hisopt layouts)"
+        return f'his.layout: unknown layout {his.layout!r}; expected one of {", ".join(CATALOGUE_NAMES)} or "custom" (see hisopt layouts)'
     if his.layout == CUSTOM and not his.circuits:
         return 'his.layout: "custom" needs the circuits in [[his.circuits]] tables (docs/model.md §12.2)'
     if his.layout != CUSTOM and his.circuits:
@@ -267,8 +268,10 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
             for key, ref in parameter_fields(element).items():
                 if isinstance(ref, str) and ref not in known:
                     extra = ", ".join(his.parameters) or "none yet"
-                    return (f"his.circuits: {element_label(layout, c, element)}: {key} refers to the unknown parameter {ref!r}; "
-                            f"expected a number, a [his] value ({', '.join(his_fields())}) or a name defined in [his.parameters] ({extra})")
+                    return (
+                        f"his.circuits: {element_label(layout, c, element)}: {key} refers to the unknown parameter {ref!r}; "
+                        f"expected a number, a [his] value ({', '.join(his_fields())}) or a name defined in [his.parameters] ({extra})"
+                    )
     values = his_parameter_values(his)
     for name, value in his.parameters.items():
         for cls, key in uses[name]:
@@ -285,6 +288,8 @@ def _zero_compliance(layout: Layout, values: Mapping[str, Any]) -> str | None:
     resolved = element_values(network, values)
     for c, circuit in enumerate(layout.circuits):
         if not float(total_compliance(network, resolved, c)) > 0.0:
-            return (f"his.circuits: circuit {circuit.name!r} has no compliance at these values (every oil volume is 0); "
-                    "expected an accumulator or a non-zero volume")
+            return (
+                f"his.circuits: circuit {circuit.name!r} has no compliance at these values (every oil volume is 0); "
+                "expected an accumulator or a non-zero volume"
+            )
     return None

@@ -92,6 +92,28 @@ class HydraulicSystem:
         """``Z_port(s)`` [Pa s m^-3] (:func:`hisopt.hydraulics.network.port_impedance`)."""
         return nw.port_impedance(self.network, self.values, s)
 
+    def accumulator_pressures(self, s: np.ndarray) -> np.ndarray:
+        """[Pa s m^-3] Each accumulator's node pressure per port flow, ``M(s)^-1 P`` at the
+        accumulators' rows (numpy, either pipe fidelity): ``B + (F, n_accumulators, n_ports)``,
+        zero on other circuits' ports, NaN where ``M(s)`` is singular. Times the accumulator's
+        compliance it is its oil volume per port flow (docs/model.md §16.9)."""
+        net = self.network
+        m = nw.network_matrix(net, self.values, s)
+        accumulators = net.accumulators()
+        out = np.zeros(m.shape[:-2] + (len(accumulators), len(net.ports)), dtype=complex)
+        for rows, ports, sol in nw.circuit_solutions(net, m):
+            for j, (_, _, row) in enumerate(accumulators):
+                if row in rows:
+                    out[..., j, ports] = sol[..., int(np.flatnonzero(rows == row)[0]), :]
+        return out
+
+    def accumulator_compliances(self) -> np.ndarray:
+        """[m^3/Pa] Each accumulator's linearised compliance at the operating point, numpy
+        ``B + (n_accumulators,)``."""
+        shunt = self.values.shunt
+        parts = [np.broadcast_to(np.asarray(shunt[k], dtype=float), self.batch_shape) for k, _, _ in self.network.accumulators()]
+        return np.stack(parts, axis=-1) if parts else np.zeros(self.batch_shape + (0,))
+
     def stroke_impedance(self, s: Any) -> Any:
         """``D(s) = s N^T Z_port(s) N`` [N/m], numpy ``B + (F, 4, 4)`` for ``s`` of shape ``(F,)``
         or ``B + (F,)``."""

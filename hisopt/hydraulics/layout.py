@@ -141,6 +141,7 @@ def field_rule_problem(cls: type, key: str, value: float) -> str | None:
             return f"{key} {'<=' if closed else '<'} {upper:g}"
     return None
 
+
 ELEMENT_KINDS: dict[type, str] = {
     Accumulator: "accumulator",
     ChamberCompliance: "compliance",

@@ -393,14 +393,23 @@ def port_impedance(network: Network, values: ElementValues, s: Any) -> Any:
             blocks.append((ports, bk.matmul(p.T, bk.solve(sub, p))))
         return _block_diag_casadi(blocks, n_ports)
     out = np.zeros(m.shape[:-2] + (n_ports, n_ports), dtype=complex)
+    for rows, ports, sol in circuit_solutions(network, m):
+        p = network.injection[np.ix_(rows, ports)]
+        out[..., ports[:, None], ports[None, :]] = p.T @ sol
+    return out
+
+
+def circuit_solutions(network: Network, m: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``(rows, ports, M_c^-1 P_c)`` of every circuit ``c`` of the numpy network matrix ``m``
+    (``B + (F, n, n)``); NaN where a circuit's matrix is singular."""
+    out = []
     for c in range(network.n_circuits):
         rows = network.circuit_rows(c)
         ports = np.flatnonzero(network.port_circuit == c)
         p = network.injection[np.ix_(rows, ports)]
         sub = m[..., rows[:, None], rows[None, :]]
         with np.errstate(all="ignore"):
-            sol = _solve_or_nan(sub, np.broadcast_to(p, sub.shape[:-2] + p.shape))
-        out[..., ports[:, None], ports[None, :]] = p.T @ sol
+            out.append((rows, ports, _solve_or_nan(sub, np.broadcast_to(p, sub.shape[:-2] + p.shape))))
     return out
 
 
@@ -444,8 +453,7 @@ def incidence(network: Network, top_area: Any, bottom_area: Any) -> Any:
         return x[..., w] if isinstance(x, np.ndarray) else x[w]
 
     entries = [
-        (k, port.wheel, laws.chamber_area(wheel(top_area, port.wheel), wheel(bottom_area, port.wheel), port.chamber))
-        for k, port in enumerate(network.ports)
+        (k, port.wheel, laws.chamber_area(wheel(top_area, port.wheel), wheel(bottom_area, port.wheel), port.chamber)) for k, port in enumerate(network.ports)
     ]
     return bk.assemble((len(network.ports), 4), entries)
 
@@ -526,8 +534,10 @@ def mirror_unknowns(network: Network) -> np.ndarray | None:
             if all(v is None for v in known):
                 continue
             candidates = [
-                j for j in range(len(network.elements))
-                if signatures[j] == signatures[k] and j not in element_map.values()
+                j
+                for j in range(len(network.elements))
+                if signatures[j] == signatures[k]
+                and j not in element_map.values()
                 and all(v is None or v == network.element_rows[j][i] for i, v in enumerate(known))
             ]
             if len(candidates) != 1:

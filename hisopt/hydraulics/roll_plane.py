@@ -39,6 +39,12 @@ class PipeLayout(BaseModel):
     length_rear: float = Field(2.5, gt=0, description="rear port to circuit node", json_schema_extra=si("m"))
 
 
+SEPARATOR_RATINGS = {"diaphragm": 8.0, "bladder": 4.0}
+"""[-] Largest ratio of absolute working pressure to precharge by gas separator: a bladder
+folds and wears beyond about 4, a diaphragm about 8 (accumulator makers' selection guides,
+e.g. HYDAC's; a part's data sheet gives its own, ``[his] pressure_rating``)."""
+
+
 class RollPlaneHIS(BaseModel):
     """The ``[his]`` table: parameters of the HIS; the four paper variables first (paper Table 2).
 
@@ -62,6 +68,13 @@ class RollPlaneHIS(BaseModel):
     chamber_volume: float = Field(0.0, ge=0, description="oil volume per chamber (0: off)", json_schema_extra=si("m^3"))
     valve_laminar_fraction: float = Field(
         1.0, ge=0, le=1, description="laminar share of the valves' coefficient at the reference temperature (the rest is orifice)", json_schema_extra=si("-")
+    )
+    separator: Literal["diaphragm", "bladder"] = Field("diaphragm", description="[-] the accumulators' gas separator (sets their default pressure_rating)")
+    pressure_rating: float | None = Field(
+        None,
+        gt=1,
+        description="largest ratio of absolute working pressure to precharge the accumulators are rated for (None: the separator's, SEPARATOR_RATINGS)",
+        json_schema_extra=si("-"),
     )
     fluid: Fluid = Field(default_factory=Fluid)
     oil: Oil = Field(default_factory=Oil)
@@ -145,13 +158,13 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
     :func:`thermal_parameters` and, for a charged HIS, its ``gas_fraction`` and
     ``charge_oil_volume``.
     """
-    values: dict[str, Any] = {
-        k: getattr(base, k) for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)
-    }
+    values: dict[str, Any] = {k: getattr(base, k) for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)}
     values.update(overrides or {})
     for key in ("dA", "lam", "Rv"):
         if values.get(f"{key}_rear") is None:
             values[f"{key}_rear"] = values[key]
+    if values.get("pressure_rating") is None:
+        values["pressure_rating"] = SEPARATOR_RATINGS[base.separator]
     if base.pipes is not None:
         values |= {
             "pipe_diameter": base.pipes.diameter,

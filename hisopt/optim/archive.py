@@ -77,8 +77,6 @@ def non_dominated_mask(f: np.ndarray) -> np.ndarray:
     return out
 
 
-
-
 LEAF_SIZE = 32
 """[-] Most designs in a leaf of the archive's spatial index."""
 
@@ -143,8 +141,18 @@ def build_index(f: np.ndarray, rows: np.ndarray, leaf_size: int = LEAF_SIZE) -> 
 
 
 def _offer(
-    f: np.ndarray, n: int, alive: np.ndarray, n_indexed: int, perm: np.ndarray, starts: np.ndarray,
-    lo: np.ndarray, hi: np.ndarray, c: np.ndarray, entered: np.ndarray, removed: np.ndarray, gone: np.ndarray,
+    f: np.ndarray,
+    n: int,
+    alive: np.ndarray,
+    n_indexed: int,
+    perm: np.ndarray,
+    starts: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    c: np.ndarray,
+    entered: np.ndarray,
+    removed: np.ndarray,
+    gone: np.ndarray,
 ) -> int:
     """Compiled by numba. ``entered[j]``: no row of ``f[:n]`` weakly dominates ``c[j]``;
     ``removed[:count]`` (the return value): the live rows an entering candidate weakly
@@ -234,8 +242,12 @@ _archive_kernel = CompiledOnFirstUse(_offer)
 
 
 def _search(
-    f: np.ndarray, n: int, alive: np.ndarray, index: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    n_indexed: int, candidates: np.ndarray,
+    f: np.ndarray,
+    n: int,
+    alive: np.ndarray,
+    index: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    n_indexed: int,
+    candidates: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(entered, removed rows)`` of candidates (mutually non-dominated) against ``f[:n]``."""
     c = np.ascontiguousarray(candidates, dtype=float)

@@ -94,8 +94,6 @@ class ProgressHypervolume:
         return float(self.scale * np.mean(self.rho**k))
 
 
-
-
 def _advance(gap: np.ndarray, inverse_w: np.ndarray, rho: np.ndarray) -> None:
     """Compiled by numba: ``rho[d] = max(rho[d], max_p min_j gap[p, j] * inverse_w[d, j])``."""
     n, k = inverse_w.shape

@@ -111,8 +111,13 @@ class Engine:
             self.generation += 1
             self.evaluations += n
             stats = GenerationStats(
-                self.generation, self.settings.generations, self.evaluations, float(feasible.mean()), len(self.archive),
-                self.progress_hv.value(), self.elapsed(),
+                self.generation,
+                self.settings.generations,
+                self.evaluations,
+                float(feasible.mean()),
+                len(self.archive),
+                self.progress_hv.value(),
+                self.elapsed(),
             )
             self.stats.append(stats)
             self._check_convergence()

@@ -40,9 +40,7 @@ def objective_matrix(quantities: dict[str, np.ndarray], names: tuple[str, ...]) 
     return np.where(valid[:, None] & np.isfinite(f), f, np.inf)
 
 
-def constraint_matrix(
-    quantities: dict[str, np.ndarray], names: tuple[str, ...], limits: tuple[float, ...]
-) -> np.ndarray:
+def constraint_matrix(quantities: dict[str, np.ndarray], names: tuple[str, ...], limits: tuple[float, ...]) -> np.ndarray:
     """Normalised constraints ``G`` (n, n_con + 1), ``value / limit - 1 <= 0`` when met.
 
     The last column flags invalid designs (0 valid, 1 invalid); invalid designs violate

@@ -19,6 +19,7 @@ from hisopt.optim.thinning import EpsilonTolerances, thin_front
 if TYPE_CHECKING:
     from hisopt.problem import Problem
 
+
 @dataclass(frozen=True)
 class GenerationStats:
     """Progress of a run after one generation (passed to ``progress`` callbacks).
@@ -106,8 +107,12 @@ class OptimizationResult:
         s = self.settings
         out: dict[str, Any] = {"until": s.until, "generations": s.generations}
         if s.until == "converged":
-            out |= {"tolerance": s.tolerance, "window_generations": s.window, "converged": self.converged_at is not None,
-                    "converged_at_generation": self.converged_at}
+            out |= {
+                "tolerance": s.tolerance,
+                "window_generations": s.window,
+                "converged": self.converged_at is not None,
+                "converged_at_generation": self.converged_at,
+            }
         return out
 
     def hypervolume_history(self, rows: int = 6) -> list[tuple[int, float]]:
@@ -204,8 +209,6 @@ def _by_objective(values: Mapping[str, float] | Sequence[float], names: tuple[st
     if out.shape != (len(names),):
         raise ConfigError(f"expected {len(names)} ASF {what} values (order {', '.join(names)}), got {out.shape[0] if out.ndim else 1}")
     return out
-
-
 
 
 ProgressFn = Callable[[GenerationStats], None]

@@ -286,15 +286,19 @@ def prepare_resume(run_dir: str | Path) -> ResumePlan:
 
     if info["versions"].get("pymoo") != pymoo.__version__:
         raise RunError(
-            f"{run_dir} was run with pymoo {info['versions'].get('pymoo')}, this is pymoo {pymoo.__version__}; "
-            "an identical continuation needs the same version"
+            f"{run_dir} was run with pymoo {info['versions'].get('pymoo')}, this is pymoo {pymoo.__version__}; an identical continuation needs the same version"
         )
     if state.status != runstate.FINISHED:
         rundir.prepare_run_directory(run_dir, fresh=False)
     s = info["settings"]
     settings = RunSettings(
-        s["algorithm"], int(s["pop_size"]), int(s["generations"]), int(s["seed"]),
-        s.get("until", "generations"), float(s.get("tolerance", RunSettings.tolerance)), int(s.get("window", RunSettings.window)),
+        s["algorithm"],
+        int(s["pop_size"]),
+        int(s["generations"]),
+        int(s["seed"]),
+        s.get("until", "generations"),
+        float(s.get("tolerance", RunSettings.tolerance)),
+        int(s.get("window", RunSettings.window)),
     )
     engine = Engine(problem, settings, np.asarray(s["hypervolume_reference_log10"], dtype=float))
     engine.epsilon = epsilon_from_record(problem, s.get("epsilon"))

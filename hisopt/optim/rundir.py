@@ -210,8 +210,12 @@ def load_checkpoint(path: Path, *, history: bool = True) -> tuple[dict[str, Any]
             arrays |= {name: np.concatenate([p[name] for p in parts]) for name in HISTORY_FIELDS}
         elif "archive_q" in arrays:  # a run's checkpoint before its first chunk
             n_var = arrays["pop_X"].shape[1] if "pop_X" in arrays else 0
-            arrays |= {"hist_x": np.empty((0, n_var)), "hist_q": np.empty((0, arrays["archive_q"].shape[1])),
-                       "hist_valid": np.empty(0, dtype=bool), "hist_gen": np.empty(0, dtype=np.int64)}
+            arrays |= {
+                "hist_x": np.empty((0, n_var)),
+                "hist_q": np.empty((0, arrays["archive_q"].shape[1])),
+                "hist_valid": np.empty(0, dtype=bool),
+                "hist_gen": np.empty(0, dtype=np.int64),
+            }
     return meta, arrays
 
 
@@ -244,9 +248,7 @@ def legacy_state() -> dict[str, Any]:
 
 def set_legacy_state(state: dict[str, Any]) -> None:
     """Restore the global numpy RNG from :func:`legacy_state`."""
-    np.random.set_state(
-        (state["name"], np.asarray(state["keys"], dtype=np.uint32), state["pos"], state["has_gauss"], state["cached_gaussian"])
-    )
+    np.random.set_state((state["name"], np.asarray(state["keys"], dtype=np.uint32), state["pos"], state["has_gauss"], state["cached_gaussian"]))
 
 
 # --- reading a run directory -----------------------------------------------------------------
@@ -259,8 +261,10 @@ def read_run_json(run_dir: Path) -> dict[str, Any]:
     if not run_dir.is_dir():
         raise RunError(f"{run_dir}: not a run directory (not found); expected the --out directory of `hisopt optimize`")
     if not path.is_file() and (run_dir / LAYOUT_STUDY_JSON).is_file():
-        raise RunError(f"{run_dir}: a layout study (`hisopt compare-layouts`), not a run; `hisopt status {run_dir}` summarises "
-                       f"it, `hisopt report {run_dir}` writes its report, and its runs are {run_dir}/<layout>/seed-<n>")
+        raise RunError(
+            f"{run_dir}: a layout study (`hisopt compare-layouts`), not a run; `hisopt status {run_dir}` summarises "
+            f"it, `hisopt report {run_dir}` writes its report, and its runs are {run_dir}/<layout>/seed-<n>"
+        )
     if not path.is_file():
         if any((run_dir / name).is_file() for name in (PROBLEM_TOML, PROBLEM_JSON)):
             raise RunError(f"{run_dir}: the run never started (no {RUN_JSON}); start it again with `hisopt optimize PROBLEM --out {run_dir}`")
@@ -389,8 +393,7 @@ def load_run_problem(run_dir: Path, record: dict[str, Any], check_original: bool
     digest = sha256_bytes(copy.read_bytes())
     if digest != record["sha256"]:
         raise RunError(
-            f"{copy} was edited since the run started (sha256 {record['sha256'][:12]} -> {digest[:12]}); "
-            "restore it or start a new run with `hisopt optimize`"
+            f"{copy} was edited since the run started (sha256 {record['sha256'][:12]} -> {digest[:12]}); restore it or start a new run with `hisopt optimize`"
         )
     original = record.get("path")
     if check_original and original and Path(original).is_file():

@@ -183,8 +183,7 @@ def interrupted_line(run_dir: Path, exc: BaseException) -> str:
 
     name = signal_name(exc)
     if not (Path(run_dir) / rundir.RUN_JSON).is_file():  # before the first generation began
-        return (f"interrupted by {name} before the first generation; nothing to resume. "
-                f"Start again with the same `hisopt optimize PROBLEM --out {run_dir}`")
+        return f"interrupted by {name} before the first generation; nothing to resume. Start again with the same `hisopt optimize PROBLEM --out {run_dir}`"
     try:
         state = read_state(run_dir)
     except (RunError, OSError, ValueError, KeyError):
@@ -192,10 +191,7 @@ def interrupted_line(run_dir: Path, exc: BaseException) -> str:
     if state.status == FINISHED:
         return f"{name} arrived during the final write, which completed: the run is finished ({run_dir / rundir.FRONT_CSV})"
     if state.status == INTERRUPTED:
-        return (
-            f"interrupted by {name} after {state.generation} of {state.generations} generations; checkpoint saved. "
-            f"Resume with: hisopt resume {run_dir}"
-        )
+        return f"interrupted by {name} after {state.generation} of {state.generations} generations; checkpoint saved. Resume with: hisopt resume {run_dir}"
     return f"interrupted by {name}; {state.line()}"
 
 

@@ -29,6 +29,7 @@ SMSEMOA_MAX_OBJECTIVES = 4
 above: exact hypervolume contributions cost milliseconds up to four objectives and far more
 beyond (``benchmarks/bench_hv_survival.py``)."""
 
+
 @dataclass(frozen=True)
 class RunSettings:
     """Algorithm settings of a run (problem file ``[optimizer]`` plus overrides).

@@ -113,15 +113,16 @@ def resolve_epsilon(problem: Problem, given: EpsilonInput | None = None, *, opti
     from hisopt.robust import quantity_of
 
     units = {q: METRICS[q].unit for q in problem.spec.objectives}
-    tolerances = parse_tolerances(problem.spec.optimizer.epsilon, units, file=None if problem.path is None else str(problem.path),
-                                  key=lambda n: f"optimizer.epsilon.{n}")
+    tolerances = parse_tolerances(
+        problem.spec.optimizer.epsilon, units, file=None if problem.path is None else str(problem.path), key=lambda n: f"optimizer.epsilon.{n}"
+    )
     if given is not None:
         if isinstance(given, Mapping):
             texts = dict(given)
             tolerances |= parse_tolerances(texts, units, key=lambda n: f"{option}.{n}")
         else:
             if not isinstance(given, str) and not all(isinstance(item, str) for item in given):
-                raise ConfigError("expected {name: tolerance}, \"NAME=TOL\" text or a list of such texts", key=option)
+                raise ConfigError('expected {name: tolerance}, "NAME=TOL" text or a list of such texts', key=option)
             texts = parse_tolerance_options(given, option)
             tolerances |= parse_tolerances(texts, units, key=lambda n: f"{option} {n}={texts[n]}")
     if not tolerances:

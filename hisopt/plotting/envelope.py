@@ -38,8 +38,7 @@ def envelope_figure(table: pd.DataFrame, units: Mapping[str, str], title: str) -
 
     circuits = [c.removeprefix("p_static_") for c in table.columns if c.startswith("p_static_")]
     panels = ["static pressure", "gas share of the accumulator (1: no oil)", "ride height from the design position", "ride comfort and handling"]
-    fig = make_subplots(rows=2, cols=2, subplot_titles=panels, specs=[[{}, {}], [{}, {"secondary_y": True}]],
-                        horizontal_spacing=0.14, vertical_spacing=0.2)
+    fig = make_subplots(rows=2, cols=2, subplot_titles=panels, specs=[[{}, {}], [{}, {"secondary_y": True}]], horizontal_spacing=0.14, vertical_spacing=0.2)
     shows = {c: display_for(units.get(c, ""), table[c].to_numpy()) for c in table.columns if c not in ("model",)}
     dashes = ("solid", "dash", "dot", "dashdot")
     for n, (payload, rows) in enumerate(table.groupby("payload", sort=True)):
@@ -47,11 +46,27 @@ def envelope_figure(table: pd.DataFrame, units: Mapping[str, str], title: str) -
         load = "unladen" if payload == 0 else f"{payload:g} kg payload"
         dash = dashes[n % len(dashes)]
 
-        def line(column: str, name: str, color: str, row: int, col: int, secondary: bool = False, rows: pd.DataFrame = rows,
-                 t=t, dash: str = dash, first: bool = True) -> None:
+        def line(
+            column: str,
+            name: str,
+            color: str,
+            row: int,
+            col: int,
+            secondary: bool = False,
+            rows: pd.DataFrame = rows,
+            t=t,
+            dash: str = dash,
+            first: bool = True,
+        ) -> None:
             shown = shows[column]
-            fig.add_trace(go.Scatter(x=t, y=shown.values(rows[column]), mode="lines+markers", name=name, legendgroup=name,
-                                     showlegend=first, line={"color": color, "dash": dash}), row=row, col=col, secondary_y=secondary)
+            fig.add_trace(
+                go.Scatter(
+                    x=t, y=shown.values(rows[column]), mode="lines+markers", name=name, legendgroup=name, showlegend=first, line={"color": color, "dash": dash}
+                ),
+                row=row,
+                col=col,
+                secondary_y=secondary,
+            )
 
         for i, c in enumerate(circuits):
             color = COLORS[i % len(COLORS)]

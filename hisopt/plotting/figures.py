@@ -70,8 +70,7 @@ def _scatter_matrix(
         group = {} if view.group is None else {"legendgroup": view.group}
         fig.add_trace(splom(view, front, name=view.name, marker={"size": 5, "color": view.colour, "opacity": 0.6}, **group))
         if refined is not None and len(refined):
-            fig.add_trace(splom(view, refined, name=view.refined_name, marker={"size": 6, "color": view.refined_colour, "symbol": "triangle-up"},
-                                **group))
+            fig.add_trace(splom(view, refined, name=view.refined_name, marker={"size": 6, "color": view.refined_colour, "symbol": "triangle-up"}, **group))
     for label, row in (highlights or {}).items():
         one = row.to_frame().T
         style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
@@ -98,7 +97,10 @@ def front_scatter_matrix(
     view = _View(
         dims=lambda df: [{"label": shown[o].label(o), "values": shown[o].values(df[o])} for o in objectives],
         hover=lambda df: _hover(df, shown),
-        name="front", refined_name="refined front", colour=COLORS[0], refined_colour="#66a182",
+        name="front",
+        refined_name="refined front",
+        colour=COLORS[0],
+        refined_colour="#66a182",
     )
     return _scatter_matrix([view], front, refined, highlights, len(objectives), "Pareto front: objectives (hover for the design)")
 
@@ -123,8 +125,7 @@ def scenario_scatter_matrix(
     units = dict(front.attrs.get("units", {}) if units is None else units)
     columns = {q: [scenario_column(q, s) for s in scenarios] for q in quantities}
     tables = [front] + ([refined] if refined is not None and len(refined) else []) + [r.to_frame().T for r in (highlights or {}).values()]
-    shown = {q: display_for(units.get(cols[0], ""), np.concatenate([t[cols].to_numpy(dtype=float).ravel() for t in tables]))
-             for q, cols in columns.items()}
+    shown = {q: display_for(units.get(cols[0], ""), np.concatenate([t[cols].to_numpy(dtype=float).ravel() for t in tables])) for q, cols in columns.items()}
     design = displays(front, variables, units)
 
     def view(k: int, s: str) -> _View:
@@ -182,7 +183,9 @@ def parallel_coordinates(
         # ticks of neighbouring axes meet below ~75 px apart: a fixed width (the report's figures scroll sideways)
         fig.update_layout(width=75 * len(columns) + 190, autosize=False)
     fig.update_layout(
-        template=template(), title=f"Designs and objectives of the front (colour: {colour_name})", height=420 + top,
+        template=template(),
+        title=f"Designs and objectives of the front (colour: {colour_name})",
+        height=420 + top,
         margin={"t": top, "l": 70, "r": 120, "b": 40},
     )
     return fig
@@ -196,9 +199,7 @@ def convergence(generations: pd.DataFrame, n_objectives: int | None = None) -> g
     """
     from plotly.subplots import make_subplots
 
-    hv_unit = generations.attrs.get("units", {}).get("hypervolume") or (
-        hypervolume_unit(n_objectives) if n_objectives else "decades^n"
-    )
+    hv_unit = generations.attrs.get("units", {}).get("hypervolume") or (hypervolume_unit(n_objectives) if n_objectives else "decades^n")
     fig = make_subplots(rows=1, cols=3, horizontal_spacing=0.09)
     x = generations["generation"]
     panels = (
@@ -208,8 +209,17 @@ def convergence(generations: pd.DataFrame, n_objectives: int | None = None) -> g
     )
     for i, (name, title, scale) in enumerate(panels, start=1):
         if name in generations:
-            fig.add_scatter(x=x, y=generations[name] * scale, mode="lines+markers", name=title, row=1, col=i,
-                            showlegend=False, line={"color": COLORS[i - 1]}, marker={"size": 5})
+            fig.add_scatter(
+                x=x,
+                y=generations[name] * scale,
+                mode="lines+markers",
+                name=title,
+                row=1,
+                col=i,
+                showlegend=False,
+                line={"color": COLORS[i - 1]},
+                marker={"size": 5},
+            )
         fig.update_xaxes(title_text="generation [-]", row=1, col=i)
         fig.update_yaxes(title_text=title, row=1, col=i, rangemode="tozero" if name != "hypervolume" else "normal")
     fig.update_yaxes(range=[0, 105], row=1, col=3)

@@ -56,15 +56,23 @@ def response_spectra_figure(
         r, c = k // cols + 1, k % cols + 1
         for suffix, label, dash, color in (("his", "with HIS", "solid", WITH_HIS), ("ref", "without HIS", "dash", WITHOUT_HIS)):
             fig.add_scatter(
-                x=f, y=frame[f"{name}_{suffix}"], name=label, legendgroup=label, showlegend=k == 0,
-                line={"dash": dash, "color": color, "width": 1.6}, row=r, col=c,
+                x=f,
+                y=frame[f"{name}_{suffix}"],
+                name=label,
+                legendgroup=label,
+                showlegend=k == 0,
+                line={"dash": dash, "color": color, "width": 1.6},
+                row=r,
+                col=c,
             )
         psd = frame[[f"{name}_his", f"{name}_ref"]].to_numpy()
         fig.update_xaxes(title_text="frequency [Hz]", row=r, col=c, **x_axis)
         fig.update_yaxes(title_text=f"PSD [{psd_unit(units[name])}]", row=r, col=c, **log_axis(psd))
     shown = format_design(design, design_units)
     fig.update_layout(
-        template=template(), title=f"Response spectra with and without HIS<br><sup>{shown}</sup>",
-        height=130 + 360 * rows, margin={"t": 90, "b": 70},
+        template=template(),
+        title=f"Response spectra with and without HIS<br><sup>{shown}</sup>",
+        height=130 + 360 * rows,
+        margin={"t": 90, "b": 70},
     )
     return fig

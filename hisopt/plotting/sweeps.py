@@ -61,29 +61,66 @@ def sweep_figure(
     keys = list(responses)
     titles = [f"{labels.get(k, k)}: {responses[k]}" for k in keys]
     rows = (len(keys) + 1) // 2
-    fig = fig or make_subplots(rows=rows, cols=2, subplot_titles=titles, specs=[[{"secondary_y": True}] * 2] * rows,
-                               horizontal_spacing=0.16, vertical_spacing=0.3 / rows)
+    fig = fig or make_subplots(
+        rows=rows, cols=2, subplot_titles=titles, specs=[[{"secondary_y": True}] * 2] * rows, horizontal_spacing=0.16, vertical_spacing=0.3 / rows
+    )
     shown = display_for(unit, frame[variable].to_numpy())
     x = shown.values(frame[variable])
     for n, key in enumerate(keys):
         r, c = n // 2 + 1, n % 2 + 1
         first = n == 0
         if f"{key}_frequency_hz" in frame:
-            fig.add_scatter(x=x, y=frame[f"{key}_frequency_hz"], name="modal frequency", legendgroup="f",
-                            showlegend=first, line={"color": COLORS[0]}, row=r, col=c, secondary_y=False)
-        fig.add_scatter(x=x, y=frame[f"{key}_peak_hz"], name="frequency of the PSD peak", legendgroup="fp",
-                        showlegend=first, line={"color": COLORS[0], "dash": "dot"}, row=r, col=c, secondary_y=False)
-        fig.add_scatter(x=x, y=frame[f"{key}_peak_psd"], name="peak PSD (right axis)", legendgroup="a", showlegend=first,
-                        line={"color": COLORS[1]}, row=r, col=c, secondary_y=True)
+            fig.add_scatter(
+                x=x,
+                y=frame[f"{key}_frequency_hz"],
+                name="modal frequency",
+                legendgroup="f",
+                showlegend=first,
+                line={"color": COLORS[0]},
+                row=r,
+                col=c,
+                secondary_y=False,
+            )
+        fig.add_scatter(
+            x=x,
+            y=frame[f"{key}_peak_hz"],
+            name="frequency of the PSD peak",
+            legendgroup="fp",
+            showlegend=first,
+            line={"color": COLORS[0], "dash": "dot"},
+            row=r,
+            col=c,
+            secondary_y=False,
+        )
+        fig.add_scatter(
+            x=x,
+            y=frame[f"{key}_peak_psd"],
+            name="peak PSD (right axis)",
+            legendgroup="a",
+            showlegend=first,
+            line={"color": COLORS[1]},
+            row=r,
+            col=c,
+            secondary_y=True,
+        )
         fig.update_xaxes(title_text=shown.label(variable), row=r, col=c)
         fig.update_yaxes(title_text="frequency [Hz]", row=r, col=c, secondary_y=False)
-        fig.update_yaxes(title_text=f"peak PSD [{units[key]}]", row=r, col=c, secondary_y=True, showgrid=False,
-                         title_font={"color": COLORS[1]}, tickfont={"color": COLORS[1]},
-                         **log_axis(frame[f"{key}_peak_psd"]))
+        fig.update_yaxes(
+            title_text=f"peak PSD [{units[key]}]",
+            row=r,
+            col=c,
+            secondary_y=True,
+            showgrid=False,
+            title_font={"color": COLORS[1]},
+            tickfont={"color": COLORS[1]},
+            **log_axis(frame[f"{key}_peak_psd"]),
+        )
     fixed = format_design(baseline, baseline_units) or "no other variables"
     fig.update_layout(
-        template=template(), title=f"{problem_name}: sweep of {variable}<br><sup>{fixed}</sup>",
-        height=130 + 360 * rows, margin={"t": 90, "b": 70},
+        template=template(),
+        title=f"{problem_name}: sweep of {variable}<br><sup>{fixed}</sup>",
+        height=130 + 360 * rows,
+        margin={"t": 90, "b": 70},
     )
     return fig
 
@@ -152,39 +189,70 @@ def regions_figure(
         cell = fig.get_subplot(r, c)
         x_dom, y_dom = cell.xaxis.domain, cell.yaxis.domain
         fig.add_contour(
-            x=gx, y=gy, z=np.log10(shown), colorscale="Viridis", ncontours=18, showlegend=False, name=name,
-            colorbar={"len": y_dom[1] - y_dom[0], "thickness": 12, "x": x_dom[1] + 0.015, "xanchor": "left",
-                      "y": (y_dom[0] + y_dom[1]) / 2, "yanchor": "middle", "title": {"text": f"[{METRICS[name].unit}]", "side": "top"},
-                      "tickvals": np.log10(ticks) if ticks else None, "ticktext": [tick_label(t, scientific) for t in ticks] or None},
-            contours={"showlabels": False}, hovertemplate=f"{name} = 10^%{{z:.3f}} {METRICS[name].unit}<extra></extra>",
-            row=r, col=c,
+            x=gx,
+            y=gy,
+            z=np.log10(shown),
+            colorscale="Viridis",
+            ncontours=18,
+            showlegend=False,
+            name=name,
+            colorbar={
+                "len": y_dom[1] - y_dom[0],
+                "thickness": 12,
+                "x": x_dom[1] + 0.015,
+                "xanchor": "left",
+                "y": (y_dom[0] + y_dom[1]) / 2,
+                "yanchor": "middle",
+                "title": {"text": f"[{METRICS[name].unit}]", "side": "top"},
+                "tickvals": np.log10(ticks) if ticks else None,
+                "ticktext": [tick_label(t, scientific) for t in ticks] or None,
+            },
+            contours={"showlabels": False},
+            hovertemplate=f"{name} = 10^%{{z:.3f}} {METRICS[name].unit}<extra></extra>",
+            row=r,
+            col=c,
         )
         fig.add_contour(  # shades where the feasibility indicator is below 1/2
-            x=gx, y=gy, z=shaded, contours={"type": "constraint", "operation": ">=", "value": 0.5},
-            fillcolor="rgba(60,60,60,0.35)", line={"width": 0}, hoverinfo="skip", name="infeasible",
-            legendgroup="infeasible", showlegend=n == 0, row=r, col=c,
+            x=gx,
+            y=gy,
+            z=shaded,
+            contours={"type": "constraint", "operation": ">=", "value": 0.5},
+            fillcolor="rgba(60,60,60,0.35)",
+            line={"width": 0},
+            hoverinfo="skip",
+            name="infeasible",
+            legendgroup="infeasible",
+            showlegend=n == 0,
+            row=r,
+            col=c,
         )
         for k, (q, limit) in enumerate(thresholds.items()):
             if np.all(np.isnan(np.where(valid, values[q], np.nan))):
                 continue
             fig.add_contour(
-                x=gx, y=gy, z=np.where(valid, values[q], np.nan), showscale=False,
+                x=gx,
+                y=gy,
+                z=np.where(valid, values[q], np.nan),
+                showscale=False,
                 contours={"start": limit, "end": limit, "size": 1.0, "coloring": "lines"},
                 line={"color": "black", "dash": dashes[k % len(dashes)], "width": 2},
-                colorscale=[[0, "black"], [1, "black"]], name=f"{q} <= {format_quantity(limit, METRICS[q].unit)}",
-                legendgroup=q, showlegend=n == 0, hoverinfo="skip", row=r, col=c,
+                colorscale=[[0, "black"], [1, "black"]],
+                name=f"{q} <= {format_quantity(limit, METRICS[q].unit)}",
+                legendgroup=q,
+                showlegend=n == 0,
+                hoverinfo="skip",
+                row=r,
+                col=c,
             )
         fig.update_xaxes(title_text=sx.label(pair[0]), row=r, col=c)
         fig.update_yaxes(title_text=sy.label(pair[1]), row=r, col=c)
     fixed = format_design(baseline, baseline_units)
-    source = (
-        "thresholds: the problem's constraints"
-        if threshold_source == "constraints"
-        else "no constraints: thresholds are the baseline design's values"
-    )
+    source = "thresholds: the problem's constraints" if threshold_source == "constraints" else "no constraints: thresholds are the baseline design's values"
     subtitle = "; ".join(part for part in (fixed, source, "shaded: infeasible") if part)
     fig.update_layout(
-        template=template(), title=f"{problem_name}: feasible region over {pair[0]}, {pair[1]}<br><sup>{subtitle}</sup>",
-        height=900, margin={"t": 90, "b": 80, "r": 110},
+        template=template(),
+        title=f"{problem_name}: feasible region over {pair[0]}, {pair[1]}<br><sup>{subtitle}</sup>",
+        height=900,
+        margin={"t": 90, "b": 80, "r": 110},
     )
     return fig

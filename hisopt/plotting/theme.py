@@ -41,8 +41,16 @@ def template() -> Any:
         pio.templates[TEMPLATE_NAME] = go.layout.Template(base).update(
             layout={
                 "font": {"family": FONT, "size": 13, "color": "#1d2330"},
-                "title": {"font": {"size": 17}, "x": 0.01, "xanchor": "left", "xref": "container", "y": 1.0,
-                          "yanchor": "top", "yref": "container", "pad": {"t": 14}},
+                "title": {
+                    "font": {"size": 17},
+                    "x": 0.01,
+                    "xanchor": "left",
+                    "xref": "container",
+                    "y": 1.0,
+                    "yanchor": "top",
+                    "yref": "container",
+                    "pad": {"t": 14},
+                },
                 "colorway": list(COLORS),
                 "paper_bgcolor": "white",
                 "plot_bgcolor": "#fbfbfd",

@@ -14,9 +14,7 @@ if TYPE_CHECKING:
     import plotly.graph_objects as go
 
 
-def signals_figure(
-    frame: pd.DataFrame, columns: Sequence[str], units: Mapping[str, str], label: str, fig: go.Figure | None = None
-) -> go.Figure:
+def signals_figure(frame: pd.DataFrame, columns: Sequence[str], units: Mapping[str, str], label: str, fig: go.Figure | None = None) -> go.Figure:
     """Stacked time histories of ``columns`` of ``frame`` against its ``time`` [s], one panel each.
 
     Parameters
@@ -44,9 +42,7 @@ def signals_figure(
     return fig
 
 
-def pressures_figure(
-    t_s: np.ndarray, pressure_pa: np.ndarray, names: Sequence[str], label: str, fig: go.Figure | None = None
-) -> go.Figure:
+def pressures_figure(t_s: np.ndarray, pressure_pa: np.ndarray, names: Sequence[str], label: str, fig: go.Figure | None = None) -> go.Figure:
     """Gauge accumulator pressures [MPa] against time, a trace per accumulator.
 
     Parameters

@@ -66,9 +66,7 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
 
 
 # --- tables ------------------------------------------------------------------------------------
-def html_table(
-    shown: pd.DataFrame, caption: str = "", text_columns: tuple[str, ...] = (), wrap_columns: tuple[str, ...] = ()
-) -> str:
+def html_table(shown: pd.DataFrame, caption: str = "", text_columns: tuple[str, ...] = (), wrap_columns: tuple[str, ...] = ()) -> str:
     """An HTML table of strings; a header ``name [unit]`` shows the unit on a line of its own.
 
     Parameters
@@ -89,7 +87,7 @@ def html_table(
 
     def cell(col: str, value: Any) -> str:
         classes = " ".join(c for c, on in (("text", col in text_columns), ("wrap", col in wrap_columns)) if on)
-        return f'<td{f" class={chr(34)}{classes}{chr(34)}" if classes else ""}>{html.escape(str(value))}</td>'
+        return f"<td{f' class={chr(34)}{classes}{chr(34)}' if classes else ''}>{html.escape(str(value))}</td>"
 
     head = "".join(header(str(c)) for c in shown.columns)
     body = "".join("<tr>" + "".join(cell(str(c), v) for c, v in zip(shown.columns, row, strict=True)) + "</tr>" for row in shown.itertuples(index=False))
@@ -112,17 +110,14 @@ def modes_table(modes_ref: pd.DataFrame, modes_his: pd.DataFrame) -> pd.DataFram
             "zeta with HIS": merged["damping_ratio_his"],
         }
     )
-    frame.attrs["units"] = {"mode": "", "motion": "", "f without HIS": "Hz", "zeta without HIS": "-", "f with HIS": "Hz",
-                            "zeta with HIS": "-"}
+    frame.attrs["units"] = {"mode": "", "motion": "", "f without HIS": "Hz", "zeta without HIS": "-", "f with HIS": "Hz", "zeta with HIS": "-"}
     shown = display_frame(frame)
     change = 100.0 * (merged["frequency_hz_his"] / merged["frequency_hz_ref"] - 1.0)
     shown["change of f [%]"] = [f"{round(v, 1) + 0.0:+.1f}" for v in change]  # + 0.0: no "-0.0"
     return shown
 
 
-def designs_table(
-    designs: Mapping[str, pd.Series], units: Mapping[str, str], bounds: Mapping[str, tuple[float, float]] | None = None
-) -> pd.DataFrame:
+def designs_table(designs: Mapping[str, pd.Series], units: Mapping[str, str], bounds: Mapping[str, tuple[float, float]] | None = None) -> pd.DataFrame:
     """One row per quantity (``name [unit]``), one column per design, engineering units; a
     variable of ``bounds`` (``{name: (lower, upper)}``) at a bound is marked ``(at lower
     bound)`` (:func:`hisopt.plausibility.bound_note`)."""
@@ -155,9 +150,16 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
     rows: list[tuple[str, str, str]] = []
     for key, value in settings.items():
         if key == "constraints":
-            text = "; ".join(f"{c['name']} <= {format_quantity(float(c['limit']), METRICS[c['name']].unit)}"
-                             + (f" ({', '.join(c['scenarios'])})" if c.get("scenarios") else "")
-                             if c.get("name") in METRICS else json.dumps(c) for c in value) or "none"
+            text = (
+                "; ".join(
+                    f"{c['name']} <= {format_quantity(float(c['limit']), METRICS[c['name']].unit)}"
+                    + (f" ({', '.join(c['scenarios'])})" if c.get("scenarios") else "")
+                    if c.get("name") in METRICS
+                    else json.dumps(c)
+                    for c in value
+                )
+                or "none"
+            )
         elif key == "epsilon":  # the thinned front's tolerances, as given
             text = ", ".join(f"{name} {entry['text']}" for name, entry in value.items())
         elif key == "hypervolume_reference_log10":
@@ -194,8 +196,10 @@ def envelope_sections(problem: Any, x: np.ndarray, label: str) -> list[tuple[str
     about = f"{model} model ({charge}); ride and handling on the [road], class {road.road_class} at {format_quantity(road.speed, 'm/s')}"
     return [
         (f"Operating envelope of the {label} design", envelope_figure(table, table.attrs["units"], f"{problem.name}: {about}")),
-        (f"Operating envelope of the {label} design: the table",
-         html_table(display_frame(shown_envelope(table)), f"Every temperature and load of the problem; {about}")),
+        (
+            f"Operating envelope of the {label} design: the table",
+            html_table(display_frame(shown_envelope(table)), f"Every temperature and load of the problem; {about}"),
+        ),
     ]
 
 
@@ -250,15 +254,15 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         except (ValueError, IndexError):
             from hisopt.errors import ConfigError
 
-            raise ConfigError(f"expected knee, asf or a row index below {len(front)} (rows of {shown_file}), got {design!r}",
-                              key="--design") from None
+            raise ConfigError(f"expected knee, asf or a row index below {len(front)} (rows of {shown_file}), got {design!r}", key="--design") from None
     x = chosen[variables].to_numpy(dtype=float)
     if run["thinned"] is None:
         front_note = f"front of {len(full)} designs"
     else:
         tolerances = ", ".join(f"{n} {e['text']}" for n, e in run["record"].get("settings", {}).get("epsilon", {}).items())
-        front_note = (f"front of {len(full)} designs, thinned to {len(front)} designs that differ by more than {tolerances} "
-                      f"({shown_file}: the figures and the picks)")
+        front_note = (
+            f"front of {len(full)} designs, thinned to {len(front)} designs that differ by more than {tolerances} ({shown_file}: the figures and the picks)"
+        )
 
     modes = modes_table(modal_analysis(problem, x, his=False), modal_analysis(problem, x))
     highlighted = {"knee": knee, "ASF pick": asf}
@@ -268,12 +272,15 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         designs_caption += f", and {chosen_label}: the design of the spectra and modes"
     picks = designs_table(highlighted, units, dict(zip(variables, zip(problem.lower, problem.upper, strict=True), strict=True)))
     if any(" bound)" in cell for col in picks.columns[1:] for cell in picks[col]):
-        designs_caption += (f"; at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
-                            "that bound, where the box rather than the physics chose the value")
+        designs_caption += (
+            f"; at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
+            "that bound, where the box rather than the physics chose the value"
+        )
     spec = problem.spec
     if spec.scenarios and spec.robust.aggregate == "per_scenario" and len(spec.objectives) > 1:
-        pareto = figures.scenario_scatter_matrix(front, spec.objectives, problem.scenario_names, variables,
-                                                 {"knee": knee, "ASF pick": asf}, run["refined"], units)
+        pareto = figures.scenario_scatter_matrix(
+            front, spec.objectives, problem.scenario_names, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units
+        )
     else:
         pareto = figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)
     # a problem with load cases: the spectra of its [road] without payload, as `hisopt response` gives them
@@ -282,28 +289,44 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         ("Pareto front", pareto),
         ("Designs and objectives", figures.parallel_coordinates(front, variables, objectives, color_by, units)),
         (f"Response spectra of the {chosen_label} design against the car without HIS{road}", response_spectra(problem, x).plot()),
-        (f"HIS layout (values of the {chosen_label} design on hover)",
-         schematic.layout_schematic(problem.layout(), his_parameter_values(problem.spec.his, dict(zip(variables, map(float, x), strict=True))))),
-        (f"Modes of the {chosen_label} design",
-         html_table(modes, "Modes without and with HIS (paper Table 1): undamped natural frequency f, damping ratio zeta",
-                    text_columns=("mode", "motion"))),
-        ("Highlighted designs",
-         html_table(picks, designs_caption, text_columns=("quantity [unit]",))),
+        (
+            f"HIS layout (values of the {chosen_label} design on hover)",
+            schematic.layout_schematic(problem.layout(), his_parameter_values(problem.spec.his, dict(zip(variables, map(float, x), strict=True)))),
+        ),
+        (
+            f"Modes of the {chosen_label} design",
+            html_table(modes, "Modes without and with HIS (paper Table 1): undamped natural frequency f, damping ratio zeta", text_columns=("mode", "motion")),
+        ),
+        ("Highlighted designs", html_table(picks, designs_caption, text_columns=("quantity [unit]",))),
     ]
     if problem.spec.scenarios:
-        sections.append(("Load cases", html_table(scenario_table(problem, highlighted, variables),
-                                                  "Each quantity in each scenario (\"quantity@scenario\") for the highlighted designs; "
-                                                  + ("every objective minimised in each scenario (per_scenario)"
-                                                     if spec.robust.aggregate == "per_scenario"
-                                                     else f"objectives aggregated as {spec.robust.aggregate}"),
-                                                  text_columns=("quantity [unit]",))))
+        sections.append(
+            (
+                "Load cases",
+                html_table(
+                    scenario_table(problem, highlighted, variables),
+                    'Each quantity in each scenario ("quantity@scenario") for the highlighted designs; '
+                    + (
+                        "every objective minimised in each scenario (per_scenario)"
+                        if spec.robust.aggregate == "per_scenario"
+                        else f"objectives aggregated as {spec.robust.aggregate}"
+                    ),
+                    text_columns=("quantity [unit]",),
+                ),
+            )
+        )
     if spec.his.charge is not None or spec.temperatures():
         sections += envelope_sections(problem, x, chosen_label)
     if run["generations"] is not None:
         sections.insert(2, ("Convergence", figures.convergence(run["generations"], len(objectives))))
-    sections.append(("Run settings and timings",
-                     html_table(settings_table(run["record"], len(objectives)), "Settings, timings, versions",
-                                text_columns=("group", "item", "value"), wrap_columns=("value",))))
+    sections.append(
+        (
+            "Run settings and timings",
+            html_table(
+                settings_table(run["record"], len(objectives)), "Settings, timings, versions", text_columns=("group", "item", "value"), wrap_columns=("value",)
+            ),
+        )
+    )
 
     parts = []
     for i, (title, content) in enumerate(sections):
@@ -321,7 +344,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
 <p class="meta">{html.escape(str(run_dir))}: {html.escape(front_note)}{refined_note};
 objectives {html.escape(", ".join(objectives))}; knee and ASF pick highlighted. Values in engineering units
 (SI in the CSV files).</p>
-{''.join(parts)}
+{"".join(parts)}
 </body></html>"""
     out = run_dir / "report.html"
     atomic_write_text(out, page)

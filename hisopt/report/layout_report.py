@@ -52,10 +52,19 @@ def fronts_figure(result: LayoutStudyResult) -> go.Figure:
     for i, case in enumerate(result.cases):
         part = result.fronts[result.fronts["layout"] == case.name]
         dims = [{"label": f"{n} [-]", "values": part[f"{n}_norm"]} for n in names]
-        fig.add_trace(go.Splom(dimensions=dims, name=case.name, marker={"size": 4, "color": _colour(i), "opacity": 0.6},
-                               diagonal_visible=False, showupperhalf=False, text=[f"{case.name}, seed {s}" for s in part["seed"]]))
-    fig.update_layout(template=template(), height=720, title="Fronts in the shared normalised space "
-                      "(0: ideal, 1: reference of the roll-plane grid; lower is better)")
+        fig.add_trace(
+            go.Splom(
+                dimensions=dims,
+                name=case.name,
+                marker={"size": 4, "color": _colour(i), "opacity": 0.6},
+                diagonal_visible=False,
+                showupperhalf=False,
+                text=[f"{case.name}, seed {s}" for s in part["seed"]],
+            )
+        )
+    fig.update_layout(
+        template=template(), height=720, title="Fronts in the shared normalised space (0: ideal, 1: reference of the roll-plane grid; lower is better)"
+    )
     return fig
 
 
@@ -73,19 +82,40 @@ def curve_figure(result: LayoutStudyResult) -> go.Figure:
         x = shown_h.values(part[h].to_numpy())
         fig.add_trace(go.Scatter(x=x, y=part["sigma_aw"], mode="lines", line={"shape": "hv", "color": _colour(i)}, name=case.name))
         refined = part[part["source"] == "refined"]
-        fig.add_trace(go.Scatter(x=shown_h.values(refined[h].to_numpy()), y=refined["sigma_aw"], mode="markers", showlegend=False,
-                                 marker={"symbol": "diamond", "size": 8, "color": _colour(i)}, name=f"{case.name} (refined)"))
+        fig.add_trace(
+            go.Scatter(
+                x=shown_h.values(refined[h].to_numpy()),
+                y=refined["sigma_aw"],
+                mode="markers",
+                showlegend=False,
+                marker={"symbol": "diamond", "size": 8, "color": _colour(i)},
+                name=f"{case.name} (refined)",
+            )
+        )
         row = result.table[result.table["layout"] == case.name].iloc[0]
         if np.isfinite(row["sigma_aw_at_limit"]):
-            fig.add_trace(go.Scatter(x=shown_h.values(np.array([row["handling_at_best"]])), y=[row["sigma_aw_at_limit"]], mode="markers",
-                                     marker={"symbol": "star", "size": 13, "color": _colour(i), "line": {"width": 1, "color": "black"}},
-                                     showlegend=False, name=f"{case.name} at the limit"))
-    fig.add_vline(x=float(shown_h.values(np.array([result.handling_limit]))[0]), line={"dash": "dash", "color": "#556"},
-                  annotation_text=f"limit {format_quantity(result.handling_limit, unit)}")
-    fig.update_layout(template=template(), height=520, title=f"Best ride comfort against the {h} limit (stars: the equal-handling "
-                      "comparison; diamonds: refined by the NLP)",
-                      xaxis=log_axis(shown_h.values(result.curve[h].to_numpy())) | {"title": shown_h.label(f"{h} limit")},
-                      yaxis=log_axis(result.curve["sigma_aw"].to_numpy()) | {"title": "best sigma_aw [m/s^2]"})
+            fig.add_trace(
+                go.Scatter(
+                    x=shown_h.values(np.array([row["handling_at_best"]])),
+                    y=[row["sigma_aw_at_limit"]],
+                    mode="markers",
+                    marker={"symbol": "star", "size": 13, "color": _colour(i), "line": {"width": 1, "color": "black"}},
+                    showlegend=False,
+                    name=f"{case.name} at the limit",
+                )
+            )
+    fig.add_vline(
+        x=float(shown_h.values(np.array([result.handling_limit]))[0]),
+        line={"dash": "dash", "color": "#556"},
+        annotation_text=f"limit {format_quantity(result.handling_limit, unit)}",
+    )
+    fig.update_layout(
+        template=template(),
+        height=520,
+        title=f"Best ride comfort against the {h} limit (stars: the equal-handling comparison; diamonds: refined by the NLP)",
+        xaxis=log_axis(shown_h.values(result.curve[h].to_numpy())) | {"title": shown_h.label(f"{h} limit")},
+        yaxis=log_axis(result.curve["sigma_aw"].to_numpy()) | {"title": "best sigma_aw [m/s^2]"},
+    )
     return fig
 
 
@@ -105,31 +135,59 @@ def attainment_figure(result: LayoutStudyResult) -> go.Figure:
             label = f"{case.name}: {'Vorob' + chr(39) + 'ev expectation' if kind == 'vorobev' else f'{pct:.0f} % attained'}"
             width = 2.5 if kind == "eaf" and pct == 50 else 1.2
             median = kind == "eaf" and pct == 50
-            fig.add_trace(go.Scatter(x=shown_h.values(g[h].to_numpy()), y=g["sigma_aw"], mode="lines", legendgroup=case.name,
-                                     name=case.name if median else label, showlegend=bool(median), hovertext=label, hoverinfo="text+x+y",
-                                     line={"shape": "hv", "color": _colour(i), "dash": styles[str(kind)], "width": width}))
-    fig.update_layout(template=template(), height=560, title="Attainment across seeds in the comfort-handling plane "
-                      "(thin: best and worst seed; thick: median; dotted: Vorob'ev expectation)",
-                      xaxis=log_axis(shown_h.values(result.attainment[h].to_numpy())) | {"title": shown_h.label(h)},
-                      yaxis=log_axis(result.attainment["sigma_aw"].to_numpy()) | {"title": "sigma_aw [m/s^2]"})
+            fig.add_trace(
+                go.Scatter(
+                    x=shown_h.values(g[h].to_numpy()),
+                    y=g["sigma_aw"],
+                    mode="lines",
+                    legendgroup=case.name,
+                    name=case.name if median else label,
+                    showlegend=bool(median),
+                    hovertext=label,
+                    hoverinfo="text+x+y",
+                    line={"shape": "hv", "color": _colour(i), "dash": styles[str(kind)], "width": width},
+                )
+            )
+    fig.update_layout(
+        template=template(),
+        height=560,
+        title="Attainment across seeds in the comfort-handling plane (thin: best and worst seed; thick: median; dotted: Vorob'ev expectation)",
+        xaxis=log_axis(shown_h.values(result.attainment[h].to_numpy())) | {"title": shown_h.label(h)},
+        yaxis=log_axis(result.attainment["sigma_aw"].to_numpy()) | {"title": "sigma_aw [m/s^2]"},
+    )
     return fig
 
 
 def table_html(result: LayoutStudyResult) -> str:
     """``layouts.csv`` in engineering units, split into the comparison and the layouts' data."""
     t = result.table
-    first = ["layout", "hv_mean", "hv_std", "hv_min", "hv_max", "hv_merged", "vorobev_threshold_pct", "vorobev_deviation",
-             "sigma_aw_at_limit", "handling_at_best", "refined", "gain_vs_roll_plane_pct", "handling_least", "at_limit"]
+    first = [
+        "layout",
+        "hv_mean",
+        "hv_std",
+        "hv_min",
+        "hv_max",
+        "hv_merged",
+        "vorobev_threshold_pct",
+        "vorobev_deviation",
+        "sigma_aw_at_limit",
+        "handling_at_best",
+        "refined",
+        "gain_vs_roll_plane_pct",
+        "handling_least",
+        "at_limit",
+    ]
     second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c == "stiffness_coupling"]
     first = [c for c in first if c in t]  # a table of an older hisopt lacks handling_least and at_limit
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
     shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
     labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]")
-    return ('<div style="overflow-x:auto">'
-            + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
-            + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit",
-                         text_columns=labels)
-            + "</div>")
+    return (
+        '<div style="overflow-x:auto">'
+        + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
+        + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit", text_columns=labels)
+        + "</div>"
+    )
 
 
 def write_layout_report(result: LayoutStudyResult, path: str | Path | None = None) -> Path:
@@ -144,8 +202,9 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
             raise ConfigError("the study has no directory; give the report a path")
         path = result.out / "report.html"
     figs = schematics(result)
-    cells = "".join(f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}', config={'displayModeBar': False})}</div>"
-                    for i, f in enumerate(figs))
+    cells = "".join(
+        f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}', config={'displayModeBar': False})}</div>" for i, f in enumerate(figs)
+    )
     sections: list[tuple[str, Any]] = [
         ("Layouts", f'<div class="schematics">{cells}</div>'),
         ("Comparison", table_html(result)),
@@ -156,8 +215,11 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
     parts = []
     for i, (title, content) in enumerate(sections):
         parts.append(f"<h2>{html.escape(title)}</h2>")
-        parts.append(content if isinstance(content, str) else
-                     '<div class="figure">' + content.to_html(full_html=False, include_plotlyjs=False, div_id=f"fig{i}") + "</div>")
+        parts.append(
+            content
+            if isinstance(content, str)
+            else '<div class="figure">' + content.to_html(full_html=False, include_plotlyjs=False, div_id=f"fig{i}") + "</div>"
+        )
     runs = result.runs
     seeds = sorted(set(runs["seed"]))
     budget = runs["evaluations"].iloc[0] if len(runs) else 0
@@ -173,8 +235,7 @@ objectives {html.escape(", ".join(result.normalisation.objectives))}. Equal hand
 &le; {html.escape(format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"]))}.
 gain_vs_roll_plane_pct &gt; 0: better comfort than the paper's roll-plane layout at that limit. Hypervolumes in
 the shared normalisation (docs/model.md §15). Values in engineering units (SI in the CSV files).</p>
-{notes}{''.join(parts)}
+{notes}{"".join(parts)}
 </body></html>"""
     atomic_write_text(path, page)
     return Path(path)
-

@@ -124,8 +124,9 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
     fig = go.Figure()
     for wheel, name in enumerate(WHEEL_NAMES):
         x, y = wheel_position(wheel)
-        fig.add_shape(type="rect", x0=x - 0.12, x1=x + 0.12, y0=y - 0.3, y1=y + 0.3, line={"color": "#8a94a6", "width": 1.5},
-                      fillcolor="#eef1f5", layer="below")
+        fig.add_shape(
+            type="rect", x0=x - 0.12, x1=x + 0.12, y0=y - 0.3, y1=y + 0.3, line={"color": "#8a94a6", "width": 1.5}, fillcolor="#eef1f5", layer="below"
+        )
         fig.add_annotation(x=x, y=y + 0.42, text=f"<b>{name}</b>", showarrow=False, font={"size": 12})
         for chamber in ("top", "bottom"):
             _, py = port_position(Port("", wheel, chamber))
@@ -176,27 +177,50 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
                 kind = "orifice" if isinstance(e, Orifice) else "valve" if isinstance(e, Valve) else "pipe"
                 at = MARKER_AT  # off the middle: mirrored circuits do not stack their markers
                 marker(kind, ax + at * (bx - ax), ay + at * (by - ay), f"{_hover(e, values)}<br>{e.a} -> {e.b}", colour)
-        fig.add_scatter(x=xs, y=ys, mode="lines", line={"color": colour, "width": 2}, name=f"circuit {circuit.name}",
-                        hoverinfo="skip")
+        fig.add_scatter(x=xs, y=ys, mode="lines", line={"color": colour, "width": 2}, name=f"circuit {circuit.name}", hoverinfo="skip")
         if pipes_x:
-            fig.add_scatter(x=pipes_x, y=pipes_y, mode="lines", line={"color": colour, "width": 6}, opacity=0.6,
-                            showlegend=False, hoverinfo="skip")
+            fig.add_scatter(x=pipes_x, y=pipes_y, mode="lines", line={"color": colour, "width": 6}, opacity=0.6, showlegend=False, hoverinfo="skip")
         nodes = [(n, pos[(c, n)]) for n in circuit.nodes]
-        fig.add_scatter(x=[p[0] for _, p in nodes], y=[p[1] for _, p in nodes], mode="markers", showlegend=False,
-                        marker={"size": 6, "color": colour}, text=[f"node {n} (circuit {circuit.name})" for n, _ in nodes],
-                        hoverinfo="text")
+        fig.add_scatter(
+            x=[p[0] for _, p in nodes],
+            y=[p[1] for _, p in nodes],
+            mode="markers",
+            showlegend=False,
+            marker={"size": 6, "color": colour},
+            text=[f"node {n} (circuit {circuit.name})" for n, _ in nodes],
+            hoverinfo="text",
+        )
     vented = [(w, ch) for w in range(4) for ch in ("top", "bottom") if (w, ch) not in used_ports]
     if vented:
         pts = [port_position(Port("", w, ch)) for w, ch in vented]  # type: ignore[arg-type]
-        fig.add_scatter(x=[p[0] for p in pts], y=[p[1] for p in pts], mode="markers", name="chamber in no circuit",
-                        marker={"symbol": "circle-open", "size": 9, "color": "#8a94a6"},
-                        text=[f"chamber {w + 1}{ch[0]}: in no circuit (vented)" for w, ch in vented], hoverinfo="text")
-    symbols = {"chamber": ("circle", 8), "valve": ("bowtie", 14), "orifice": ("diamond", 12), "pipe": ("line-ns-open", 12),
-               "accumulator": ("circle", 15), "oil volume": ("square", 11)}
+        fig.add_scatter(
+            x=[p[0] for p in pts],
+            y=[p[1] for p in pts],
+            mode="markers",
+            name="chamber in no circuit",
+            marker={"symbol": "circle-open", "size": 9, "color": "#8a94a6"},
+            text=[f"chamber {w + 1}{ch[0]}: in no circuit (vented)" for w, ch in vented],
+            hoverinfo="text",
+        )
+    symbols = {
+        "chamber": ("circle", 8),
+        "valve": ("bowtie", 14),
+        "orifice": ("diamond", 12),
+        "pipe": ("line-ns-open", 12),
+        "accumulator": ("circle", 15),
+        "oil volume": ("square", 11),
+    }
     for kind, m in markers.items():
         symbol, size = symbols[kind]
-        fig.add_scatter(x=m["x"], y=m["y"], mode="markers", name=kind, text=m["text"], hoverinfo="text",
-                        marker={"symbol": symbol, "size": size, "color": m["color"], "line": {"width": 1, "color": "#1d2330"}})
+        fig.add_scatter(
+            x=m["x"],
+            y=m["y"],
+            mode="markers",
+            name=kind,
+            text=m["text"],
+            hoverinfo="text",
+            marker={"symbol": symbol, "size": size, "color": m["color"], "line": {"width": 1, "color": "#1d2330"}},
+        )
     fig.add_annotation(x=0, y=HALF_BASE + 0.62, text="front", showarrow=False, font={"size": 12, "color": "#556"})
     fig.update_xaxes(visible=False, range=[-2.0, 2.0], scaleanchor="y", scaleratio=1)
     fig.update_yaxes(visible=False, range=[-2.0, 2.15])

@@ -91,11 +91,7 @@ class RoadInput:
         if self.interpolation == "linear":
             return self._secant[i]
         x2 = x * x
-        return (
-            6 * (x - x2) * self._secant[i]
-            + (3 * x2 - 4 * x + 1) * self.slopes[i]
-            + (3 * x2 - 2 * x) * self.slopes[i + 1]
-        )
+        return 6 * (x - x2) * self._secant[i] + (3 * x2 - 4 * x + 1) * self.slopes[i] + (3 * x2 - 2 * x) * self.slopes[i + 1]
 
     def sampled_rate(self) -> NDArray[np.float64]:
         """[m/s] Rate at the samples, shape ``(n_t, 4)`` (central differences if linear)."""

@@ -99,25 +99,16 @@ def random_profile(
         raise ConfigError(f"coherence='isotropic' needs track_m > 0, got {track_m!r}")
     gd_n0 = class_gd_n0(road) if isinstance(road, str) else float(road)
     if not (gd_n0 > 0.0 and speed_mps > 0.0 and wheelbase_m >= 0.0):
-        raise ConfigError(
-            "expected G_d(n0) > 0, speed_mps > 0, wheelbase_m >= 0; "
-            f"got {gd_n0!r}, {speed_mps!r}, {wheelbase_m!r}"
-        )
+        raise ConfigError(f"expected G_d(n0) > 0, speed_mps > 0, wheelbase_m >= 0; got {gd_n0!r}, {speed_mps!r}, {wheelbase_m!r}")
     if not 0.0 < f_min_hz < f_max_hz < 0.5 / dt:
-        raise ConfigError(
-            f"expected 0 < f_min_hz < f_max_hz < Nyquist {0.5 / dt:g} Hz, "
-            f"got f_min_hz={f_min_hz!r}, f_max_hz={f_max_hz!r}"
-        )
+        raise ConfigError(f"expected 0 < f_min_hz < f_max_hz < Nyquist {0.5 / dt:g} Hz, got f_min_hz={f_min_hz!r}, f_max_hz={f_max_hz!r}")
     tau = wheelbase_m / speed_mps
     n_per = next_fast_len(t.size + math.ceil(tau / dt), real=True)
     k = np.arange(n_per // 2 + 1)
     f = k / (n_per * dt)
     sel = (f >= f_min_hz) & (f <= f_max_hz) & (k > 0) & (2 * k < n_per)
     if not np.any(sel):
-        raise ConfigError(
-            f"record of {n_per * dt:g} s resolves no frequency in [{f_min_hz}, {f_max_hz}] Hz; "
-            "lengthen t_s or widen the band"
-        )
+        raise ConfigError(f"record of {n_per * dt:g} s resolves no frequency in [{f_min_hz}, {f_max_hz}] Hz; lengthen t_s or widen the band")
     amplitude = np.sqrt(2.0 * temporal_psd(f[sel], gd_n0, speed_mps, waviness) / (n_per * dt))
     phase_left, phase_other = np.exp(2j * np.pi * rng.random((2, int(sel.sum()))))
     if coherence == "isotropic":
@@ -128,9 +119,7 @@ def random_profile(
         phase_right = phase_other
     spectra = np.zeros((4, k.size), dtype=complex)
     delay = np.exp(-2j * np.pi * f[sel] * tau)
-    spectra[:, sel] = 0.5 * n_per * amplitude * np.stack(
-        [phase_left, phase_right, phase_left * delay, phase_right * delay]
-    )
+    spectra[:, sel] = 0.5 * n_per * amplitude * np.stack([phase_left, phase_right, phase_left * delay, phase_right * delay])
     return irfft(spectra, n=n_per, axis=-1)[:, : t.size].T
 
 
@@ -212,10 +201,7 @@ def bump_profile(
     """
     t, _ = _time_grid(t_s)
     if not (length_m > 0.0 and speed_mps > 0.0 and wheelbase_m >= 0.0):
-        raise ConfigError(
-            "expected length_m > 0, speed_mps > 0, wheelbase_m >= 0; "
-            f"got {length_m!r}, {speed_mps!r}, {wheelbase_m!r}"
-        )
+        raise ConfigError(f"expected length_m > 0, speed_mps > 0, wheelbase_m >= 0; got {length_m!r}, {speed_mps!r}, {wheelbase_m!r}")
     s = speed_mps * (t[:, None] - t0_s) - np.array([0.0, 0.0, wheelbase_m, wheelbase_m])
     inside = (s >= 0.0) & (s <= length_m)
     shape = np.where(inside, 0.5 * (1.0 - np.cos(2.0 * np.pi * s / length_m)), 0.0)

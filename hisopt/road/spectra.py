@@ -89,9 +89,7 @@ def track_inputs(f_hz: ArrayLike, speed_mps: ArrayLike, wheelbase_m: ArrayLike) 
     return e
 
 
-def isotropic_coherence(
-    n_cyc_per_m: ArrayLike, track_m: ArrayLike, waviness: float = WAVINESS
-) -> NDArray[np.float64]:
+def isotropic_coherence(n_cyc_per_m: ArrayLike, track_m: ArrayLike, waviness: float = WAVINESS) -> NDArray[np.float64]:
     """Left-right coherence of an isotropic road surface with ``G_d(n) ~ n^-w``.
 
     Ratio of the cross-spectrum of two parallel tracks a distance ``b`` apart to the

@@ -126,15 +126,10 @@ SAMPLE_RATE_HZ = 200.0
 """[Hz] Sampling rate of simulated drop records."""
 
 
-
-
-
 # --- drop tests ----------------------------------------------------------------------------
 
 
-def drop_profile(
-    t_s: ArrayLike, case: DropCase, height_m: float = DEFAULT_HEIGHT_M, t_drop_s: float = 0.5
-) -> NDArray[np.float64]:
+def drop_profile(t_s: ArrayLike, case: DropCase, height_m: float = DEFAULT_HEIGHT_M, t_drop_s: float = 0.5) -> NDArray[np.float64]:
     """Road under the four wheels of a drop test: a step of ``-height_m`` under the case's wheels.
 
     Parameters
@@ -498,15 +493,11 @@ def read_measured(path: str | Path) -> pd.DataFrame:
     """
     path = Path(path)
     if not path.is_file():
-        raise ConfigError(
-            "file not found; expected a CSV with columns time, body_fl, body_fr, body_rl, body_rr", file=str(path)
-        )
+        raise ConfigError("file not found; expected a CSV with columns time, body_fl, body_fr, body_rl, body_rr", file=str(path))
     try:
         data = pd.read_csv(path, comment="#")
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise ConfigError(
-            f"not a readable CSV ({exc.__class__.__name__}); expected columns time, body_fl, ...", file=str(path)
-        ) from exc
+        raise ConfigError(f"not a readable CSV ({exc.__class__.__name__}); expected columns time, body_fl, ...", file=str(path)) from exc
     data.columns = [str(c).strip() for c in data.columns]
     missing = [c for c in ("time",) + BODY_SENSORS if c not in data.columns]
     if missing:
@@ -518,21 +509,15 @@ def read_measured(path: str | Path) -> pd.DataFrame:
     values = data[columns].apply(pd.to_numeric, errors="coerce")
     bad = [c for c in columns if not np.all(np.isfinite(values[c].to_numpy(dtype=float)))]
     if bad:
-        raise ConfigError(
-            f"column {bad[0]} has empty or non-numeric values; expected numbers in SI units", file=str(path)
-        )
+        raise ConfigError(f"column {bad[0]} has empty or non-numeric values; expected numbers in SI units", file=str(path))
     t = values["time"].to_numpy(dtype=float)
     dt = np.diff(t)
     if t.size < 100 or not np.all(dt > 0) or np.ptp(dt) > 0.01 * np.median(dt):
-        raise ConfigError(
-            "expected an increasing, uniformly sampled time column [s] with >= 100 samples", file=str(path)
-        )
+        raise ConfigError("expected an increasing, uniformly sampled time column [s] with >= 100 samples", file=str(path))
     return values
 
 
-def measured_drop_test(
-    problem: Problem, path: str | Path, case: DropCase, p0_pa: float, window_s: float = 4.0
-) -> DropTest:
+def measured_drop_test(problem: Problem, path: str | Path, case: DropCase, p0_pa: float, window_s: float = 4.0) -> DropTest:
     """Identify the dominant mode of a measured drop-test record (same processing as simulated).
 
     Parameters

@@ -48,9 +48,8 @@ _ERA_RATE_HZ = 50.0
 """[Hz] Records are decimated to at least this rate before ERA (2.5 x the 20 Hz cut-off),
 so the Hankel matrix spans the slow body decay with few rows."""
 
-def lowpass(
-    signals: ArrayLike, sample_rate_hz: float, cutoff_hz: float = LOWPASS_HZ, order: int = 4
-) -> NDArray[np.float64]:
+
+def lowpass(signals: ArrayLike, sample_rate_hz: float, cutoff_hz: float = LOWPASS_HZ, order: int = 4) -> NDArray[np.float64]:
     """Zero-phase Butterworth low-pass (``scipy.signal.butter`` + ``filtfilt``) along axis 0.
 
     Parameters
@@ -70,10 +69,7 @@ def lowpass(
         Filtered samples, shape of ``signals``.
     """
     if not sample_rate_hz > 2.0 * cutoff_hz:
-        raise ConfigError(
-            f"expected a sampling rate above {2 * cutoff_hz:g} Hz for the {cutoff_hz:g} Hz low-pass, "
-            f"got {sample_rate_hz:g} Hz"
-        )
+        raise ConfigError(f"expected a sampling rate above {2 * cutoff_hz:g} Hz for the {cutoff_hz:g} Hz low-pass, got {sample_rate_hz:g} Hz")
     b, a = butter(order, cutoff_hz, fs=sample_rate_hz)
     return filtfilt(b, a, np.asarray(signals, dtype=float), axis=0)
 
@@ -312,9 +308,7 @@ def identify_mode(
     )
 
 
-def amplitude_spectrum(
-    t_s: ArrayLike, signal: ArrayLike, n_fft: int = 8192
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def amplitude_spectrum(t_s: ArrayLike, signal: ArrayLike, n_fft: int = 8192) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Amplitude spectrum ``|Y(f)| dt`` of a transient (zero-padded FFT), paper Fig. 13.
 
     Parameters

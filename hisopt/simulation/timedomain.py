@@ -90,8 +90,6 @@ def state_scales(
     return np.where(scale > 0, scale, scale.max())
 
 
-
-
 @dataclass(frozen=True)
 class TimeResponse:
     """A simulated time history; SI units, samples at the road input times.
@@ -147,9 +145,7 @@ class TimeResponse:
         frame.attrs["units"] = {name: signal_unit(name) for name in frame.columns}
         return frame
 
-    def plot_signals(
-        self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: Figure | None = None
-    ) -> Figure:
+    def plot_signals(self, columns: tuple[str, ...] = ("z_s", "phi", "theta"), fig: Figure | None = None) -> Figure:
         """Stacked time histories of columns of :meth:`to_frame`, one panel each.
 
         Drawn by :func:`hisopt.plotting.timeseries.signals_figure`.
@@ -165,9 +161,7 @@ class TimeResponse:
         frame = self.to_frame()
         unknown = [c for c in columns if c not in frame.columns]
         if unknown:
-            raise ConfigError(
-                f"unknown signal(s) {unknown}; expected columns of to_frame(), e.g. {list(frame.columns[:8])}"
-            )
+            raise ConfigError(f"unknown signal(s) {unknown}; expected columns of to_frame(), e.g. {list(frame.columns[:8])}")
         from hisopt.plotting.timeseries import signals_figure
 
         return signals_figure(frame, columns, frame.attrs["units"], self.mode, fig)
@@ -298,8 +292,7 @@ def simulate(
     quadratic = valve_kq > 0.0 or (mode == "nonlinear" and _has_quadratic_orifice(model))
     if contracted is not model and quadratic:
         raise ModelError(
-            "a valve with R_v = 0 between two oil volumes has no linear resistance for the orifice "
-            "law to start from; give it R_v > 0 or set valve_kq = 0"
+            "a valve with R_v = 0 between two oil volumes has no linear resistance for the orifice law to start from; give it R_v > 0 or set valve_kq = 0"
         )
     model = contracted  # zero-resistance valves between oil volumes merged (exact shorts)
     ss = model.state_space()
@@ -327,9 +320,7 @@ def _body_acceleration(model: CoupledModel, n_states: int, force: np.ndarray) ->
     return out
 
 
-def _simulate_linear(
-    model: CoupledModel, ss: StateSpace, road: RoadInput, method: str, rtol: float, u_scale: float, force: np.ndarray
-) -> TimeResponse:
+def _simulate_linear(model: CoupledModel, ss: StateSpace, road: RoadInput, method: str, rtol: float, u_scale: float, force: np.ndarray) -> TimeResponse:
     a, b0, b1 = _linear_matrices(ss)
     forcing = b0 + a @ b1  # input matrix of the shifted state x - B1 u
     push = _body_acceleration(model, a.shape[0], force)

@@ -155,8 +155,7 @@ class Robust(_Strict):
         # runs only for an alpha written in the file: a default is never validated
         how = info.data.get("aggregate", "worst")
         if how != "cvar":
-            raise ValueError(f"alpha is the CVaR level, which only aggregate = \"cvar\" reads; expected no alpha with aggregate = \"{how}\", "
-                             f"or aggregate = \"cvar\"")
+            raise ValueError(f'alpha is the CVaR level, which only aggregate = "cvar" reads; expected no alpha with aggregate = "{how}", or aggregate = "cvar"')
         return v
 
     @model_serializer(mode="wrap")
@@ -180,16 +179,12 @@ class Optimizer(_Strict):
     pop_size: int = Field(100, ge=4)
     generations: int = Field(200, ge=1)
     seed: int = Field(1, ge=0)
-    epsilon: dict[str, Any] = Field(
-        default_factory=dict, description="tolerance per objective of the thinned front: \"1 %\" or a value in its unit"
-    )
+    epsilon: dict[str, Any] = Field(default_factory=dict, description='tolerance per objective of the thinned front: "1 %" or a value in its unit')
     until: Literal["generations", "converged"] = Field(
         "generations", description="stop after all generations, or when converged (tolerance, window; generations is the cap)"
     )
-    tolerance: float = Field(
-        1e-3, gt=0, lt=1, description="until = \"converged\": relative hypervolume gain over the window", json_schema_extra=si("-")
-    )
-    window: int = Field(20, ge=1, description="until = \"converged\": generations the gain is measured over")
+    tolerance: float = Field(1e-3, gt=0, lt=1, description='until = "converged": relative hypervolume gain over the window', json_schema_extra=si("-"))
+    window: int = Field(20, ge=1, description='until = "converged": generations the gain is measured over')
 
 
 class ProblemSpec(_Strict):
@@ -204,9 +199,7 @@ class ProblemSpec(_Strict):
     band: Band = Field(default_factory=Band)
     comfort: Comfort = Field(default_factory=Comfort)
     handling: Handling = Field(default_factory=Handling)
-    objectives: list[str] = Field(
-        default_factory=lambda: ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"]
-    )
+    objectives: list[str] = Field(default_factory=lambda: ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"])
     constraints: list[Constraint] = Field(default_factory=list)
     optimizer: Optimizer = Field(default_factory=Optimizer)
     payload: Payload | None = None
@@ -267,11 +260,13 @@ class ProblemSpec(_Strict):
             if c.name in self.objectives and not worst_everywhere:
                 raise ValueError(
                     f"constraints: {c.name} is also an objective; in a scenario problem its column is then the objective's "
-                    f"aggregate, so expected [robust] aggregate = \"worst\" and the limit in every scenario, or one role only"
+                    f'aggregate, so expected [robust] aggregate = "worst" and the limit in every scenario, or one role only'
                 )
         if "robust" in self.model_fields_set and not self.scenarios:  # a [robust] table at all, whatever it holds
-            raise ValueError("robust: [robust] combines the results of [[scenarios]] and this problem has none; "
-                             "expected at least one [[scenarios]] table, or no [robust] table")
+            raise ValueError(
+                "robust: [robust] combines the results of [[scenarios]] and this problem has none; "
+                "expected at least one [[scenarios]] table, or no [robust] table"
+            )
         return self
 
     def temperatures(self) -> list[tuple[str, float]]:
@@ -300,8 +295,7 @@ class ProblemSpec(_Strict):
         used = used_parameters(layout)
         if not self.variables:  # also for a file without [variables] (defaults are not validated)
             raise ValueError(
-                "variables: expected at least one design variable, e.g. [variables] p0 = { lower = 0.0, upper = 4.0e6 } "
-                "(see problems/roll_plane_his.toml)"
+                "variables: expected at least one design variable, e.g. [variables] p0 = { lower = 0.0, upper = 4.0e6 } (see problems/roll_plane_his.toml)"
             )
         for name, var in self.variables.items():
             if name not in allowed:
@@ -310,7 +304,8 @@ class ProblemSpec(_Strict):
             if not problem and name not in used:
                 read = ", ".join(n for n in allowed if n in used)
                 problem = f"not read by layout {self.his.layout!r}, so it would do nothing; " + (
-                    f"expected one of {read}" if read else "its elements read only numbers, so it has no design variable")
+                    f"expected one of {read}" if read else "its elements read only numbers, so it has no design variable"
+                )
             if problem:
                 raise ValueError(f"variables.{name}: {problem}")
         return self
@@ -321,6 +316,17 @@ class ProblemSpec(_Strict):
             parse_tolerances(self.optimizer.epsilon, {o: METRICS[o].unit for o in self.objectives}, key=lambda n: f"optimizer.epsilon.{n}")
         except ConfigError as exc:
             raise ValueError(f"{exc.key}: {exc.detail}") from None
+        return self
+
+    @model_validator(mode="after")
+    def _swing_needs_oil(self) -> ProblemSpec:
+        keys = [f"objectives.{i}" for i, o in enumerate(self.objectives) if o == "accumulator_swing"]
+        keys += [f"constraints.{i}.name" for i, c in enumerate(self.constraints) if c.name == "accumulator_swing"]
+        if keys and self.his.charge is None:
+            raise ValueError(
+                f"{keys[0]}: accumulator_swing measures the oil swing against the oil an accumulator holds, and the paper's idealisation "
+                "([his] without [his.charge]) holds none; expected a [his.charge] table (see problems/roll_plane_his_envelope.toml)"
+            )
         return self
 
     @model_validator(mode="after")
@@ -380,7 +386,7 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     elif err["type"] in ("model_type", "dict_type", "model_attributes_type"):
         return key, f"expected a table (e.g. [{key}] or {{ key = value }}), got {_short(value)}"
     elif err["type"] == "list_type":
-        return key, f"expected a list (e.g. [\"a\", \"b\"]), got {_short(value)}"
+        return key, f'expected a list (e.g. ["a", "b"]), got {_short(value)}'
     elif err["type"] == "missing":
         return key, "missing; expected a value (see problems/roll_plane_his.toml)"
     msg = msg.replace("Input should be ", "expected ", 1)

@@ -120,9 +120,7 @@ def read_designs(path: str | Path, names: Sequence[str], units: Mapping[str, str
     x = np.empty((len(body), len(names)))
     for i, (line, row) in enumerate(body):
         if len(row) != len(header):
-            raise ConfigError(
-                f"{len(row)} fields, expected {len(header)} like the header (delimiter {delimiter!r})", file=source, key=f"line {line}"
-            )
+            raise ConfigError(f"{len(row)} fields, expected {len(header)} like the header (delimiter {delimiter!r})", file=source, key=f"line {line}")
         x[i] = [_cell(row[index[name]], source, line, name, factors[name]) for name in names]
     frame = pd.DataFrame(x, columns=list(names))
     frame.attrs["lines"] = [line for line, _ in body]

@@ -67,9 +67,7 @@ def convert_problem_units(data: Mapping[str, Any], source: str, spec: type) -> d
         out["variables"] = converted
     constraints = out.get("constraints")
     if isinstance(constraints, list):
-        out["constraints"] = [
-            convert(c, ("limit",), _metric_unit(c, METRICS, quantity_of), f"constraints.{i}") for i, c in enumerate(constraints)
-        ]
+        out["constraints"] = [convert(c, ("limit",), _metric_unit(c, METRICS, quantity_of), f"constraints.{i}") for i, c in enumerate(constraints)]
     return out
 
 
@@ -165,7 +163,6 @@ def _convert_circuit(circuit: Any, index: int, source: str) -> Any:
             element = dict(element)
             for name in PARAMETER_FIELDS[cls]:
                 if has_unit(element.get(name)):
-                    element[name] = to_si(element[name], str(field_unit(cls, name)), file=source,
-                                          key=f"his.circuits.{index}.elements.{j}.{name}")
+                    element[name] = to_si(element[name], str(field_unit(cls, name)), file=source, key=f"his.circuits.{index}.elements.{j}.{name}")
         elements.append(element)
     return {**circuit, "elements": elements}

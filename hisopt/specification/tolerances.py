@@ -81,15 +81,13 @@ def parse_tolerance(value: Any, unit: str, *, file: str | None = None, key: str 
         try:
             number = to_si(value, unit, file=file, key=key)
         except ConfigError as exc:
-            raise ConfigError(f"{exc.detail}; a tolerance may also be relative, e.g. \"1 %\"", file=file, key=key) from None
+            raise ConfigError(f'{exc.detail}; a tolerance may also be relative, e.g. "1 %"', file=file, key=key) from None
     if not math.isfinite(number) or number < 0.0:
         raise ConfigError(f"expected a finite tolerance >= 0 such as {example} ({unit}), got {text!r}", file=file, key=key)
     return Tolerance(relative, number, text)
 
 
-def parse_tolerances(
-    given: Mapping[str, Any], units: Mapping[str, str], *, file: str | None = None, key: Callable[[str], str] = str
-) -> dict[str, Tolerance]:
+def parse_tolerances(given: Mapping[str, Any], units: Mapping[str, str], *, file: str | None = None, key: Callable[[str], str] = str) -> dict[str, Tolerance]:
     """Tolerances by objective name from ``{name: written tolerance}``.
 
     Parameters
@@ -131,6 +129,6 @@ def parse_tolerance_options(items: str | Iterable[str] | None, option: str = "--
         for part in str(item).split(","):
             name, sep, text = part.partition("=")
             if not sep or not name.strip() or not text.strip():
-                raise ConfigError(f"expected NAME=TOLERANCE, e.g. {option} sigma_aw=1% or {option} \"sigma_aw=0.01 m/s^2\"", key=f"{option} {part.strip()}")
+                raise ConfigError(f'expected NAME=TOLERANCE, e.g. {option} sigma_aw=1% or {option} "sigma_aw=0.01 m/s^2"', key=f"{option} {part.strip()}")
             out[name.strip()] = text.strip()
     return out

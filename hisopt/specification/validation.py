@@ -579,14 +579,22 @@ def _wide_encoding(raw: bytes) -> str | None:
     decodes."""
     import codecs
 
-    marks = ((codecs.BOM_UTF32_LE, "UTF-32 (little-endian)"), (codecs.BOM_UTF32_BE, "UTF-32 (big-endian)"),
-             (codecs.BOM_UTF16_LE, "UTF-16 (little-endian)"), (codecs.BOM_UTF16_BE, "UTF-16 (big-endian)"))
+    marks = (
+        (codecs.BOM_UTF32_LE, "UTF-32 (little-endian)"),
+        (codecs.BOM_UTF32_BE, "UTF-32 (big-endian)"),
+        (codecs.BOM_UTF16_LE, "UTF-16 (little-endian)"),
+        (codecs.BOM_UTF16_BE, "UTF-16 (big-endian)"),
+    )
     for mark, name in marks:  # UTF-32 first: its little-endian mark begins with UTF-16's
         if raw.startswith(mark):
             return name
     head = raw[:4096]
-    for size, codec, name in ((4, "utf-32-le", "UTF-32 (little-endian)"), (4, "utf-32-be", "UTF-32 (big-endian)"),
-                              (2, "utf-16-le", "UTF-16 (little-endian)"), (2, "utf-16-be", "UTF-16 (big-endian)")):
+    for size, codec, name in (
+        (4, "utf-32-le", "UTF-32 (little-endian)"),
+        (4, "utf-32-be", "UTF-32 (big-endian)"),
+        (2, "utf-16-le", "UTF-16 (little-endian)"),
+        (2, "utf-16-be", "UTF-16 (big-endian)"),
+    ):
         whole = head[: len(head) - len(head) % size]
         if len(whole) < 2 * size:
             continue

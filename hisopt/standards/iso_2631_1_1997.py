@@ -105,9 +105,7 @@ def _params(name: str) -> WeightingParameters:
     try:
         return WEIGHTINGS[name]
     except KeyError:
-        raise ConfigError(
-            f"unknown ISO 2631-1 weighting {name!r}; expected one of {sorted(WEIGHTINGS)}"
-        ) from None
+        raise ConfigError(f"unknown ISO 2631-1 weighting {name!r}; expected one of {sorted(WEIGHTINGS)}") from None
 
 
 def _inv(f_hz: float) -> float:
@@ -247,9 +245,7 @@ def third_octave_bands(f_lo_hz: float = 0.5, f_hi_hz: float = 80.0) -> ThirdOcta
         0.5-80 Hz comfort band of ISO 2631-1 (clause 8): 23 bands.
     """
     if not (0.0 < f_lo_hz <= f_hi_hz and math.isfinite(f_hi_hz)):
-        raise ConfigError(
-            f"expected 0 < f_lo_hz <= f_hi_hz < inf, got f_lo_hz={f_lo_hz}, f_hi_hz={f_hi_hz}"
-        )
+        raise ConfigError(f"expected 0 < f_lo_hz <= f_hi_hz < inf, got f_lo_hz={f_lo_hz}, f_hi_hz={f_hi_hz}")
     n_lo = math.ceil(10.0 * math.log10(f_lo_hz) - _BAND_TOLERANCE)
     n_hi = math.floor(10.0 * math.log10(f_hi_hz) + _BAND_TOLERANCE)
     n = np.arange(n_lo, n_hi + 1)
@@ -361,9 +357,7 @@ def band_gain_squared(f_hz: ArrayLike, name: WeightingName, f_lo_hz: float = 0.5
     return np.where(idx >= 0, w2[np.maximum(idx, 0)], 0.0)
 
 
-def weighted_mean_square(
-    f_hz: ArrayLike, quad_weights_hz: ArrayLike, psd: ArrayLike, name: WeightingName
-) -> NDArray[np.float64]:
+def weighted_mean_square(f_hz: ArrayLike, quad_weights_hz: ArrayLike, psd: ArrayLike, name: WeightingName) -> NDArray[np.float64]:
     """Weighted mean square by the direct (filter) method, ``sum |W(f)|^2 psd w``.
 
     The frequency range is that of the nodes; docs/model.md §5.3 integrates over 0.5-80 Hz.

@@ -78,9 +78,7 @@ def class_gd_n0(road_class: RoadClass) -> float:
     """
     classes = road_classes()
     if road_class not in classes:
-        raise ConfigError(
-            f"unknown ISO 8608 road class {road_class!r}; expected one of {sorted(classes)}"
-        )
+        raise ConfigError(f"unknown ISO 8608 road class {road_class!r}; expected one of {sorted(classes)}")
     return classes[road_class][1]
 
 
@@ -91,9 +89,7 @@ def _check_positive(**values: ArrayLike) -> None:
             raise ConfigError(f"expected {key} > 0 everywhere, got minimum {np.min(array)!r}")
 
 
-def spatial_psd(
-    n_cyc_per_m: ArrayLike, gd_n0: ArrayLike, waviness: ArrayLike = WAVINESS
-) -> NDArray[np.float64]:
+def spatial_psd(n_cyc_per_m: ArrayLike, gd_n0: ArrayLike, waviness: ArrayLike = WAVINESS) -> NDArray[np.float64]:
     """Single-track displacement PSD ``G_d(n) = G_d(n0) (n/n0)^-w`` (ISO 8608:2016).
 
     Parameters
@@ -115,9 +111,7 @@ def spatial_psd(
     return np.asarray(gd_n0, dtype=float) * (n / N0_CYCLES_PER_M) ** -np.asarray(waviness, float)
 
 
-def temporal_psd(
-    f_hz: ArrayLike, gd_n0: ArrayLike, speed_mps: ArrayLike, waviness: ArrayLike = WAVINESS
-) -> NDArray[np.float64]:
+def temporal_psd(f_hz: ArrayLike, gd_n0: ArrayLike, speed_mps: ArrayLike, waviness: ArrayLike = WAVINESS) -> NDArray[np.float64]:
     """One-sided temporal displacement PSD seen by a wheel at constant speed.
 
     ``G(f) = G_d(f/v) / v = G_d(n0) (f/(n0 v))^-w / v``; for ``w = 2``,

@@ -29,6 +29,16 @@ from hisopt.units import attach_units
 QUANTITIES = ("sigma_aw", "roll_gradient")
 """The ride and handling quantities of each row."""
 
+CHARGED_QUANTITIES = ("accumulator_swing",)
+"""And of a charged HIS's rows: the accumulators' dynamic margin on the road (docs/model.md §16.9)."""
+
+
+def row_quantities(problem: DesignSpace) -> tuple[str, ...]:
+    """The quantities of each row: :data:`QUANTITIES`, and :data:`CHARGED_QUANTITIES` for a
+    charged HIS (the idealisation holds no oil to swing)."""
+    return QUANTITIES + (CHARGED_QUANTITIES if problem.spec.his.charge is not None else ())
+
+
 CELSIUS_OFFSET = 273.15
 """[K] 0 degC."""
 
@@ -49,10 +59,9 @@ def envelope_cases(problem: DesignSpace) -> list[tuple[float, Payload | None]]:
 
 def case_space(problem: Problem, temperature: float, payload: Payload | None) -> Problem:
     """The single-case problem of one row: ``[road]``, the temperature and payload, the
-    :data:`QUANTITIES` as its objectives."""
-    spec = problem.spec.model_copy(
-        update={"temperature": temperature, "payload": payload, "scenarios": [], "objectives": list(QUANTITIES), "constraints": []}
-    )
+    :func:`row_quantities` as its objectives."""
+    update = {"temperature": temperature, "payload": payload, "scenarios": [], "objectives": list(row_quantities(problem)), "constraints": []}
+    spec = problem.spec.model_copy(update=update)
     return type(problem)(spec, problem.path)
 
 
@@ -91,7 +100,7 @@ def static_state(space: DesignSpace, x: np.ndarray) -> dict[str, np.ndarray]:
 def envelope_table(problem: Problem, design: Any = None) -> pd.DataFrame:
     """One row per temperature and load (:func:`envelope_cases`) of one design (default: the
     baseline): ``temperature`` [K], ``payload`` [kg], the :func:`static_state` columns and
-    the :data:`QUANTITIES`, with their units in ``attrs["units"]``; ``model`` names the
+    the :func:`row_quantities`, with their units in ``attrs["units"]``; ``model`` names the
     charge model (``ideal``: the paper's idealisation, or ``charged``)."""
     x = problem.design_matrix(problem.baseline if design is None else design)[:1]
     rows = []
@@ -100,7 +109,7 @@ def envelope_table(problem: Problem, design: Any = None) -> pd.DataFrame:
         row: dict[str, Any] = {"temperature": temperature, "payload": 0.0 if payload is None else payload.mass}
         row |= {k: float(v[0]) for k, v in static_state(space, x).items()}
         values = space.evaluator()(x)
-        row |= {q: float(values[q][0]) for q in QUANTITIES}
+        row |= {q: float(values[q][0]) for q in row_quantities(problem)}
         rows.append(row)
     frame = pd.DataFrame(rows)
     frame.insert(0, "model", "charged" if problem.spec.his.charge is not None else "ideal")

@@ -76,8 +76,10 @@ def _command(out: Path, record: dict[str, Any], seeds: list[int]) -> str:
     layouts = ",".join(source if source != "catalogue" else name for name, source in record["layouts"].items())
     budget = record["budget"]
     problem = path if path and Path(path).is_file() else "PROBLEM"
-    text = (f"hisopt compare-layouts {problem} --layouts {layouts} --seeds {seed_text(seeds) or 'SEEDS'} --pop {budget['pop_size']} "
-            f"--gens {budget['generations']} --out {out}")
+    text = (
+        f"hisopt compare-layouts {problem} --layouts {layouts} --seeds {seed_text(seeds) or 'SEEDS'} --pop {budget['pop_size']} "
+        f"--gens {budget['generations']} --out {out}"
+    )
     unknown = [] if seeds else ["SEEDS: the seeds you gave (no run has begun)"]
     if (out / LAYOUTS_CSV).is_file():
         from hisopt.io import read_csv
@@ -141,8 +143,10 @@ def study_status(out: str | Path) -> list[str]:
     seeds = _seeds(out, record)
     every = sorted({s for found in seeds.values() for s in found})
     budget = record["budget"]
-    lines = [f"{out}: layout study of {record['problem']['name']}: layouts {', '.join(seeds)}; seeds {seed_text(every) or 'none yet'}; "
-             f"runs of population {budget['pop_size']} for {budget['generations']} generations"]
+    lines = [
+        f"{out}: layout study of {record['problem']['name']}: layouts {', '.join(seeds)}; seeds {seed_text(every) or 'none yet'}; "
+        f"runs of population {budget['pop_size']} for {budget['generations']} generations"
+    ]
     states = []
     for name in seeds:
         for s in every:
@@ -150,15 +154,18 @@ def study_status(out: str | Path) -> list[str]:
             states.append(state)
             lines.append(f"  {name} seed {s}: {text}")
     written = {name: (out / name).is_file() for name in (*TABLES, REPORT_HTML)}
-    files = {(True, True): f"{LAYOUTS_CSV} and {REPORT_HTML} written", (True, False): f"{LAYOUTS_CSV} written, no {REPORT_HTML} yet",
-             (False, True): f"{REPORT_HTML} written, {LAYOUTS_CSV} missing", (False, False): f"no {LAYOUTS_CSV} or {REPORT_HTML} yet"}
+    files = {
+        (True, True): f"{LAYOUTS_CSV} and {REPORT_HTML} written",
+        (True, False): f"{LAYOUTS_CSV} written, no {REPORT_HTML} yet",
+        (False, True): f"{REPORT_HTML} written, {LAYOUTS_CSV} missing",
+        (False, False): f"no {LAYOUTS_CSV} or {REPORT_HTML} yet",
+    }
     lines.append(f"  {files[written[LAYOUTS_CSV], written[REPORT_HTML]]}")
     if RUNNING in states:
         lines.append(f"next: wait for the running runs, then `hisopt status {out}` again")
     elif not every or any(s != FINISHED for s in states) or not all(written[n] for n in TABLES):
         note = _problem_note(record)
-        lines.append(f"next: finish the study (finished runs are reused) with {_command(out, record, every)}"
-                     + (f"; {note}" if note else ""))
+        lines.append(f"next: finish the study (finished runs are reused) with {_command(out, record, every)}" + (f"; {note}" if note else ""))
     elif not written[REPORT_HTML]:
         lines.append(f"next: `hisopt report {out}` writes {out / REPORT_HTML}")
     else:
@@ -183,8 +190,9 @@ def read_layout_study(out: str | Path) -> LayoutStudyResult:
     missing = [name for name in TABLES if not (out / name).is_file()]
     if missing:
         every = sorted({s for found in _seeds(out, record).values() for s in found})
-        raise RunError(f"{out}: the layout study has no {missing[0]} yet (it has not finished); finish it with "
-                       f"{_command(out, record, every)}, which writes the report too")
+        raise RunError(
+            f"{out}: the layout study has no {missing[0]} yet (it has not finished); finish it with {_command(out, record, every)}, which writes the report too"
+        )
     table, runs, fronts, curve, attainment = (read_csv(out / name) for name in TABLES)
     handling = str(table["handling"].iloc[0])
     cases = []
@@ -195,6 +203,15 @@ def read_layout_study(out: str | Path) -> LayoutStudyResult:
         cases.append(LayoutCase(name, problem, record["layouts"].get(name, "catalogue")))
     if cases[0].name != REFERENCE_LAYOUT:
         raise RunError(f"{out / LAYOUTS_CSV}: its first layout is {cases[0].name!r}, not {REFERENCE_LAYOUT}; not a table of hisopt's")
-    return LayoutStudyResult(table=table, runs=runs, fronts=fronts, curve=curve, attainment=attainment, cases=cases,
-                             normalisation=Normalisation.from_json(record["normalisation"][handling]), handling=handling,
-                             handling_limit=float(table["handling_limit"].iloc[0]), out=out)
+    return LayoutStudyResult(
+        table=table,
+        runs=runs,
+        fronts=fronts,
+        curve=curve,
+        attainment=attainment,
+        cases=cases,
+        normalisation=Normalisation.from_json(record["normalisation"][handling]),
+        handling=handling,
+        handling_limit=float(table["handling_limit"].iloc[0]),
+        out=out,
+    )

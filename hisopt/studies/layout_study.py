@@ -67,8 +67,7 @@ if TYPE_CHECKING:
 
 STUDY_JSON = LAYOUT_STUDY_JSON
 STUDY_FORMAT = "hisopt-layout-study/1"
-LAYOUTS_CSV, RUNS_CSV, FRONTS_CSV, CURVE_CSV, ATTAINMENT_CSV = (
-    "layouts.csv", "runs.csv", "fronts.csv", "handling_curve.csv", "attainment.csv")
+LAYOUTS_CSV, RUNS_CSV, FRONTS_CSV, CURVE_CSV, ATTAINMENT_CSV = ("layouts.csv", "runs.csv", "fronts.csv", "handling_curve.csv", "attainment.csv")
 CURVE_REFINED = 4
 """Limits per layout at which the trade-off curve is refined (spread over its staircase)."""
 
@@ -114,8 +113,7 @@ def _run(problem: Problem, run_dir: Path | None, seed: int, pop: int | None, gen
     return plan.run()
 
 
-def _run_task(task: tuple[str, int], cases: dict[str, Problem], out: str | None, pop: int | None, gens: int | None,
-              handling: str) -> dict[str, Any]:
+def _run_task(task: tuple[str, int], cases: dict[str, Problem], out: str | None, pop: int | None, gens: int | None, handling: str) -> dict[str, Any]:
     name, seed = task
     problem = cases[name]
     result = _run(problem, None if out is None else Path(out) / name / f"seed-{seed}", seed, pop, gens)
@@ -176,16 +174,15 @@ def read_study_record(out: Path | None, problem: Problem, budget: dict[str, int]
         raise RunError(f"{path}: not a hisopt layout study; choose another --out")
     digest = problem_digest(problem)
     if record["problem"]["sha256"] != digest:
-        raise RunError(f"{out} holds a layout study of another problem (sha256 {record['problem']['sha256'][:12]} -> "
-                       f"{digest[:12]}); choose another --out or delete {out}")
+        raise RunError(
+            f"{out} holds a layout study of another problem (sha256 {record['problem']['sha256'][:12]} -> {digest[:12]}); choose another --out or delete {out}"
+        )
     if record["budget"] != budget:
-        raise RunError(f"{out} holds a layout study with budget {record['budget']}, not {budget}; "
-                       f"use the same --pop and --gens, or another --out")
+        raise RunError(f"{out} holds a layout study with budget {record['budget']}, not {budget}; use the same --pop and --gens, or another --out")
     return record
 
 
-def _study_record(out: Path | None, problem: Problem, budget: dict[str, int], handling: str,
-                  cases: list[LayoutCase]) -> tuple[dict[str, Any], Normalisation]:
+def _study_record(out: Path | None, problem: Problem, budget: dict[str, int], handling: str, cases: list[LayoutCase]) -> tuple[dict[str, Any], Normalisation]:
     """The stored record (checked against this study) or a new one, with its normalisation."""
     digest = problem_digest(problem)
     record = read_study_record(out, problem, budget)
@@ -271,8 +268,9 @@ class LayoutStudyResult:
         return notes
 
 
-def check_arguments(problem: Problem, layouts: str | Sequence[str] | None, seeds: str | Sequence[int], handling: str | None,
-                    handling_limit: float | None) -> tuple[list[int], list[LayoutCase], str]:
+def check_arguments(
+    problem: Problem, layouts: str | Sequence[str] | None, seeds: str | Sequence[int], handling: str | None, handling_limit: float | None
+) -> tuple[list[int], list[LayoutCase], str]:
     """The seeds, the layouts and the handling quantity of a study, checked (before any work).
 
     Raises
@@ -357,18 +355,21 @@ def run_layout_study(
         if progress is not None:
             progress({"layout": r["layout"], "seed": r["seed"], "evaluations": r["evaluations"], "feasible_designs": len(r["designs"])})
 
-    runs = backend.map(_run_task, tasks, problems, None if out_dir is None else str(out_dir), pop_size, generations, handling,
-                       on_result=report)
+    runs = backend.map(_run_task, tasks, problems, None if out_dir is None else str(out_dir), pop_size, generations, handling, on_result=report)
     from hisopt.studies.layout_tables import assemble
 
     frames = assemble(cases, runs, norm, handling, handling_limit, backend)
-    result = LayoutStudyResult(**frames, cases=cases, normalisation=norm, handling=handling, handling_limit=handling_limit,
-                               out=out_dir)
+    result = LayoutStudyResult(**frames, cases=cases, normalisation=norm, handling=handling, handling_limit=handling_limit, out=out_dir)
     if out_dir is not None:
         from hisopt.io import write_csv
 
-        for frame, name in ((result.table, LAYOUTS_CSV), (result.runs, RUNS_CSV), (result.fronts, FRONTS_CSV),
-                            (result.curve, CURVE_CSV), (result.attainment, ATTAINMENT_CSV)):
+        for frame, name in (
+            (result.table, LAYOUTS_CSV),
+            (result.runs, RUNS_CSV),
+            (result.fronts, FRONTS_CSV),
+            (result.curve, CURVE_CSV),
+            (result.attainment, ATTAINMENT_CSV),
+        ):
             write_csv(frame, out_dir / name)
     return result
 
@@ -389,5 +390,6 @@ def compare_layouts(
 
     Parameters and errors as :func:`run_layout_study`.
     """
-    return run_layout_study(problem, layouts, seeds, out=out, pop_size=pop_size, generations=generations, handling=handling,
-                            handling_limit=handling_limit, backend=backend).table
+    return run_layout_study(
+        problem, layouts, seeds, out=out, pop_size=pop_size, generations=generations, handling=handling, handling_limit=handling_limit, backend=backend
+    ).table

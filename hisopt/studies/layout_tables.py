@@ -100,8 +100,16 @@ def assemble(
     run_rows, front_parts = [], []
     for r in runs:
         f = r["front"][objectives].to_numpy(dtype=float)
-        run_rows.append({"layout": r["layout"], "seed": r["seed"], "hypervolume": normalised_hypervolume(f, norm),
-                         "front_size": len(f), "evaluations": r["evaluations"], "feasible_designs": len(r["designs"])})
+        run_rows.append(
+            {
+                "layout": r["layout"],
+                "seed": r["seed"],
+                "hypervolume": normalised_hypervolume(f, norm),
+                "front_size": len(f),
+                "evaluations": r["evaluations"],
+                "feasible_designs": len(r["designs"]),
+            }
+        )
         part = r["front"][objectives].assign(layout=r["layout"], seed=r["seed"])
         z = norm.objective_space(f) if len(f) else np.zeros((0, len(objectives)))
         for j, name in enumerate(objectives):
@@ -121,21 +129,28 @@ def assemble(
     for c in cases:
         pool = pools[c.name]
         steps = pool.iloc[plane_front(pool[COMFORT].to_numpy(), pool[handling].to_numpy())]
-        sampled = pd.DataFrame({"layout": c.name, "source": "sampled", "seed": steps["seed"].to_numpy(),
-                                handling: steps[handling].to_numpy(), COMFORT: steps[COMFORT].to_numpy()})
+        sampled = pd.DataFrame(
+            {"layout": c.name, "source": "sampled", "seed": steps["seed"].to_numpy(), handling: steps[handling].to_numpy(), COMFORT: steps[COMFORT].to_numpy()}
+        )
         better = [res for name, res in along if name == c.name and res["accepted"]]
         better += [res for res in equal.get(c.name, []) if res["accepted"]]
-        extra = pd.DataFrame({"layout": c.name, "source": "refined", "seed": -1, handling: [r[handling] for r in better],
-                              COMFORT: [r[COMFORT] for r in better]})
+        extra = pd.DataFrame(
+            {"layout": c.name, "source": "refined", "seed": -1, handling: [r[handling] for r in better], COMFORT: [r[COMFORT] for r in better]}
+        )
         both = pd.concat([sampled, extra], ignore_index=True) if len(extra) else sampled
         keep = plane_front(both[COMFORT].to_numpy(dtype=float), both[handling].to_numpy(dtype=float))
         curve_parts.append(both.iloc[keep])
 
-        sets = [norm.plane(pool.loc[pool["seed"] == r["seed"], COMFORT].to_numpy(), pool.loc[pool["seed"] == r["seed"], handling].to_numpy())
-                for r in runs if r["layout"] == c.name]
+        sets = [
+            norm.plane(pool.loc[pool["seed"] == r["seed"], COMFORT].to_numpy(), pool.loc[pool["seed"] == r["seed"], handling].to_numpy())
+            for r in runs
+            if r["layout"] == c.name
+        ]
         att = attainment(sets)
-        for kind, pts, pct in (("eaf", att.surfaces[:, :2], att.surfaces[:, 2]),
-                               ("vorobev", att.vorobev_expectation, np.full(len(att.vorobev_expectation), att.vorobev_threshold_pct))):
+        for kind, pts, pct in (
+            ("eaf", att.surfaces[:, :2], att.surfaces[:, 2]),
+            ("vorobev", att.vorobev_expectation, np.full(len(att.vorobev_expectation), att.vorobev_threshold_pct)),
+        ):
             inside = np.all(np.asarray(pts).reshape(-1, 2) < 1.0, axis=1)  # not the placeholder corner of a seed that attains nothing
             pts, pct = np.asarray(pts).reshape(-1, 2)[inside], pct[inside]
             phys = norm.from_plane(pts) if len(pts) else np.zeros((0, 2))
@@ -143,11 +158,20 @@ def assemble(
 
         hv = run_frame.loc[run_frame["layout"] == c.name, "hypervolume"].to_numpy()
         merged = fronts.loc[fronts["layout"] == c.name, objectives].to_numpy(dtype=float)
-        row: dict[str, Any] = {"layout": c.name, "source": c.source, "variables": " ".join(c.problem.variable_names),
-                               "hv_mean": hv.mean(), "hv_std": hv.std(ddof=1) if len(hv) > 1 else np.nan,
-                               "hv_min": hv.min(), "hv_max": hv.max(), "hv_merged": normalised_hypervolume(merged, norm),
-                               "vorobev_threshold_pct": att.vorobev_threshold_pct, "vorobev_deviation": att.vorobev_deviation,
-                               "handling": handling, "handling_limit": limit}
+        row: dict[str, Any] = {
+            "layout": c.name,
+            "source": c.source,
+            "variables": " ".join(c.problem.variable_names),
+            "hv_mean": hv.mean(),
+            "hv_std": hv.std(ddof=1) if len(hv) > 1 else np.nan,
+            "hv_min": hv.min(),
+            "hv_max": hv.max(),
+            "hv_merged": normalised_hypervolume(merged, norm),
+            "vorobev_threshold_pct": att.vorobev_threshold_pct,
+            "vorobev_deviation": att.vorobev_deviation,
+            "handling": handling,
+            "handling_limit": limit,
+        }
         choice = _equal_handling(c, pool, best_row[c.name], equal.get(c.name, []), handling)
         designs[c.name] = choice.pop("x")
         row |= choice | _limit_status(pool, handling, limit, h_unit)
@@ -163,23 +187,35 @@ def assemble(
     labels = {"layout": NO_UNIT, "source": NO_UNIT, "seed": NO_UNIT, "kind": NO_UNIT, "variables": NO_UNIT, "handling": NO_UNIT}
     units = labels | quantity_units | {f"{n}_norm": NO_UNIT for n in objectives}
     units |= {"hypervolume": NO_UNIT, "front_size": NO_UNIT, "evaluations": NO_UNIT, "feasible_designs": NO_UNIT}
-    units |= {"percentile_pct": "%", "vorobev_threshold_pct": "%", "vorobev_deviation": NO_UNIT, "handling_limit": h_unit,
-              "sigma_aw_at_limit": METRICS[COMFORT].unit, "handling_at_best": h_unit, "refined": NO_UNIT,
-              "handling_least": h_unit, "at_limit": NO_UNIT,
-              "gain_vs_roll_plane_pct": "%"} | {f"hv_{k}": NO_UNIT for k in ("mean", "std", "min", "max", "merged")}
+    units |= {
+        "percentile_pct": "%",
+        "vorobev_threshold_pct": "%",
+        "vorobev_deviation": NO_UNIT,
+        "handling_limit": h_unit,
+        "sigma_aw_at_limit": METRICS[COMFORT].unit,
+        "handling_at_best": h_unit,
+        "refined": NO_UNIT,
+        "handling_least": h_unit,
+        "at_limit": NO_UNIT,
+        "gain_vs_roll_plane_pct": "%",
+    } | {f"hv_{k}": NO_UNIT for k in ("mean", "std", "min", "max", "merged")}
     units |= table.attrs.get("units", {})
-    return {name: with_units(frame, units) for name, frame in
-            (("table", table), ("runs", run_frame), ("fronts", fronts), ("curve", curve), ("attainment", attain))}
+    return {
+        name: with_units(frame, units) for name, frame in (("table", table), ("runs", run_frame), ("fronts", fronts), ("curve", curve), ("attainment", attain))
+    }
 
 
-def _equal_handling(case: LayoutCase, pool: pd.DataFrame, best: int | None, refined: list[dict[str, Any]],
-                    handling: str) -> dict[str, Any]:
+def _equal_handling(case: LayoutCase, pool: pd.DataFrame, best: int | None, refined: list[dict[str, Any]], handling: str) -> dict[str, Any]:
     """``sigma_aw_at_limit``, ``handling_at_best``, ``refined`` and the design ``x`` of one layout:
     the best of the sampled designs and the accepted refinements (NaN, None: none meets the limit)."""
     if best is None:
         return {"sigma_aw_at_limit": np.nan, "handling_at_best": np.nan, "refined": False, "x": None}
-    out = {"sigma_aw_at_limit": float(pool.loc[best, COMFORT]), "handling_at_best": float(pool.loc[best, handling]),
-           "refined": False, "x": pool.loc[best, list(case.problem.variable_names)].to_numpy(dtype=float)}
+    out = {
+        "sigma_aw_at_limit": float(pool.loc[best, COMFORT]),
+        "handling_at_best": float(pool.loc[best, handling]),
+        "refined": False,
+        "x": pool.loc[best, list(case.problem.variable_names)].to_numpy(dtype=float),
+    }
     for r in refined:  # in seed order; the first of equals stays
         if r["accepted"] and r[COMFORT] < out["sigma_aw_at_limit"]:
             out = {"sigma_aw_at_limit": r[COMFORT], "handling_at_best": r[handling], "refined": True, "x": r["x"]}
@@ -195,8 +231,7 @@ def _limit_status(pool: pd.DataFrame, handling: str, limit: float, unit: str) ->
     elif least <= limit:
         status = "met"
     else:
-        status = (f"none of {len(pool)} feasible designs meets {handling} <= {format_quantity(limit, unit)} "
-                  f"(least {format_quantity(least, unit)})")
+        status = f"none of {len(pool)} feasible designs meets {handling} <= {format_quantity(limit, unit)} (least {format_quantity(least, unit)})"
     return {"handling_least": least, "at_limit": status}
 
 

@@ -205,8 +205,9 @@ class SweepResult:
         """Frequency (left axis) and peak PSD (right axis, log) against the variable, per mode (:func:`hisopt.plotting.sweeps.sweep_figure`)."""
         from hisopt.plotting.sweeps import sweep_figure
 
-        return sweep_figure(self.problem_name, self.variable, self.unit, self.frame, self.responses, self.units, self.baseline,
-                            self.baseline_units, _LABELS, fig)
+        return sweep_figure(
+            self.problem_name, self.variable, self.unit, self.frame, self.responses, self.units, self.baseline, self.baseline_units, _LABELS, fig
+        )
 
 
 def _sweep_modes(problem: Problem, x: np.ndarray, anchor: int, keys: list[str]) -> pd.DataFrame:
@@ -369,8 +370,22 @@ class RegionsResult:
         """Contours of log10 of each indicator; thresholds dashed, the infeasible set shaded (:func:`hisopt.plotting.sweeps.regions_figure`)."""
         from hisopt.plotting.sweeps import regions_figure
 
-        return regions_figure(self.problem_name, self.pair, self.units, self.grid_x, self.grid_y, self.values, self.valid,
-                              self.feasible, self.thresholds, self.threshold_source, INDICATORS, self.baseline, self.baseline_units, fig)
+        return regions_figure(
+            self.problem_name,
+            self.pair,
+            self.units,
+            self.grid_x,
+            self.grid_y,
+            self.values,
+            self.valid,
+            self.feasible,
+            self.thresholds,
+            self.threshold_source,
+            INDICATORS,
+            self.baseline,
+            self.baseline_units,
+            fig,
+        )
 
 
 def indicator_problem(problem: Problem) -> Problem:
@@ -438,6 +453,15 @@ def regions(problem: Problem, pair: tuple[str, str], points: int = 41, backend: 
     units = (var_units[a], var_units[b])
     baseline = {n: float(v) for n, v in zip(problem.variable_names, problem.baseline, strict=True) if n not in pair}
     return RegionsResult(
-        problem.name, (a, b), units, grid_x, grid_y, values, np.asarray(q["valid"]).reshape(shape), thresholds, source, baseline,
+        problem.name,
+        (a, b),
+        units,
+        grid_x,
+        grid_y,
+        values,
+        np.asarray(q["valid"]).reshape(shape),
+        thresholds,
+        source,
+        baseline,
         var_units,
     )

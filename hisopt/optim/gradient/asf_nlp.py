@@ -81,9 +81,7 @@ class NodePlan:
     max_nodes: dict[str, np.ndarray]
 
 
-def peak_locations(
-    frf: Any, ev: Any, outputs: np.ndarray, lo_hz: np.ndarray, hi_hz: np.ndarray, steps: int = 12, points: int = 9
-) -> np.ndarray:
+def peak_locations(frf: Any, ev: Any, outputs: np.ndarray, lo_hz: np.ndarray, hi_hz: np.ndarray, steps: int = 12, points: int = 9) -> np.ndarray:
     """[Hz] Location of the PSD maximum of output ``outputs[i]`` in ``[lo_hz[i], hi_hz[i]]``
     for every bracket ``i`` at once, from ``points`` samples each refined by
     :func:`hisopt.evaluation.peaks.refine_maximum` (``steps`` new samples each).

@@ -100,8 +100,10 @@ class SlpSettings:
 
     def __post_init__(self) -> None:
         if self.starts < 2 or self.chunk < 1 or self.iterations < 0:
-            raise ConfigError(f"expected SlpSettings with starts >= 2, chunk >= 1 and iterations >= 0, got starts={self.starts}, "
-                              f"chunk={self.chunk}, iterations={self.iterations}")
+            raise ConfigError(
+                f"expected SlpSettings with starts >= 2, chunk >= 1 and iterations >= 0, got starts={self.starts}, "
+                f"chunk={self.chunk}, iterations={self.iterations}"
+            )
 
 
 @dataclass(frozen=True)
@@ -151,8 +153,14 @@ def asf_merit(gap: np.ndarray, rho: float | np.ndarray) -> np.ndarray:
 
 
 def lp_steps(
-    gap: np.ndarray, jac: np.ndarray, con: np.ndarray, con_jac: np.ndarray, low: np.ndarray, high: np.ndarray,
-    rho: np.ndarray, s_cap: np.ndarray,
+    gap: np.ndarray,
+    jac: np.ndarray,
+    con: np.ndarray,
+    con_jac: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    rho: np.ndarray,
+    s_cap: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """[-] The linear programme's step ``d`` and its predicted merit for every design at once.
 
@@ -216,7 +224,11 @@ def lp_steps(
 
 
 def solve_slp(
-    problem: Problem, x0: np.ndarray, f0: np.ndarray, weights: np.ndarray, settings: SlpSettings | None = None,
+    problem: Problem,
+    x0: np.ndarray,
+    f0: np.ndarray,
+    weights: np.ndarray,
+    settings: SlpSettings | None = None,
     monotone: np.ndarray | None = None,
 ) -> SlpResult:
     """Refine every start design at once by trust-region SLP (module docstring).
@@ -370,9 +382,7 @@ def start_points(u0: np.ndarray, keys: np.ndarray, settings: SlpSettings) -> np.
     return out
 
 
-def refine_designs(
-    problem: Problem, x0: np.ndarray, f0: np.ndarray, keys: np.ndarray, weights: np.ndarray, settings: SlpSettings | None = None
-) -> SlpResult:
+def refine_designs(problem: Problem, x0: np.ndarray, f0: np.ndarray, keys: np.ndarray, weights: np.ndarray, settings: SlpSettings | None = None) -> SlpResult:
     """The best design found for each start design over its several SLP starts.
 
     Runs :func:`solve_slp` from the :func:`start_points` of every design (the first of them

@@ -43,6 +43,7 @@ import numpy as np
 
 from hisopt.coupled.model import coupled_stiffness
 from hisopt.coupled.operating_point import accumulator_quantities
+from hisopt.errors import RunError
 from hisopt.evaluation.psd import channel_power, comfort_gain_squared, reduce_metrics, roll_gradient
 from hisopt.hydraulics import backend as bk
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS
@@ -170,6 +171,12 @@ class CasadiModel:
         self.compile = compile
         self.problem = problem
         ev = Evaluator(problem)
+        swing = [m.name for m in ev.metrics if m.kind == "swing"]
+        if swing:  # the condensed stroke model has no hydraulic unknowns to read the oil volumes from
+            raise RunError(
+                f"--method ipopt: the CasADi model has no accumulator oil volumes for {swing[0]}; "
+                "expected --method slp (the default), which refines on the evaluator"
+            )
         self.outputs: dict[str, Output] = dict(ev.outputs)
         self.output_index = dict(ev.output_index)
         self.names: tuple[str, ...] = ev.names
@@ -279,9 +286,7 @@ class CasadiModel:
             sym = ((h_re[0] + h_re[1], h_im[0] + h_im[1]), (h_re[2] + h_re[3], h_im[2] + h_im[3]))
             anti = ((h_re[0] - h_re[1], h_im[0] - h_im[1]), (h_re[2] - h_re[3], h_im[2] - h_im[3]))
             psd.append(g_road * channel_power(sym, anti, cos_t, sin_t, coh))
-        self._psd = ca.Function(
-            "psd", [dr, di, p], [ca.vertcat(*psd)], ["d_re", "d_im", "p"], ["psd"], {"is_diff_in": [True, True, False]}
-        )
+        self._psd = ca.Function("psd", [dr, di, p], [ca.vertcat(*psd)], ["d_re", "d_im", "p"], ["psd"], {"is_diff_in": [True, True, False]})
         return self._psd
 
     def node_function(self, jacobian: bool = False) -> ca.Function:

@@ -71,7 +71,6 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
 
 
-
 @dataclass(frozen=True)
 class PointResult:
     """Outcome of refining one front design.
@@ -317,9 +316,7 @@ def constrained_problem(problem: Problem, objective: str, limits: dict[str, floa
     return problem_from_dict(data, f"{problem.name} ({objective} under limits)", warn_implausible=False)  # checked when read
 
 
-def refine_constrained(
-    problem: Problem, x0: np.ndarray, objective: str, limits: dict[str, float], settings: RefineSettings | None = None
-) -> PointResult:
+def refine_constrained(problem: Problem, x0: np.ndarray, objective: str, limits: dict[str, float], settings: RefineSettings | None = None) -> PointResult:
     """Minimise ``objective`` subject to the problem's constraints and ``limits`` from ``x0``.
 
     The epsilon-constraint form of the refinement: :func:`refine_point` on
@@ -390,9 +387,16 @@ def _slp_task(chunk: list[tuple[int, np.ndarray, np.ndarray]], problem: Problem,
     quantities = {k: v for k, v in result.quantities.items() if k != "valid"}
     return [
         PointResult(
-            source_index=int(keys[i]), x=result.x[i], quantities={k: float(v[i]) for k, v in quantities.items()},
-            accepted=bool(result.merit[i] < 0.0), asf=float(result.asf[i]), merit=float(result.merit[i]),
-            rounds=int(result.steps[i]), iterations=int(result.iterations[i]), seconds=share, status=result.status[i],
+            source_index=int(keys[i]),
+            x=result.x[i],
+            quantities={k: float(v[i]) for k, v in quantities.items()},
+            accepted=bool(result.merit[i] < 0.0),
+            asf=float(result.asf[i]),
+            merit=float(result.merit[i]),
+            rounds=int(result.steps[i]),
+            iterations=int(result.iterations[i]),
+            seconds=share,
+            status=result.status[i],
         )
         for i in range(len(chunk))
     ]
@@ -468,7 +472,7 @@ def refine_front(
     tasks = [(int(i), x[i], f[i]) for i in chosen]
     backend = backend or Backend()
     if isinstance(settings, SlpSettings):
-        chunks = [tasks[i:i + settings.chunk] for i in range(0, len(tasks), settings.chunk)]
+        chunks = [tasks[i : i + settings.chunk] for i in range(0, len(tasks), settings.chunk)]
 
         def report_chunk(_: int, chunk: list[PointResult]) -> None:
             for point in chunk:
@@ -616,8 +620,15 @@ def refine_run(
     ensure_writable_dir(run_dir)
     settings = method_settings(method, settings)
     result = refine_front(
-        problem, front, max_points, method=method, settings=settings, backend=backend, reference_log=reference,
-        progress=progress, source=str(run_dir / rundir.FRONT_CSV),
+        problem,
+        front,
+        max_points,
+        method=method,
+        settings=settings,
+        backend=backend,
+        reference_log=reference,
+        progress=progress,
+        source=str(run_dir / rundir.FRONT_CSV),
     )
     write_csv(with_bound_column(result.front, problem), run_dir / FRONT_REFINED_CSV)
     summary = result.summary() | {"max_points": max_points, "method": method, "settings": asdict(settings)}
