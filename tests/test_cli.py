@@ -204,7 +204,27 @@ def test_set_keys_are_derived_from_the_his_model(tmp_path, monkeypatch):
     from hisopt.cli.usage import scalar_fields
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
-    today = ("p0", "dA", "lam", "Rv", "dA_rear", "lam_rear", "Rv_rear", "V0", "gamma", "chamber_volume", "valve_laminar_fraction", "separator", "pressure_rating", "pipe_model", "layout")
+    today = (
+        "p0",
+        "dA",
+        "lam",
+        "Rv",
+        "dA_rear",
+        "lam_rear",
+        "Rv_rear",
+        "bore",
+        "rod",
+        "bore_rear",
+        "rod_rear",
+        "V0",
+        "gamma",
+        "chamber_volume",
+        "valve_laminar_fraction",
+        "separator",
+        "pressure_rating",
+        "pipe_model",
+        "layout",
+    )
     assert SET_KEYS == today
     assert set(SET_KEYS) <= set(RollPlaneHIS.model_fields)
 

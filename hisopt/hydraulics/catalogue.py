@@ -61,7 +61,7 @@ CUSTOM = "custom"
 PIPE_PARAMETERS = ("pipe_diameter", "pipe_length_front", "pipe_length_rear")
 """Parameters ``[his.pipes]`` defines (:func:`hisopt.hydraulics.roll_plane.parameter_values`)."""
 
-CYLINDER_PARAMETERS = ("dA", "lam", "dA_rear", "lam_rear")
+CYLINDER_PARAMETERS = ("dA", "lam", "dA_rear", "lam_rear", "bore", "rod", "bore_rear", "rod_rear")
 """Parameters every layout reads through the cylinders (not through its elements)."""
 
 REAR_TIED = ("dA", "lam", "Rv")

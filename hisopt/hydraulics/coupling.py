@@ -83,10 +83,12 @@ class HydraulicSystem:
         """``N`` [m^2]: signed chamber areas, ports x wheels (numpy ``B + (n_ports, 4)``)."""
         return nw.incidence(self.network, *self.areas)
 
-    @property
+    @cached_property
     def batch_shape(self) -> tuple[int, ...]:
-        """Batch shape ``B`` of the parameter values (numpy)."""
-        return tuple(np.shape(self.incidence)[:-2])
+        """Batch shape ``B`` of the parameter values (numpy): of every array among them, not
+        only the cylinders' (whose sizes may be fixed while a valve varies)."""
+        shapes = [np.shape(v) for v in self.params.values() if isinstance(v, np.ndarray)]
+        return tuple(np.broadcast_shapes(np.shape(self.incidence)[:-2], *shapes))
 
     def port_impedance(self, s: Any) -> Any:
         """``Z_port(s)`` [Pa s m^-3] (:func:`hisopt.hydraulics.network.port_impedance`)."""

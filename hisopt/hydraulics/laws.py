@@ -21,6 +21,21 @@ Chamber = Literal["top", "bottom"]
 
 
 # --- cylinders ---------------------------------------------------------------------------------
+def bore_and_rod_parameters(bore: Any, rod: Any) -> tuple[Any, Any]:
+    """The paper's ``(dA, lam)`` of a cylinder of bore diameter ``bore`` and piston-rod
+    diameter ``rod`` [m] (docs/model.md §3.1): the bore area ``A_b = pi bore^2 / 4`` is the
+    bottom chamber's, the annulus ``A_t = pi (bore^2 - rod^2) / 4`` the top's, so
+    ``dA = A_b - A_t = pi rod^2 / 4`` (the rod's area) and ``lam = A_t / A_b = 1 - (rod / bore)^2``.
+
+    Returns
+    -------
+    dA, lam : Any
+        [m^2], [-]; ``lam`` in (0, 1) when ``0 < rod < bore``
+    """
+    ratio = rod / bore
+    return 0.25 * math.pi * rod * rod, 1.0 - ratio * ratio
+
+
 def cylinder_areas(dA: Any, lam: Any) -> tuple[Any, Any]:
     """Top (annulus) and bottom (bore) areas from the paper's design variables.
 

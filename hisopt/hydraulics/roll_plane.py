@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from hisopt.hydraulics import laws
 from hisopt.hydraulics.charge import REFERENCE_TEMPERATURE, Charge
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.fluid import Fluid, Oil, thermal_ratios
@@ -63,6 +64,10 @@ class RollPlaneHIS(BaseModel):
     dA_rear: float | None = Field(None, gt=0, description="rear dA (None: = dA)", json_schema_extra=si("m^2"))
     lam_rear: float | None = Field(None, gt=0, lt=1, description="rear lam (None: = lam)", json_schema_extra=si("-"))
     Rv_rear: float | None = Field(None, ge=0, description="rear Rv (None: = Rv)", json_schema_extra=si("Pa s m^-3"))
+    bore: float | None = Field(None, gt=0, description="cylinder bore diameter (with rod: sets dA and lam)", json_schema_extra=si("m"))
+    rod: float | None = Field(None, gt=0, description="piston-rod diameter, less than the bore (with bore: sets dA and lam)", json_schema_extra=si("m"))
+    bore_rear: float | None = Field(None, gt=0, description="rear bore (None: = bore)", json_schema_extra=si("m"))
+    rod_rear: float | None = Field(None, gt=0, description="rear rod (None: = rod)", json_schema_extra=si("m"))
     V0: float = Field(1.0e-3, gt=0, description="accumulator gas volume at precharge", json_schema_extra=si("m^3"))
     gamma: float = Field(1.4, ge=GAMMA_RANGE[0], le=GAMMA_RANGE[1], description="polytropic exponent of the gas (1 to 2)", json_schema_extra=si("-"))
     chamber_volume: float = Field(0.0, ge=0, description="oil volume per chamber (0: off)", json_schema_extra=si("m^3"))
@@ -86,6 +91,20 @@ class RollPlaneHIS(BaseModel):
     circuits: list[CircuitSpec] | None = Field(
         None, min_length=1, description="the circuits of a custom layout (checked together by hisopt.hydraulics.catalogue.layout_problem)"
     )
+
+    @model_validator(mode="after")
+    def _cylinder_sized_once(self) -> RollPlaneHIS:
+        for axle in ("", "_rear"):
+            sizes = [f"{part}{axle}" for part in ("bore", "rod") if getattr(self, f"{part}{axle}") is not None]
+            paper = [f"{name}{axle}" for name in ("dA", "lam") if f"{name}{axle}" in self.model_fields_set]
+            if sizes and paper:
+                raise ValueError(f"{paper[0]}: given with {sizes[0]}, which sizes the cylinder (bore and rod set dA and lam); expected one or the other")
+        for axle in ("", "_rear"):
+            bore = getattr(self, f"bore{axle}") or (self.bore if axle else None)
+            rod = getattr(self, f"rod{axle}") or (self.rod if axle else None)
+            if bore is not None and rod is not None and not rod < bore:
+                raise ValueError(f"rod{axle}: {rod:g} m is not thinner than the bore {bore:g} m; expected a piston rod smaller than its bore")
+        return self
 
     @model_validator(mode="after")
     def _distributed_needs_pipes(self) -> RollPlaneHIS:
@@ -160,6 +179,12 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
     """
     values: dict[str, Any] = {k: getattr(base, k) for k, f in RollPlaneHIS.model_fields.items() if f.annotation in (float, float | None)}
     values.update(overrides or {})
+    for key in ("bore", "rod"):
+        if values.get(f"{key}_rear") is None:
+            values[f"{key}_rear"] = values[key]
+    for axle in ("", "_rear"):  # hardware sizes, where given, set the paper's dA and lam
+        if values.get(f"bore{axle}") is not None and values.get(f"rod{axle}") is not None:
+            values[f"dA{axle}"], values[f"lam{axle}"] = laws.bore_and_rod_parameters(values[f"bore{axle}"], values[f"rod{axle}"])
     for key in ("dA", "lam", "Rv"):
         if values.get(f"{key}_rear") is None:
             values[f"{key}_rear"] = values[key]

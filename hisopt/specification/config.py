@@ -319,6 +319,31 @@ class ProblemSpec(_Strict):
         return self
 
     @model_validator(mode="after")
+    def _cylinder_sizes_in_pairs(self) -> ProblemSpec:
+        given = {n for n in ("bore", "rod", "bore_rear", "rod_rear") if n in self.variables or getattr(self.his, n) is not None}
+        for axle in ("", "_rear"):
+            pair = {f"bore{axle}", f"rod{axle}"}
+            if axle and given & pair and not {"bore", "rod"} <= given:
+                raise ValueError(f"his.{sorted(given & pair)[0]}: a rear size needs the front's bore and rod (the rear follows them where not given)")
+            if not axle and len(given & pair) == 1:
+                (one,) = given & pair
+                other = (pair - {one}).pop()
+                raise ValueError(f"his.{other}: missing; {one} sizes the cylinder with {other} (expected both, in [his] or [variables])")
+        for name in ("bore", "rod"):
+            if name in self.variables and getattr(self.his, name) is None:
+                raise ValueError(
+                    f'his.{name}: missing; expected the baseline value of design variable {name} (e.g. {name} = "{50 if name == "bore" else 28} mm")'
+                )
+        sized = {a for a in ("", "_rear") if {"bore", "rod"} <= given}
+        for axle in sized:  # bore and rod set dA and lam: a value of those would be ignored
+            for name in (f"dA{axle}", f"lam{axle}"):
+                if name in self.variables:
+                    raise ValueError(f"variables.{name}: the cylinder is sized by bore and rod, which set dA and lam; expected one or the other")
+                if name in self.his.model_fields_set:
+                    raise ValueError(f"his.{name}: the cylinder is sized by bore and rod, which set dA and lam; expected one or the other")
+        return self
+
+    @model_validator(mode="after")
     def _swing_needs_oil(self) -> ProblemSpec:
         keys = [f"objectives.{i}" for i, o in enumerate(self.objectives) if o == "accumulator_swing"]
         keys += [f"constraints.{i}.name" for i, c in enumerate(self.constraints) if c.name == "accumulator_swing"]
@@ -372,6 +397,9 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     key = ".".join(_key_part(p) for p in err["loc"] if not str(p).startswith("function-"))
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     value = err.get("input")
+    head, colon, rest = msg.partition(": ")
+    if err["type"] == "value_error" and colon and key and head in _allowed_keys(err["loc"]):  # a table's validator naming its key
+        return f"{key}.{head}", rest
     if err["type"] == "extra_forbidden":
         allowed = _allowed_keys(err["loc"][:-1])
         return key, f"unknown key; expected one of {', '.join(allowed)} (check the spelling)" if allowed else "unknown key"

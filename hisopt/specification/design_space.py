@@ -86,7 +86,13 @@ class DesignSpace:
     def baseline(self) -> np.ndarray:
         """The fixed ``[his]`` values of the design variables (the baseline design)."""
         extra = layout_defaults(self.spec.his)
-        return np.array([extra[n] if n in extra else getattr(self.spec.his, n) for n in self.variable_names], dtype=float)
+        his = self.spec.his
+
+        def value(name: str) -> Any:  # a rear value not given follows the front's
+            given = extra[name] if name in extra else getattr(his, name)
+            return getattr(his, name.removesuffix("_rear")) if given is None and name.endswith("_rear") else given
+
+        return np.array([value(n) for n in self.variable_names], dtype=float)
 
     @property
     def objective_names(self) -> tuple[str, ...]:

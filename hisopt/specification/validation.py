@@ -64,6 +64,9 @@ class DesignSpace(Protocol):
 
     def layout(self) -> Layout: ...
 
+    @property
+    def spec(self) -> Any: ...
+
 
 P = TypeVar("P", bound=DesignSpace)
 
@@ -445,12 +448,36 @@ class DesignCheck:
 
 
 def admissible(problem: DesignSpace, x: np.ndarray) -> np.ndarray:
-    """[-] Rows whose every value is finite and obeys its parameter's rule, ``(n,)``."""
+    """[-] Rows whose every value is finite and obeys its parameter's rule, ``(n,)``, and
+    whose cylinders' rods are thinner than their bores (:func:`cylinder_breaks`)."""
     x = np.asarray(x, dtype=float)
     ok = np.ones(x.shape[0], dtype=bool)
     for j, name in enumerate(problem.variable_names):
         ok &= problem.parameter_rule(name).holds(x[:, j])
+    for _, bad, _ in cylinder_breaks(problem, x):
+        ok &= ~bad
     return ok
+
+
+def cylinder_breaks(problem: DesignSpace, x: np.ndarray) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """Per axle sized by bore and rod with at least one of them a design variable:
+    ``(axle suffix, rows whose rod is not thinner than the bore (n,), [bore, rod] (n, 2))``.
+    The rear axle counts when it has a size of its own (else it follows the front); a fixed
+    pair is checked when the file is read (:class:`~hisopt.hydraulics.roll_plane.RollPlaneHIS`)."""
+    names = problem.variable_names
+    his = problem.spec.his
+    given = lambda n: n in names or getattr(his, n) is not None  # noqa: E731
+    out = []
+    for axle in ("", "_rear"):
+        if axle and not (given("bore_rear") or given("rod_rear")):
+            continue  # the rear follows the front's sizes: checked there
+        sources = [next((n for n in (f"{part}{axle}", part) if given(n)), None) for part in ("bore", "rod")]
+        if None in sources or not any(n in names for n in sources):
+            continue
+        pair = [x[:, names.index(n)] if n in names else np.full(len(x), float(getattr(his, n))) for n in sources]  # type: ignore[arg-type]
+        with np.errstate(invalid="ignore"):
+            out.append((axle, ~(pair[1] < pair[0]), np.stack(pair, axis=1)))
+    return out
 
 
 def check_designs(problem: DesignSpace, x: np.ndarray) -> DesignCheck:
@@ -476,6 +503,9 @@ def check_designs(problem: DesignSpace, x: np.ndarray) -> DesignCheck:
             outside[i].append(f"{name} = {col[i]:g} is below the lower bound {lower[j]:g}")
         for i in map(int, np.flatnonzero(high)):
             outside[i].append(f"{name} = {col[i]:g} is above the upper bound {upper[j]:g}")
+    for axle, bad, sizes in cylinder_breaks(problem, x):
+        for i in map(int, np.flatnonzero(bad)):
+            invalid[i].append(f"rod{axle} = {sizes[i, 1]:g} is not thinner than bore{axle} = {sizes[i, 0]:g}")
     status = np.full(n, STATUS_OK, dtype=object)
     reason = np.full(n, "", dtype=object)
     detail = np.full(n, "", dtype=object)
