@@ -201,6 +201,8 @@ def parameter_unit(name: str, uses: Mapping[str, Sequence[tuple[type, str]]]) ->
     unit = field_unit(RollPlaneHIS, name)
     if unit is None and uses.get(name):
         unit = FIELD_UNITS[uses[name][0]]
+    if unit is None and name in PIPE_PARAMETERS:  # [his.pipes] values: a bore and lengths
+        unit = "m"
     return unit
 
 

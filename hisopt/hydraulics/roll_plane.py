@@ -12,7 +12,7 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_serializer, model_validator
 
 from hisopt.hydraulics import laws
 from hisopt.hydraulics.charge import REFERENCE_TEMPERATURE, Charge
@@ -92,11 +92,21 @@ class RollPlaneHIS(BaseModel):
         None, min_length=1, description="the circuits of a custom layout (checked together by hisopt.hydraulics.catalogue.layout_problem)"
     )
 
+    @model_serializer(mode="wrap")
+    def _without_what_the_sizes_set(self, handler: Any) -> dict[str, Any]:
+        # bore and rod set dA and lam: a dump without them reads back (the file could not hold both)
+        data = handler(self)
+        for axle in ("", "_rear"):
+            if data.get(f"bore{axle}") is not None and data.get(f"rod{axle}") is not None:
+                data.pop(f"dA{axle}", None)
+                data.pop(f"lam{axle}", None)
+        return data
+
     @model_validator(mode="after")
     def _cylinder_sized_once(self) -> RollPlaneHIS:
         for axle in ("", "_rear"):
             sizes = [f"{part}{axle}" for part in ("bore", "rod") if getattr(self, f"{part}{axle}") is not None]
-            paper = [f"{name}{axle}" for name in ("dA", "lam") if f"{name}{axle}" in self.model_fields_set]
+            paper = [f"{name}{axle}" for name in ("dA", "lam") if f"{name}{axle}" in self.model_fields_set and getattr(self, f"{name}{axle}") is not None]
             if sizes and paper:
                 raise ValueError(f"{paper[0]}: given with {sizes[0]}, which sizes the cylinder (bore and rod set dA and lam); expected one or the other")
         for axle in ("", "_rear"):
@@ -190,12 +200,12 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
             values[f"{key}_rear"] = values[key]
     if values.get("pressure_rating") is None:
         values["pressure_rating"] = SEPARATOR_RATINGS[base.separator]
-    if base.pipes is not None:
+    if base.pipes is not None:  # design variables (overrides) take the place of [his.pipes] values
         values |= {
             "pipe_diameter": base.pipes.diameter,
             "pipe_length_front": base.pipes.length_front,
             "pipe_length_rear": base.pipes.length_rear,
-        }
+        } | {k: v for k, v in (overrides or {}).items() if k.startswith("pipe_")}
     thermal = thermal_parameters(base, temperature)
     values |= thermal
     values |= {"rho": base.fluid.rho * thermal["density_ratio"], "mu": base.fluid.mu * thermal["viscosity_ratio"], "beta": base.fluid.beta}

@@ -91,7 +91,7 @@ class Engine:
         if pop is None or len(pop) == 0:
             self.exhausted = True
             return None
-        x = np.asarray(pop.get("X"), dtype=float)
+        x = self.pymoo_problem.decode(np.asarray(pop.get("X"), dtype=float))  # choices: their listed values
         t0 = time.perf_counter()
         q = self.pymoo_problem.quantities(x)
         self.evaluation_s += time.perf_counter() - t0

@@ -85,17 +85,39 @@ class HisoptPymooProblem(PymooProblem):
         self.objective_names = problem.objective_names
         self.constraint_names = problem.constraint_names
         self.constraint_limits = tuple(float(c.limit) for c in problem.spec.constraints)
+        self.choices = problem.choices
+        xl, xu = problem.lower.astype(float), problem.upper.astype(float)
+        for j, values in self.choices.items():  # a choice is searched by its place in the list
+            xl[j], xu[j] = -0.5, len(values) - 0.5
         super().__init__(
             n_var=len(problem.variable_names),
             n_obj=len(self.objective_names),
             n_ieq_constr=len(self.constraint_names) + 1,
-            xl=problem.lower,
-            xu=problem.upper,
+            xl=xl,
+            xu=xu,
             vtype=float,
         )
 
+    def decode(self, u: np.ndarray) -> np.ndarray:
+        """[SI] The designs of search coordinates ``u`` (n, n_var): a choice variable's
+        coordinate is a place in its list, rounded to the nearest listed value, so that the
+        operators (SBX, polynomial mutation, the box's faces) move along the list in order and
+        the whole population is still one batch (docs/model.md §17); the others are values."""
+        x = np.array(u, dtype=float)
+        for j, values in self.choices.items():
+            x[:, j] = values[np.clip(np.rint(x[:, j]), 0, len(values) - 1).astype(np.int64)]
+        return x
+
+    def encode(self, x: np.ndarray) -> np.ndarray:
+        """Search coordinates of designs ``x`` (n, n_var) [SI]: a listed value's place in its list
+        (the nearest one's), the others as they are; ``decode(encode(x)) == x`` for listed designs."""
+        u = np.array(x, dtype=float)
+        for j, values in self.choices.items():
+            u[:, j] = np.argmin(np.abs(u[:, j, None] - values[None, :]), axis=1)
+        return u
+
     def quantities(self, x: np.ndarray) -> dict[str, np.ndarray]:
-        """[physical units] Evaluator output for designs ``x`` (n, n_var)."""
+        """[physical units] Evaluator output for designs ``x`` (n, n_var) [SI, decoded]."""
         return self.hisopt_problem.evaluator()(x)
 
     def f_and_g(self, quantities: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -106,4 +128,4 @@ class HisoptPymooProblem(PymooProblem):
         )
 
     def _evaluate(self, x: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
-        out["F"], out["G"] = self.f_and_g(self.quantities(x))
+        out["F"], out["G"] = self.f_and_g(self.quantities(self.decode(x)))

@@ -342,6 +342,7 @@ def problem_copy(problem: Problem) -> tuple[str, bytes, dict[str, Any]]:
     same specification); otherwise the specification as JSON (``problem.json``), e.g. for
     :func:`~hisopt.problem.problem_from_dict` or ``Problem.with_values``.
     """
+    from hisopt.specification.catalogues import catalogue_names
     from hisopt.specification.config import parse_problem
 
     path = problem.path
@@ -354,6 +355,8 @@ def problem_copy(problem: Problem) -> tuple[str, bytes, dict[str, Any]]:
                 same = parse_problem(tomllib.loads(raw.decode("utf-8")), str(path), warn_implausible=False) == problem.spec
             except (ConfigError, tomllib.TOMLDecodeError, UnicodeDecodeError):
                 same = False
+            # a catalogue file beside the problem is not beside its copy: the JSON holds its values
+            same = same and not any(v.catalogue is not None and v.catalogue not in catalogue_names() for v in problem.spec.variables.values())
             if same:
                 record: dict[str, Any] = {
                     "name": problem.name,

@@ -27,7 +27,7 @@ from pydantic import (
 
 from hisopt.coupled.payload import Payload, laden_problem
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
-from hisopt.hydraulics.catalogue import his_layout, layout_defaults, layout_problem, used_parameters
+from hisopt.hydraulics.catalogue import PIPE_PARAMETERS, his_layout, layout_defaults, layout_problem, used_parameters
 from hisopt.hydraulics.layout import Accumulator, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
@@ -49,15 +49,36 @@ class _Strict(BaseModel):
 
 
 class Variable(_Strict):
-    """A design variable: a HIS parameter with its bounds [SI units]."""
+    """A design variable: a HIS parameter with its bounds [SI units], or a choice among
+    listed values (``choices``, or a ``catalogue``'s, docs/model.md §17), whose bounds are
+    the first and the last."""
 
     lower: float
     upper: float
+    choices: list[float] | None = Field(None, description="[SI] the values it takes, in increasing order")
+    catalogue: str | None = Field(None, description="[-] the catalogue the choices come from (a shipped name or a CSV path)")
     unit: str = ""
     description: str = ""
 
+    @model_validator(mode="before")
+    @classmethod
+    def _bounds_of_choices(cls, data: Any) -> Any:
+        choices = data.get("choices") if isinstance(data, dict) else None
+        if not isinstance(choices, list) or not choices or "catalogue" in data:
+            return data
+        if "lower" in data or "upper" in data:
+            raise ValueError("choices: given with lower or upper; expected one or the other (the choices' first and last are the bounds)")
+        return data | {"lower": choices[0], "upper": choices[-1]}
+
     @model_validator(mode="after")
     def _ordered(self) -> Variable:
+        if self.choices is not None:
+            if len(self.choices) < 2:
+                raise ValueError(f"choices: {len(self.choices)} value(s); expected at least two to choose from (a single value belongs in [his])")
+            if any(not b > a for a, b in zip(self.choices, self.choices[1:], strict=False)):
+                raise ValueError(f"choices: {self.choices} are not in increasing order; expected an ordered list (the search moves along it)")
+            if (self.lower, self.upper) != (self.choices[0], self.choices[-1]):
+                raise ValueError(f"choices: the bounds {self.lower:g} and {self.upper:g} are not the first and last choice")
         if not self.lower < self.upper:
             raise ValueError(f"expected lower < upper, got lower={self.lower}, upper={self.upper}")
         return self
@@ -291,7 +312,8 @@ class ProblemSpec(_Strict):
         layout = his_layout(self.his)
         # The rules come from RollPlaneHIS's fields and the layout's element fields
         # (hisopt.specification.validation), not from a list here.
-        allowed = design_parameters() + tuple(layout_defaults(self.his))
+        pipes = PIPE_PARAMETERS if self.his.pipes is not None else ()  # a hose's bore and length, over [his.pipes]
+        allowed = design_parameters() + tuple(layout_defaults(self.his)) + pipes
         used = used_parameters(layout)
         if not self.variables:  # also for a file without [variables] (defaults are not validated)
             raise ValueError(
@@ -339,7 +361,7 @@ class ProblemSpec(_Strict):
             for name in (f"dA{axle}", f"lam{axle}"):
                 if name in self.variables:
                     raise ValueError(f"variables.{name}: the cylinder is sized by bore and rod, which set dA and lam; expected one or the other")
-                if name in self.his.model_fields_set:
+                if name in self.his.model_fields_set and getattr(self.his, name) is not None:
                     raise ValueError(f"his.{name}: the cylinder is sized by bore and rod, which set dA and lam; expected one or the other")
         return self
 

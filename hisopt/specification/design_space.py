@@ -83,10 +83,17 @@ class DesignSpace:
         return np.array([v.upper for v in self.spec.variables.values()])
 
     @property
+    def choices(self) -> dict[int, np.ndarray]:
+        """[SI] The listed values of each choice variable, by its column (docs/model.md §17)."""
+        return {j: np.array(v.choices) for j, v in enumerate(self.spec.variables.values()) if v.choices is not None}
+
+    @property
     def baseline(self) -> np.ndarray:
         """The fixed ``[his]`` values of the design variables (the baseline design)."""
-        extra = layout_defaults(self.spec.his)
         his = self.spec.his
+        extra = layout_defaults(his)
+        if his.pipes is not None:  # a hose's bore and lengths as design variables
+            extra |= {"pipe_diameter": his.pipes.diameter, "pipe_length_front": his.pipes.length_front, "pipe_length_rear": his.pipes.length_rear}
 
         def value(name: str) -> Any:  # a rear value not given follows the front's
             given = extra[name] if name in extra else getattr(his, name)

@@ -61,6 +61,8 @@ def convert_problem_units(data: Mapping[str, Any], source: str, spec: type) -> d
         for name, table in variables.items():
             unit = parameter_unit(str(name), uses)
             converted[name] = convert(table, ("lower", "upper"), unit, f"variables.{name}")
+            if unit is not None and isinstance(table, dict):
+                converted[name] = _choices_in_si(converted[name], unit, source, f"variables.{name}")
             label = table.get("unit") if isinstance(table, dict) else None
             if unit is not None and isinstance(label, str):
                 check_si_label(label, unit, file=source, key=f"variables.{name}.unit")
@@ -69,6 +71,20 @@ def convert_problem_units(data: Mapping[str, Any], source: str, spec: type) -> d
     if isinstance(constraints, list):
         out["constraints"] = [convert(c, ("limit",), _metric_unit(c, METRICS, quantity_of), f"constraints.{i}") for i, c in enumerate(constraints)]
     return out
+
+
+def _choices_in_si(table: dict[str, Any], unit: str, source: str, key: str) -> dict[str, Any]:
+    """A choice variable's listed values in SI: ``choices`` as written (``"50 mm"``), or its
+    ``catalogue``'s (:func:`hisopt.specification.catalogues.resolve_catalogue`)."""
+    from pathlib import Path
+
+    from hisopt.specification.catalogues import resolve_catalogue
+
+    choices = table.get("choices")
+    if isinstance(choices, list):
+        table = table | {"choices": [_maybe(v, unit, source, f"{key}.choices.{i}") for i, v in enumerate(choices)]}
+    folder = Path(source).parent if Path(source).is_file() else None
+    return resolve_catalogue(table, unit, folder, file=source, key=key)
 
 
 def _maybe(value: Any, unit: str | None, source: str, key: str) -> Any:

@@ -67,6 +67,9 @@ class DesignSpace(Protocol):
     @property
     def spec(self) -> Any: ...
 
+    @property
+    def choices(self) -> dict[int, np.ndarray]: ...
+
 
 P = TypeVar("P", bound=DesignSpace)
 
@@ -459,6 +462,19 @@ def admissible(problem: DesignSpace, x: np.ndarray) -> np.ndarray:
     return ok
 
 
+LISTED_RTOL = 1e-12
+"""[-] How near a value must be to a listed choice to be it: a catalogue's value read back
+from a CSV file or converted from another unit moves by a few eps."""
+
+
+def listed(values: np.ndarray, choices: np.ndarray) -> np.ndarray:
+    """[-] Which ``values`` are one of the ``choices`` (increasing), within :data:`LISTED_RTOL`."""
+    at = np.clip(np.searchsorted(choices, values), 1, len(choices) - 1)
+    nearest = np.where(np.abs(values - choices[at - 1]) <= np.abs(values - choices[at]), choices[at - 1], choices[at])
+    with np.errstate(invalid="ignore"):
+        return np.abs(values - nearest) <= LISTED_RTOL * np.abs(nearest)
+
+
 def cylinder_breaks(problem: DesignSpace, x: np.ndarray) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Per axle sized by bore and rod with at least one of them a design variable:
     ``(axle suffix, rows whose rod is not thinner than the bore (n,), [bore, rod] (n, 2))``.
@@ -490,7 +506,7 @@ def check_designs(problem: DesignSpace, x: np.ndarray) -> DesignCheck:
     n = x.shape[0]
     invalid: dict[int, list[str]] = defaultdict(list)  # only flagged rows: no Python loop over all
     outside: dict[int, list[str]] = defaultdict(list)
-    lower, upper = problem.lower, problem.upper
+    lower, upper, choices = problem.lower, problem.upper, problem.choices
     for j, name in enumerate(problem.variable_names):
         col = x[:, j]
         rule = problem.parameter_rule(name)
@@ -503,6 +519,9 @@ def check_designs(problem: DesignSpace, x: np.ndarray) -> DesignCheck:
             outside[i].append(f"{name} = {col[i]:g} is below the lower bound {lower[j]:g}")
         for i in map(int, np.flatnonzero(high)):
             outside[i].append(f"{name} = {col[i]:g} is above the upper bound {upper[j]:g}")
+        if j in choices:
+            for i in map(int, np.flatnonzero(~listed(col, choices[j]) & ~low & ~high & np.isfinite(col))):
+                outside[i].append(f"{name} = {col[i]:g} is not one of its listed choices")
     for axle, bad, sizes in cylinder_breaks(problem, x):
         for i in map(int, np.flatnonzero(bad)):
             invalid[i].append(f"rod{axle} = {sizes[i, 1]:g} is not thinner than bore{axle} = {sizes[i, 0]:g}")

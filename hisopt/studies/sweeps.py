@@ -274,7 +274,8 @@ def sweep(
     _check_points(points, most=SWEEP_MAX_POINTS, what="sweep points")
     chosen = dict(SWEEP_RESPONSES) | dict(responses or {})
     j = problem.variable_names.index(vary)
-    values = np.linspace(problem.lower[j], problem.upper[j], points)
+    values = grid_values(problem, j, points)
+    points = len(values)
     x = np.repeat(problem.baseline[None, :], points, axis=0)
     x[:, j] = values
     backend = backend or Backend()
@@ -428,8 +429,7 @@ def regions(problem: Problem, pair: tuple[str, str], points: int = 41, backend: 
         raise ConfigError(f"expected two different design variables, got {a!r} twice", key="--pair")
     _check_points(points, most=REGIONS_MAX_POINTS, what="grid values per variable")
     ia, ib = problem.variable_names.index(a), problem.variable_names.index(b)
-    grid_x = np.linspace(problem.lower[ia], problem.upper[ia], points)
-    grid_y = np.linspace(problem.lower[ib], problem.upper[ib], points)
+    grid_x, grid_y = grid_values(problem, ia, points), grid_values(problem, ib, points)
     xx, yy = np.meshgrid(grid_x, grid_y)
     x = np.repeat(problem.baseline[None, :], xx.size, axis=0)
     x[:, ia], x[:, ib] = xx.ravel(), yy.ravel()
@@ -465,3 +465,14 @@ def regions(problem: Problem, pair: tuple[str, str], points: int = 41, backend: 
         baseline,
         var_units,
     )
+
+
+def grid_values(problem: Problem, j: int, points: int) -> np.ndarray:
+    """[SI] ``points`` values of design variable ``j`` from its lower to its upper bound, or
+    of a choice variable its listed values (all of them, or ``points`` spread evenly along
+    the list when it is longer: docs/model.md §17)."""
+    choices = problem.choices.get(j)
+    if choices is None:
+        return np.linspace(problem.lower[j], problem.upper[j], points)
+    picks = np.unique(np.round(np.linspace(0, len(choices) - 1, min(points, len(choices)))).astype(int))
+    return choices[picks]

@@ -289,8 +289,9 @@ def solve_asf(
     gap_fn = ca.Function("gap", [u, lv], [gap])
     s0 = float(np.max(np.array(gap_fn(u_c, start))))
     n_free = 1 + len(levels)
-    lbx = np.r_[np.maximum(0.0, u_c - radius), -np.inf, floor]
-    ubx = np.r_[np.minimum(1.0, u_c + radius), np.full(n_free, np.inf)]
+    fixed = np.isin(np.arange(u_c.size), list(problem.choices))  # a catalogue part stays the design's (docs/model.md §17)
+    lbx = np.r_[np.where(fixed, u_c, np.maximum(0.0, u_c - radius)), -np.inf, floor]
+    ubx = np.r_[np.where(fixed, u_c, np.minimum(1.0, u_c + radius)), np.full(n_free, np.inf)]
 
     # ---- solve NLP ------------------------------------------------------------------------------
     options: dict[str, Any] = {

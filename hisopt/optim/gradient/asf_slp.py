@@ -274,6 +274,7 @@ def solve_slp(
     def merit(gap: np.ndarray, rho: float | np.ndarray = settings.rho) -> np.ndarray:
         return asf_merit(gap, rho)
 
+    fixed = np.isin(np.arange(m), list(problem.choices))
     every = np.arange(n)
     gap, con, valid, q = at(x0, every)
     gap_start = gap.copy()
@@ -309,6 +310,7 @@ def solve_slp(
         low = np.maximum(-radius[rows, None], -ur)
         high = np.minimum(radius[rows, None], 1.0 - ur)
         high[~usable] = low[~usable] = 0.0  # a variable whose probe failed stays where it is
+        high[:, fixed] = low[:, fixed] = 0.0  # and a catalogue part stays the design's (docs/model.md §17)
         s_cap = np.where(monotone[rows], np.max(gap[rows], axis=1), np.inf)
         d, predicted = lp_steps(gap[rows], jac.transpose(0, 2, 1), con[rows], con_jac.transpose(0, 2, 1), low, high, path_rho[rows], s_cap)
         solved[rows] += 1
@@ -407,6 +409,8 @@ def refine_designs(problem: Problem, x0: np.ndarray, f0: np.ndarray, keys: np.nd
     s = settings.starts
     starts = lower + span * start_points(np.clip((x0 - lower) / span, 0.0, 1.0), keys, settings)
     starts[:, :2] = x0[:, None, :]  # the design itself, exactly: kept dominating, then free
+    chosen = list(problem.choices)
+    starts[:, :, chosen] = x0[:, None, chosen]  # its catalogue parts in every start
     owner = np.repeat(np.arange(n), s)
     monotone = np.tile(np.arange(s) == 0, n)
     all_runs = solve_slp(problem, starts.reshape(-1, m), np.asarray(f0, dtype=float)[owner], weights, settings, monotone)

@@ -1,0 +1,95 @@
+"""Catalogues of standard parts: the listed values a choice variable takes (docs/model.md §17).
+
+A catalogue is a CSV file of one column whose header names the quantity and its unit
+(``bore [mm]``), with ``#`` comment lines giving its source. hisopt ships ISO 3320's bores
+and rods, common accumulator volumes and hose bores (``hisopt/data/catalogues``); a problem
+names one of those, or its own file by path (relative to the problem file).
+``[variables] bore = { catalogue = "iso3320_bores", lower = "40 mm", upper = "100 mm" }``
+takes the listed values within the bounds.
+"""
+
+from __future__ import annotations
+
+import re
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from hisopt.errors import ConfigError
+from hisopt.quantities import unit_factor
+
+_HEADER = re.compile(r"\s*(?P<label>[^\[\]]*?)\s*\[(?P<unit>[^\[\]]*)\]\s*")
+
+
+def catalogue_names() -> tuple[str, ...]:
+    """[-] The shipped catalogues, by name (their file names without ``.csv``)."""
+    folder = resources.files("hisopt") / "data" / "catalogues"
+    return tuple(sorted(p.name.removesuffix(".csv") for p in folder.iterdir() if p.name.endswith(".csv")))
+
+
+def catalogue_text(ref: str, base: Path | None, *, file: str | None, key: str) -> tuple[str, str]:
+    """``(where, text)`` of the catalogue ``ref``: a shipped name or a CSV path (relative to
+    ``base``, the problem file's folder)."""
+    if ref in catalogue_names():
+        return f"catalogue {ref!r}", (resources.files("hisopt") / "data" / "catalogues" / f"{ref}.csv").read_text(encoding="utf-8")
+    path = Path(ref)
+    if path.suffix.lower() != ".csv":
+        raise ConfigError(f"unknown catalogue {ref!r}; expected one of {', '.join(catalogue_names())} or a CSV file path", file=file, key=key)
+    if not path.is_absolute() and base is not None:
+        path = base / path
+    if not path.is_file():
+        raise ConfigError(f"catalogue file {str(path)!r} not found; expected a CSV file of one column such as 'bore [mm]'", file=file, key=key)
+    try:
+        return str(path), path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"catalogue file {str(path)!r} cannot be read ({exc}); expected a UTF-8 CSV file", file=file, key=key) from None
+
+
+def parse_catalogue(text: str, unit: str, *, where: str, file: str | None, key: str) -> list[float]:
+    """[SI] The values of a catalogue's text in ``unit``, in increasing order.
+
+    Raises
+    ------
+    ConfigError
+        No header ``<quantity> [<unit>]``, more than one column, a unit of another kind, a
+        value that is not a finite positive number, or a list not in increasing order.
+    """
+    lines = [(i + 1, line.strip()) for i, line in enumerate(text.splitlines()) if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise ConfigError(f"{where}: empty; expected a header such as 'bore [mm]' and one value per row", file=file, key=key)
+    row, header = lines[0]
+    match = _HEADER.fullmatch(header)
+    if match is None or "," in header:
+        raise ConfigError(f"{where}: row {row}: header {header!r}; expected one column named with its unit, such as 'bore [mm]'", file=file, key=key)
+    factor = unit_factor(match["unit"], unit, file=file, key=key, text=f"{where}: the column's unit [{match['unit']}]")
+    values: list[float] = []
+    for row, cell in lines[1:]:
+        try:
+            value = float(cell)
+        except ValueError:
+            raise ConfigError(f"{where}: row {row}: {cell!r}; expected one number per row", file=file, key=key) from None
+        if not (value > 0 and value < float("inf")):
+            raise ConfigError(f"{where}: row {row}: {cell!r}; expected a positive finite size", file=file, key=key)
+        values.append(float(f"{value * factor:.15g}"))  # 36 mm is 0.036 m, not 0.036000000000000004
+    if len(values) < 2:
+        raise ConfigError(f"{where}: {len(values)} value(s); expected at least two to choose from", file=file, key=key)
+    if any(not b > a for a, b in zip(values, values[1:], strict=False)):
+        raise ConfigError(f"{where}: values not in increasing order; expected an ordered list (the search moves along it)", file=file, key=key)
+    return values
+
+
+def resolve_catalogue(table: dict[str, Any], unit: str, base: Path | None, *, file: str | None, key: str) -> dict[str, Any]:
+    """A ``[variables]`` entry with ``catalogue`` given ``choices``: the catalogue's values
+    (SI) within its ``lower`` and ``upper`` (if given), which then become the listed range.
+    An entry that already has ``choices`` (a dumped problem) keeps them."""
+    if "choices" in table or not isinstance(table.get("catalogue"), str):
+        return table
+    where, text = catalogue_text(table["catalogue"], base, file=file, key=f"{key}.catalogue")
+    values = parse_catalogue(text, unit, where=where, file=file, key=f"{key}.catalogue")
+    low, high = table.get("lower", -float("inf")), table.get("upper", float("inf"))
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (low, high)):
+        return table  # a bound that is not a number: the strict validation names it
+    kept = [v for v in values if low <= v <= high]
+    if len(kept) < 2:
+        raise ConfigError(f"{len(kept)} value(s) of {where} within [{low:g}, {high:g}] {unit}; expected at least two to choose from", file=file, key=key)
+    return table | {"choices": kept, "lower": kept[0], "upper": kept[-1]}
