@@ -241,6 +241,34 @@ def refine_cmd(
     refine_with_progress(run_dir, max_points, method, workers, scheduler)
 
 
+def sheet(
+    run_dir: Annotated[Path, typer.Argument(metavar="RUN_DIR", help="run directory written by `hisopt optimize`")],
+    design: Annotated[int | None, typer.Option("--design", parser=integer, metavar="N", help="front.csv row, from 0 (default: the knee)")] = None,
+    out: Annotated[Path | None, typer.Option(help="folder of the sheet (default RUN_DIR/sheet-N)")] = None,
+) -> None:
+    """A front design as a sheet to build from.
+
+    Writes sheet.md, sheet.html and sheet.toml: its parts and settings (bores, rods,
+    accumulators, charge, valves, pipes), its quantities in every load case, its operating
+    envelope and its modes; `hisopt evaluate sheet.toml` reproduces it. docs/model.md §17.4.
+    """
+    from hisopt.io import read_csv
+    from hisopt.optim.rundir import FRONT_CSV, run_problem
+    from hisopt.report.sheet import write_sheet
+    from hisopt.studies.design_sheet import design_sheet, front_design
+
+    problem, _ = run_problem(run_dir)
+    source = Path(run_dir) / FRONT_CSV
+    if not source.is_file():
+        from hisopt.errors import RunError
+
+        raise RunError(f"{source}: missing; the run has not finished a generation yet")
+    row, x = front_design(problem, read_csv(source), design, str(source))
+    paths = write_sheet(design_sheet(problem, x, row, str(source)), out or Path(run_dir) / f"sheet-{row}")
+    for path in paths:
+        typer.echo(f"wrote {path}")
+
+
 def register(app: typer.Typer) -> None:
     """Add this module's commands to ``app``, in the order ``hisopt --help`` lists them."""
     app.command("optimize")(optimize_cmd)
@@ -249,3 +277,4 @@ def register(app: typer.Typer) -> None:
     app.command()(study)
     app.command()(report)
     app.command("refine")(refine_cmd)
+    app.command()(sheet)

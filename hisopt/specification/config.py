@@ -66,7 +66,7 @@ class Variable(_Strict):
         choices = data.get("choices") if isinstance(data, dict) else None
         if not isinstance(choices, list) or not choices or "catalogue" in data:
             return data
-        if "lower" in data or "upper" in data:
+        if (data.get("lower", choices[0]), data.get("upper", choices[-1])) != (choices[0], choices[-1]):  # a dump repeats them
             raise ValueError("choices: given with lower or upper; expected one or the other (the choices' first and last are the bounds)")
         return data | {"lower": choices[0], "upper": choices[-1]}
 

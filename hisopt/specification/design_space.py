@@ -19,7 +19,7 @@ from hisopt.coupled.model import CoupledModel
 from hisopt.coupled.operating_point import charged_static_pressure
 from hisopt.coupled.payload import laden_vehicle, static_pressure_rise
 from hisopt.errors import ConfigError
-from hisopt.hydraulics.catalogue import his_layout, his_parameter_values, layout_defaults
+from hisopt.hydraulics.catalogue import PIPE_PARAMETERS, his_layout, his_parameter_values, layout_defaults
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import compile_network
 from hisopt.plausibility import warn
@@ -189,6 +189,10 @@ class DesignSpace:
             if key in extra:
                 data["his"]["parameters"][key] = value
                 given[key] = {"his": {"parameters": {key: value}}}
+                continue
+            if key in PIPE_PARAMETERS and data["his"].get("pipes") is not None:  # pipe_diameter: [his.pipes] diameter
+                data["his"]["pipes"][key.removeprefix("pipe_")] = value
+                given[key] = {"his": {"pipes": {key.removeprefix("pipe_"): value}}}
                 continue
             if key not in data["his"] or key in ("parameters", "circuits"):
                 known = [k for k in data["his"] if k not in ("parameters", "circuits")] + list(extra)

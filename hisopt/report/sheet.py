@@ -1,0 +1,102 @@
+"""A design sheet (:mod:`hisopt.studies.design_sheet`) as Markdown, HTML and a problem file
+(``hisopt sheet RUN_DIR``; docs/model.md §17.4). Every number in engineering units."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import pandas as pd
+
+from hisopt.plausibility import bound_labels
+from hisopt.report.html import REPORT_CSS, html_table
+from hisopt.studies.design_sheet import DesignSheet, write_problem
+from hisopt.studies.envelope import CELSIUS_OFFSET, shown_envelope
+from hisopt.units import column_units, display_frame, format_quantity
+
+SHEET_FILES = ("sheet.md", "sheet.html", "sheet.toml")
+"""What :func:`write_sheet` writes into its folder."""
+
+
+def parts_shown(sheet: DesignSheet) -> pd.DataFrame:
+    """The bill of parts for reading: ``item``, ``value`` with its unit, ``note``."""
+    return pd.DataFrame(
+        {
+            "item": sheet.parts["item"],
+            "value": [_shown(v, u) for v, u in zip(sheet.parts["value"], sheet.parts["unit"], strict=True)],
+            "note": sheet.parts["note"],
+        }
+    )
+
+
+def _shown(value: float, unit: str) -> str:
+    """A part's value in engineering units; a temperature in degC (a point on its scale, which reads back)."""
+    return f"{value - CELSIUS_OFFSET:.4g} degC" if unit == "K" else format_quantity(value, unit)
+
+
+def quantities_shown(sheet: DesignSheet) -> pd.DataFrame:
+    """The design's quantities (each load case's too), one per row, for reading."""
+    q = sheet.quantities.drop(columns=[c for c in ("feasible", "status", "reason") if c in sheet.quantities])
+    q = q.drop(columns=list(sheet.problem.variable_names))
+    units = column_units(q.columns, sheet.problem)
+    rows = [(name, format_quantity(float(q[name].iloc[0]), units.get(name, ""))) for name in q.columns]
+    return pd.DataFrame(rows, columns=["quantity", "value"])
+
+
+def tables(sheet: DesignSheet) -> list[tuple[str, pd.DataFrame]]:
+    """``(title, table of strings)`` of every section, in order."""
+    return [
+        ("Parts and settings", parts_shown(sheet)),
+        ("Quantities", quantities_shown(sheet)),
+        ("Operating envelope", display_frame(shown_envelope(sheet.envelope))),
+        ("Modes with HIS", display_frame(sheet.modes)),
+    ]
+
+
+def heading(sheet: DesignSheet) -> tuple[str, str]:
+    """``(title, line)``: the design and where it comes from, and whether it is feasible."""
+    status = sheet.quantities["status"].iloc[0]
+    feasible = "feasible" if bool(sheet.quantities["feasible"].iloc[0]) else f"not feasible ({status}: {sheet.quantities['reason'].iloc[0]})"
+    p = sheet.problem
+    on = bound_labels(p.baseline, p.lower, p.upper, p.variable_names)[0]
+    bounds = f" At a bound of [variables] (the box, not the physics, chose it): {on}." if on else ""
+    return f"Design sheet: {p.name}, design {sheet.design}", f"Front row {sheet.design} of {sheet.source}; {feasible}.{bounds}"
+
+
+def markdown(sheet: DesignSheet) -> str:
+    """The sheet as Markdown (pipe tables)."""
+    title, line = heading(sheet)
+    parts = [f"# {title}", "", line, "", "The problem file `sheet.toml` reproduces it: `hisopt evaluate sheet.toml`.", ""]
+    for name, table in tables(sheet):
+        parts += [f"## {name}", "", _pipe_table(table), ""]
+    return "\n".join(parts)
+
+
+def _pipe_table(table: pd.DataFrame) -> str:
+    def cell(value: object) -> str:
+        return str(value).replace("|", "\\|")
+
+    lines = ["| " + " | ".join(cell(c) for c in table.columns) + " |", "|" + "---|" * len(table.columns)]
+    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in table.itertuples(index=False)]
+    return "\n".join(lines)
+
+
+def html_page(sheet: DesignSheet) -> str:
+    """The sheet as one self-contained HTML page."""
+    title, line = heading(sheet)
+    body = [f"<h1>{html.escape(title)}</h1>", f'<p class="meta">{html.escape(line)} The problem file <code>sheet.toml</code> reproduces it.</p>']
+    for name, table in tables(sheet):
+        text = tuple(c for c in table.columns if str(c).split(" [")[0] in ("item", "note", "quantity", "mode", "motion"))
+        body += [f"<h2>{html.escape(name)}</h2>", f'<div class="figure">{html_table(table, text_columns=text)}</div>']
+    head = f'<meta charset="utf-8"><title>{html.escape(title)}</title><style>{REPORT_CSS}</style>'
+    return f"<!DOCTYPE html><html><head>{head}</head><body>{''.join(body)}</body></html>\n"
+
+
+def write_sheet(sheet: DesignSheet, folder: Path) -> list[Path]:
+    """Write :data:`SHEET_FILES` into ``folder`` (made if need be); their paths."""
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = [folder / name for name in SHEET_FILES]
+    paths[0].write_text(markdown(sheet) + "\n", encoding="utf-8")
+    paths[1].write_text(html_page(sheet), encoding="utf-8")
+    write_problem(sheet, paths[2])
+    return paths

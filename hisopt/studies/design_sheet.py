@@ -1,0 +1,159 @@
+"""A design as a sheet to build from (docs/model.md §17.4): its parts and settings, its
+quantities in every load case, its operating envelope and its modes, and the problem file
+that reproduces it.
+
+:func:`design_sheet` gathers the numbers (SI, with units in each table's ``attrs``);
+:mod:`hisopt.report.sheet` writes them as Markdown, HTML and TOML.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from hisopt.coupled.modal import modal_analysis
+from hisopt.errors import RunError
+from hisopt.hydraulics import laws
+from hisopt.hydraulics.network import resolve
+from hisopt.problem import Problem
+from hisopt.studies.envelope import envelope_table
+
+MODE_COLUMNS = ("mode", "motion", "frequency_hz", "damping_ratio")
+"""The modes' columns a sheet shows."""
+
+
+@dataclass(frozen=True)
+class DesignSheet:
+    """One design of a run, ready to build (module docstring).
+
+    Attributes
+    ----------
+    problem : Problem
+        the run's problem with the design's values in ``[his]`` (its baseline is the design)
+    design : int
+        [-] the design's row in the run's front (``front.csv``, from 0)
+    source : str
+        where the design comes from (the front file)
+    parts : pd.DataFrame
+        ``item``, ``value`` [SI], ``unit``, ``note``: the bill of parts and settings
+    quantities : pd.DataFrame
+        one row: the design's quantities (each load case's too), as ``hisopt evaluate`` gives them
+    envelope : pd.DataFrame
+        :func:`hisopt.studies.envelope.envelope_table` of the design
+    modes : pd.DataFrame
+        :data:`MODE_COLUMNS` of its modes with HIS
+    """
+
+    problem: Problem
+    design: int
+    source: str
+    parts: pd.DataFrame
+    quantities: pd.DataFrame
+    envelope: pd.DataFrame
+    modes: pd.DataFrame
+
+    def problem_data(self) -> dict[str, Any]:
+        """The problem file of the design (its ``[his]`` values are the design's), as TOML data:
+        the specification without empty values (TOML has no null)."""
+        return _without_none(self.problem.spec.model_dump(mode="json", by_alias=True))
+
+
+def _without_none(data: Any) -> Any:
+    if isinstance(data, dict):
+        return {k: _without_none(v) for k, v in data.items() if v is not None}
+    if isinstance(data, list):
+        return [_without_none(v) for v in data]
+    return data
+
+
+def front_design(problem: Problem, front: pd.DataFrame, design: int | None, source: str) -> tuple[int, np.ndarray]:
+    """``(row, design)`` of ``front`` (``front.csv`` read, units row dropped): row ``design``
+    (from 0), or its knee (:func:`hisopt.optim.decision.knee_index`) when None.
+
+    Raises
+    ------
+    RunError
+        The front is empty or has no such row (the message says which rows it has).
+    """
+    from hisopt.optim.decision import knee_index
+
+    if front.empty:
+        raise RunError(f"{source}: the front is empty; expected at least one feasible design")
+    if design is None:
+        design = knee_index(front[list(problem.objective_names)].to_numpy(dtype=float))
+    elif not 0 <= design < len(front):
+        raise RunError(f"--design {design}: not in the run; {source} has designs 0 to {len(front) - 1} (its rows, from 0)")
+    return design, front.iloc[design][list(problem.variable_names)].to_numpy(dtype=float)
+
+
+def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str) -> DesignSheet:
+    """The sheet of design ``x`` (``(n_var,)`` [SI]) of ``problem``, row ``design`` of ``source``."""
+    sheet_problem = problem.replace_values(dict(zip(problem.variable_names, (float(v) for v in x), strict=True)))
+    baseline = sheet_problem.baseline[None, :]
+    quantities = sheet_problem.evaluate(baseline, log=False)
+    modes = modal_analysis(sheet_problem)[list(MODE_COLUMNS)]
+    modes.attrs = {"units": {"mode": "-", "motion": "-", "frequency_hz": "Hz", "damping_ratio": "-"}}
+    return DesignSheet(sheet_problem, design, source, parts_table(sheet_problem), quantities, envelope_table(sheet_problem), modes)
+
+
+def parts_table(problem: Problem) -> pd.DataFrame:
+    """[SI] The bill of parts and settings of ``problem``'s baseline design: per axle its
+    cylinders' bore and rod (``dA`` and ``lam`` for a problem posed in the paper's terms:
+    the sizes they make), the accumulators (nominal volume, precharge at the charge
+    temperature, gas separator and rating), the charge (oil fill and the static pressure it
+    gives at the charge temperature), the valves and the pipes."""
+    spec = problem.spec
+    his = problem.model(problem.baseline[None, :]).his
+    assert his is not None  # a model with HIS
+    params = his.params
+    rows: list[tuple[str, float, str, str]] = []
+    for axle, suffix in (("front", ""), ("rear", "_rear")):
+        d_a, lam = float(np.ravel(params[f"dA{suffix}"])[0]), float(np.ravel(params[f"lam{suffix}"])[0])
+        rod = math.sqrt(4.0 * d_a / math.pi)
+        bore = rod / math.sqrt(1.0 - lam)
+        sized = params.get(f"bore{suffix}") is not None
+        note = "" if sized else "the size dA and lam make (not a listed part)"
+        top, bottom = laws.cylinder_areas(d_a, lam)
+        rows += [
+            (f"{axle} cylinder bore", bore, "m", note),
+            (f"{axle} piston rod", rod, "m", note),
+            (f"{axle} bottom chamber area (bore)", float(bottom), "m^2", ""),
+            (f"{axle} top chamber area (annulus)", float(top), "m^2", ""),
+        ]
+    rating = float(params["pressure_rating"])
+    separator = spec.his.separator if spec.his.pressure_rating is None else f"{spec.his.separator}, rating given"
+    for k, e, _ in his.network.accumulators():
+        name = his.network.layout.circuits[his.network.elements[k][0]].name
+        rows += [
+            (f"accumulator {name}: nominal volume", float(np.ravel(resolve(e.volume, params))[0]), "m^3", ""),
+            (f"accumulator {name}: precharge (gauge, at the charge temperature)", float(np.ravel(resolve(e.precharge, params))[0]), "Pa", ""),
+            (f"accumulator {name}: pressure rating (working over precharge)", rating, "-", separator),
+        ]
+    if spec.his.charge is not None:
+        charge = spec.his.charge
+        rows += [
+            ("charge: gas share of each accumulator at charge", charge.gas_fraction, "-", ""),
+            ("charge: oil per circuit outside chambers and pipes", charge.oil_volume, "m^3", ""),
+            ("charge: temperature", charge.temperature, "K", ""),
+        ]
+        pressure = np.ravel(his.static_pressure) if his.static_pressure is not None else np.empty(0)
+        for c, value in enumerate(pressure):
+            rows.append((f"charge: circuit {his.network.layout.circuits[c].name} static pressure, unladen (absolute)", float(value), "Pa", ""))
+    for k, valve, _ in his.network.valves():
+        rows.append((f"valve {valve.a} - {valve.b}: coefficient", float(np.ravel(his.values.resistance[k])[0]), "Pa s m^-3", ""))
+    if spec.his.pipes is not None:
+        for what in ("diameter", "length front", "length rear"):
+            rows.append((f"pipe {what}", float(np.ravel(params[f"pipe_{what.replace(' ', '_')}"])[0]), "m", ""))
+    return pd.DataFrame(rows, columns=["item", "value", "unit", "note"])
+
+
+def write_problem(sheet: DesignSheet, path: Path) -> None:
+    """The sheet's problem file (TOML): ``hisopt evaluate`` on it gives the sheet's quantities."""
+    import tomli_w
+
+    path.write_text(tomli_w.dumps(sheet.problem_data()), encoding="utf-8")
