@@ -483,7 +483,7 @@ def test_design_variables_of_a_layout_are_checked_against_it(tmp_path):
     out = run_cli("evaluate", path)
     assert out.code == 2 and out.error_lines == [
         f"error: {path}: variables.V0: not read by layout 'roll_plane_twin_accumulator', so it would do nothing; "
-        "expected one of p0, dA, lam, Rv, dA_rear, lam_rear, Rv_rear, gamma, V0_front, V0_rear, Rv_link"
+        "expected one of p0, dA, lam, Rv, dA_rear, lam_rear, Rv_rear, bore, rod, bore_rear, rod_rear, gamma, V0_front, V0_rear, Rv_link"
     ]
     path.write_text(text.replace("Rv_link = { lower = 1.0e6", "Rv_link = { lower = -1.0e6"), encoding="utf-8")
     out = run_cli("evaluate", path)
