@@ -15,8 +15,7 @@ import pytest
 import hisopt
 from hisopt.optim.pymoo_problem import HisoptPymooProblem
 from hisopt.problem import problem_from_dict
-from hisopt.specification.catalogues import catalogue_names
-from hisopt.specification.validation import listed
+from hisopt.specification.catalogues import catalogue_names, listed
 from hisopt.studies.sweeps import grid_values
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM

@@ -15,6 +15,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from hisopt.errors import ConfigError
 from hisopt.quantities import unit_factor
 
@@ -93,3 +95,16 @@ def resolve_catalogue(table: dict[str, Any], unit: str, base: Path | None, *, fi
     if len(kept) < 2:
         raise ConfigError(f"{len(kept)} value(s) of {where} within [{low:g}, {high:g}] {unit}; expected at least two to choose from", file=file, key=key)
     return table | {"choices": kept, "lower": kept[0], "upper": kept[-1]}
+
+
+LISTED_RTOL = 1e-12
+"""[-] How near a value must be to a listed choice to be it: a catalogue's value read back
+from a CSV file or converted from another unit moves by a few eps."""
+
+
+def listed(values: np.ndarray, choices: np.ndarray) -> np.ndarray:
+    """[-] Which ``values`` are one of the ``choices`` (increasing), within :data:`LISTED_RTOL`."""
+    at = np.clip(np.searchsorted(choices, values), 1, len(choices) - 1)
+    nearest = np.where(np.abs(values - choices[at - 1]) <= np.abs(values - choices[at]), choices[at - 1], choices[at])
+    with np.errstate(invalid="ignore"):
+        return np.abs(values - nearest) <= LISTED_RTOL * np.abs(nearest)

@@ -39,6 +39,7 @@ from hisopt.hydraulics.layout import FIELD_LOWER, FIELD_UPPER, Layout, parameter
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.plausibility import rule_reason
 from hisopt.quantities import unit_factor
+from hisopt.specification.catalogues import listed
 
 
 class DesignSpace(Protocol):
@@ -460,19 +461,6 @@ def admissible(problem: DesignSpace, x: np.ndarray) -> np.ndarray:
     for _, bad, _ in cylinder_breaks(problem, x):
         ok &= ~bad
     return ok
-
-
-LISTED_RTOL = 1e-12
-"""[-] How near a value must be to a listed choice to be it: a catalogue's value read back
-from a CSV file or converted from another unit moves by a few eps."""
-
-
-def listed(values: np.ndarray, choices: np.ndarray) -> np.ndarray:
-    """[-] Which ``values`` are one of the ``choices`` (increasing), within :data:`LISTED_RTOL`."""
-    at = np.clip(np.searchsorted(choices, values), 1, len(choices) - 1)
-    nearest = np.where(np.abs(values - choices[at - 1]) <= np.abs(values - choices[at]), choices[at - 1], choices[at])
-    with np.errstate(invalid="ignore"):
-        return np.abs(values - nearest) <= LISTED_RTOL * np.abs(nearest)
 
 
 def cylinder_breaks(problem: DesignSpace, x: np.ndarray) -> list[tuple[str, np.ndarray, np.ndarray]]:
