@@ -42,6 +42,7 @@ def test_bore_and_rod_give_the_chamber_areas_by_hand():
     assert bottom == pytest.approx(math.pi * 0.025**2, rel=1e-15)
     assert top == pytest.approx(math.pi * (0.025**2 - 0.014**2), rel=1e-15)
     assert dA == pytest.approx(math.pi * 0.014**2, rel=1e-15)
+    assert laws.bore_and_rod(dA, lam) == pytest.approx((bore, rod), rel=1e-15)  # and back
 
 
 def test_the_paper_cylinder_as_bore_and_rod_gives_the_paper_numbers(problem, rng):

@@ -252,18 +252,14 @@ def sheet(
     accumulators, charge, valves, pipes), its quantities in every load case, its operating
     envelope and its modes; `hisopt evaluate sheet.toml` reproduces it. docs/model.md §17.4.
     """
-    from hisopt.io import read_csv
+    from hisopt.optim.decision import front_design
     from hisopt.optim.rundir import FRONT_CSV, run_problem
     from hisopt.report.sheet import write_sheet
-    from hisopt.studies.design_sheet import design_sheet, front_design
+    from hisopt.studies.design_sheet import design_sheet
 
     problem, _ = run_problem(run_dir)
     source = Path(run_dir) / FRONT_CSV
-    if not source.is_file():
-        from hisopt.errors import RunError
-
-        raise RunError(f"{source}: missing; the run has not finished a generation yet")
-    row, x = front_design(problem, read_csv(source), design, str(source))
+    row, x = front_design(problem, source, design)
     paths = write_sheet(design_sheet(problem, x, row, str(source)), out or Path(run_dir) / f"sheet-{row}")
     for path in paths:
         typer.echo(f"wrote {path}")

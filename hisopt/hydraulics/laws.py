@@ -36,6 +36,14 @@ def bore_and_rod_parameters(bore: Any, rod: Any) -> tuple[Any, Any]:
     return 0.25 * math.pi * rod * rod, 1.0 - ratio * ratio
 
 
+def bore_and_rod(dA: Any, lam: Any) -> tuple[Any, Any]:
+    """[m] The bore and rod diameters of a cylinder of the paper's ``dA`` [m^2] and ``lam`` [-]:
+    the inverse of :func:`bore_and_rod_parameters`, ``rod = sqrt(4 dA / pi)``,
+    ``bore = rod / sqrt(1 - lam)``."""
+    rod = (4.0 * dA / math.pi) ** 0.5
+    return rod / (1.0 - lam) ** 0.5, rod
+
+
 def cylinder_areas(dA: Any, lam: Any) -> tuple[Any, Any]:
     """Top (annulus) and bottom (bore) areas from the paper's design variables.
 

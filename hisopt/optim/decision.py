@@ -28,7 +28,8 @@ values below 1e-300 are clipped to it):
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -276,3 +277,31 @@ def asf_index(
     z, r = normalised_log(f, reference)
     d = w * (z - (np.zeros(k) if r is None else r))
     return int(np.argmin(d.max(axis=1) + rho * d.sum(axis=1)))
+
+
+def front_design(problem: Any, path: Path, design: int | None = None) -> tuple[int, np.ndarray]:
+    """``(row, design [SI])`` of the front file ``path`` (a run's ``front.csv``) of ``problem``:
+    row ``design`` (from 0), or the front's knee (:func:`knee_index`) when None.
+
+    Raises
+    ------
+    RunError
+        The file is missing, lacks a variable or objective column, is empty, or has no such
+        row (the message says which rows it has).
+    """
+    from hisopt.io import read_csv
+
+    path = Path(path)
+    if not path.is_file():
+        raise RunError(f"{path}: missing; expected a run directory with a front (hisopt optimize --out DIR)")
+    front = read_csv(path)
+    missing = [n for n in (*problem.variable_names, *problem.objective_names) if n not in front.columns]
+    if missing:
+        raise RunError(f"{path}: no column {missing[0]!r}; expected a front of this problem's variables and objectives")
+    if front.empty:
+        raise RunError(f"{path}: the front is empty; expected at least one feasible design")
+    if design is None:
+        design = knee_index(front[list(problem.objective_names)].to_numpy(dtype=float))
+    elif not 0 <= design < len(front):
+        raise RunError(f"--design {design}: not in the run; {path} has designs 0 to {len(front) - 1} (its rows, from 0)")
+    return design, front.iloc[design][list(problem.variable_names)].to_numpy(dtype=float)

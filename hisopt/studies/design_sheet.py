@@ -8,7 +8,6 @@ that reproduces it.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,6 @@ import numpy as np
 import pandas as pd
 
 from hisopt.coupled.modal import modal_analysis
-from hisopt.errors import RunError
 from hisopt.hydraulics import laws
 from hisopt.hydraulics.network import resolve
 from hisopt.problem import Problem
@@ -71,26 +69,6 @@ def _without_none(data: Any) -> Any:
     return data
 
 
-def front_design(problem: Problem, front: pd.DataFrame, design: int | None, source: str) -> tuple[int, np.ndarray]:
-    """``(row, design)`` of ``front`` (``front.csv`` read, units row dropped): row ``design``
-    (from 0), or its knee (:func:`hisopt.optim.decision.knee_index`) when None.
-
-    Raises
-    ------
-    RunError
-        The front is empty or has no such row (the message says which rows it has).
-    """
-    from hisopt.optim.decision import knee_index
-
-    if front.empty:
-        raise RunError(f"{source}: the front is empty; expected at least one feasible design")
-    if design is None:
-        design = knee_index(front[list(problem.objective_names)].to_numpy(dtype=float))
-    elif not 0 <= design < len(front):
-        raise RunError(f"--design {design}: not in the run; {source} has designs 0 to {len(front) - 1} (its rows, from 0)")
-    return design, front.iloc[design][list(problem.variable_names)].to_numpy(dtype=float)
-
-
 def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str) -> DesignSheet:
     """The sheet of design ``x`` (``(n_var,)`` [SI]) of ``problem``, row ``design`` of ``source``."""
     sheet_problem = problem.replace_values(dict(zip(problem.variable_names, (float(v) for v in x), strict=True)))
@@ -114,9 +92,9 @@ def parts_table(problem: Problem) -> pd.DataFrame:
     rows: list[tuple[str, float, str, str]] = []
     for axle, suffix in (("front", ""), ("rear", "_rear")):
         d_a, lam = float(np.ravel(params[f"dA{suffix}"])[0]), float(np.ravel(params[f"lam{suffix}"])[0])
-        rod = math.sqrt(4.0 * d_a / math.pi)
-        bore = rod / math.sqrt(1.0 - lam)
         sized = params.get(f"bore{suffix}") is not None
+        # the given sizes as they are; else the ones dA and lam make
+        bore, rod = (float(np.ravel(params[f"{part}{suffix}"])[0]) for part in ("bore", "rod")) if sized else laws.bore_and_rod(d_a, lam)
         note = "" if sized else "the size dA and lam make (not a listed part)"
         top, bottom = laws.cylinder_areas(d_a, lam)
         rows += [

@@ -132,21 +132,9 @@ def shown_envelope(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def knee_design(problem: DesignSpace, run_dir: Path) -> np.ndarray:
-    """[SI] The knee design of a run directory's front (:func:`hisopt.optim.decision.knee_index`
+    """[SI] The knee design of a run directory's front (:func:`hisopt.optim.decision.front_design`
     of ``front.csv``), as a design row of ``problem``."""
-    from hisopt.errors import RunError
-    from hisopt.io import read_csv
-    from hisopt.optim.decision import knee_index
+    from hisopt.optim.decision import front_design
     from hisopt.optim.rundir import FRONT_CSV
 
-    path = Path(run_dir) / FRONT_CSV
-    if not path.is_file():
-        raise RunError(f"{path}: missing; expected a run directory with a front (hisopt optimize --out DIR)")
-    front = read_csv(path)
-    missing = [n for n in (*problem.variable_names, *problem.objective_names) if n not in front.columns]
-    if missing:
-        raise RunError(f"{path}: no column {missing[0]!r}; expected a front of this problem's variables and objectives")
-    if front.empty:
-        raise RunError(f"{path}: the front is empty; expected at least one feasible design")
-    row = front.iloc[knee_index(front[list(problem.objective_names)].to_numpy(dtype=float))]
-    return row[list(problem.variable_names)].to_numpy(dtype=float)[None, :]
+    return front_design(problem, Path(run_dir) / FRONT_CSV)[1][None, :]
