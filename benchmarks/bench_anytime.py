@@ -104,7 +104,11 @@ def run_hisopt(problem: hisopt.Problem, seed: int, evaluations: int, algorithm: 
     with tempfile.TemporaryDirectory() as tmp:
         stamps: list[float] = []
         result = hisopt.optimize(
-            problem, out=Path(tmp) / "run", seed=seed, generations=evaluations // pop, algorithm=algorithm,  # type: ignore[arg-type]
+            problem,
+            out=Path(tmp) / "run",
+            seed=seed,
+            generations=evaluations // pop,
+            algorithm=algorithm,  # type: ignore[arg-type]
             progress=lambda stats: stamps.append(time.process_time() - log.start),
         )
     history = result.history
@@ -251,15 +255,21 @@ def cmd_reference(args: argparse.Namespace) -> None:
     # hypervolume ratio by about 1e-6, far below the 4 digits reported
     np.savetxt(out / "reference_front.csv.gz", front, fmt="%.6g", delimiter=",", header=",".join(problem.objective_names), comments="")
     made_of = sorted({(r["method"], int(r["evaluations"])) for r in sources})
-    (out / "reference.json").write_text(json.dumps({
-        "problem": problem.name,
-        "objectives": list(problem.objective_names),
-        "designs": len(front),
-        "made_of": [f"{m} x {sum(1 for r in sources if r['method'] == m and r['evaluations'] == n)} seeds at {n} evaluations" for m, n in made_of],
-        "rule": "non-dominated union of the archives of every listed run",
-        "hypervolume": "log10 objectives scaled to the front's ideal (0) and nadir (1); reference point 1.1 in each",
-        "values": "6 significant digits",
-    }, indent=1) + "\n")
+    (out / "reference.json").write_text(
+        json.dumps(
+            {
+                "problem": problem.name,
+                "objectives": list(problem.objective_names),
+                "designs": len(front),
+                "made_of": [f"{m} x {sum(1 for r in sources if r['method'] == m and r['evaluations'] == n)} seeds at {n} evaluations" for m, n in made_of],
+                "rule": "non-dominated union of the archives of every listed run",
+                "hypervolume": "log10 objectives scaled to the front's ideal (0) and nadir (1); reference point 1.1 in each",
+                "values": "6 significant digits",
+            },
+            indent=1,
+        )
+        + "\n"
+    )
     print(f"reference front of {problem.name}: {len(front)} designs from {len(sources)} runs")
 
 
@@ -338,16 +348,19 @@ def plot(anytime: Any, runtimes: Any, name: str, path: Path) -> None:
         median, worst, seconds = 1.0 - a["ratio"].median(), 1.0 - a["ratio"].min(), a["cpu_time_s"].median()
         colour = qualitative.D3[k % len(qualitative.D3)]
         for col, x in ((1, median.index), (2, seconds.to_numpy())):
-            fig.add_trace(go.Scatter(x=x, y=median.to_numpy(), mode="lines", name=method, legendgroup=method, showlegend=col == 1,
-                                     line={"color": colour}), row=1, col=col)
+            fig.add_trace(
+                go.Scatter(x=x, y=median.to_numpy(), mode="lines", name=method, legendgroup=method, showlegend=col == 1, line={"color": colour}), row=1, col=col
+            )
             dotted = {"color": colour, "dash": "dot", "width": 1}
-            fig.add_trace(go.Scatter(x=x, y=worst.to_numpy(), mode="lines", name=f"{method} worst", legendgroup=method, showlegend=False,
-                                     line=dotted), row=1, col=col)
+            fig.add_trace(
+                go.Scatter(x=x, y=worst.to_numpy(), mode="lines", name=f"{method} worst", legendgroup=method, showlegend=False, line=dotted), row=1, col=col
+            )
         hits = runtimes[runtimes["method"] == method]["evaluations"]
         reached = np.sort(hits.dropna().to_numpy(dtype=float))
         share = np.arange(1, len(reached) + 1) / max(len(hits), 1)
-        fig.add_trace(go.Scatter(x=reached, y=share, mode="lines", name=method, legendgroup=method, showlegend=False,
-                                 line={"color": colour, "shape": "hv"}), row=1, col=3)
+        fig.add_trace(
+            go.Scatter(x=reached, y=share, mode="lines", name=method, legendgroup=method, showlegend=False, line={"color": colour, "shape": "hv"}), row=1, col=3
+        )
     for col in (1, 2):
         fig.update_yaxes(type="log", range=[-4, np.log10(0.3)], exponentformat="e", row=1, col=col)
     fig.update_xaxes(type="log", title_text="evaluations [-]", row=1, col=1)

@@ -116,9 +116,11 @@ def main() -> None:
     (h_wall, h_hv), (o_wall, o_hv) = totals["hisopt"], totals["optuna"]
     print()
     print(f"hypervolume reference point (log10 of {', '.join(problem.objective_names)}): {np.round(reference, 4).tolist()}")
-    print(f"over {args.seeds} seed(s): speed-up (optuna wall / hisopt wall) {o_wall / h_wall:.1f}x, "
-          f"mean hypervolume hisopt {h_hv / args.seeds:.6f}, optuna {o_hv / args.seeds:.6f}, "
-          f"ratio {h_hv / o_hv if o_hv > 0 else float('inf'):.4f}")
+    print(
+        f"over {args.seeds} seed(s): speed-up (optuna wall / hisopt wall) {o_wall / h_wall:.1f}x, "
+        f"mean hypervolume hisopt {h_hv / args.seeds:.6f}, optuna {o_hv / args.seeds:.6f}, "
+        f"ratio {h_hv / o_hv if o_hv > 0 else float('inf'):.4f}"
+    )
 
 
 if __name__ == "__main__":

@@ -64,11 +64,12 @@ def main() -> None:
         result, wall, cpu = timed(method, problem, run.front, args.points, run.reference_point)
         n = len(result.points)
         rows[method] = (wall / n, cpu / n)
-        print(f"{method:5s}: {wall / n:.3f} s wall, {cpu / n:.3f} s CPU per design; hypervolume {result.hypervolume_before:.6g} -> "
-              f"{result.hypervolume_after:.6g} ({100 * result.hypervolume_gain:+.2f} %), {int(result.points['accepted'].sum())} of {n} "
-              f"designs improved, none worse than its start: {never_worse(problem, run.front, result)}")
-    print(f"SLP against IPOPT: {rows['ipopt'][0] / rows['slp'][0]:.1f}x less wall time, "
-          f"{rows['ipopt'][1] / rows['slp'][1]:.1f}x less CPU per design")
+        print(
+            f"{method:5s}: {wall / n:.3f} s wall, {cpu / n:.3f} s CPU per design; hypervolume {result.hypervolume_before:.6g} -> "
+            f"{result.hypervolume_after:.6g} ({100 * result.hypervolume_gain:+.2f} %), {int(result.points['accepted'].sum())} of {n} "
+            f"designs improved, none worse than its start: {never_worse(problem, run.front, result)}"
+        )
+    print(f"SLP against IPOPT: {rows['ipopt'][0] / rows['slp'][0]:.1f}x less wall time, {rows['ipopt'][1] / rows['slp'][1]:.1f}x less CPU per design")
 
 
 if __name__ == "__main__":

@@ -58,8 +58,10 @@ def main() -> None:
     rest = (long["wall_s"] - long["evaluation_s"]) / (scale * (short["wall_s"] - short["evaluation_s"]))
     print(f"same ratio outside the evaluator = {rest:.3f}")
     cpu_short, cpu_long = (1e6 * r["cpu_s"] / r["evaluations"] for r in (short, long))
-    print(f"CPU time of this process per evaluation: short {cpu_short:.1f} us, long {cpu_long:.1f} us, "
-          f"ratio {cpu_long / cpu_short:.3f} (less sensitive to other processes' load than wall time)")
+    print(
+        f"CPU time of this process per evaluation: short {cpu_short:.1f} us, long {cpu_long:.1f} us, "
+        f"ratio {cpu_long / cpu_short:.3f} (less sensitive to other processes' load than wall time)"
+    )
 
 
 if __name__ == "__main__":

@@ -101,11 +101,7 @@ def main() -> None:
         print(f"{label:42s} {t:9.3f} {args.designs / t:10.0f} {t / base:16.2f}")
 
     shared, alone = six.evaluator()(x), [p.evaluator()(x) for p in separate]
-    err = max(
-        float(np.nanmax(np.abs(shared[f"{q}@{name}"] / alone[k][q] - 1)))
-        for k, (name, _, _) in enumerate(SIX)
-        for q in six.spec.objectives
-    )
+    err = max(float(np.nanmax(np.abs(shared[f"{q}@{name}"] / alone[k][q] - 1))) for k, (name, _, _) in enumerate(SIX) for q in six.spec.objectives)
     print(f"largest relative difference, shared against separate: {err:.1e} [-]")
 
 

@@ -468,9 +468,7 @@ def base_edges(f_lo_hz: float, f_hi_hz: float, n_log: int = 24, n_lin: int = 24,
     return np.unique(edges)
 
 
-def pole_edges(
-    poles: np.ndarray, f_lo_hz: float, f_hi_hz: float, ratio: float = 3.0, levels: int = 8, reach: float = 0.5
-) -> np.ndarray:
+def pole_edges(poles: np.ndarray, f_lo_hz: float, f_hi_hz: float, ratio: float = 3.0, levels: int = 8, reach: float = 0.5) -> np.ndarray:
     """[Hz] Breakpoints clustered geometrically around each lightly damped pole.
 
     Parameters
