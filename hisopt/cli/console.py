@@ -124,6 +124,16 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
         ("population / seed", f"{result.settings.pop_size} / {result.settings.seed}"),
         ("wall time", f"{result.wall_time_s:.1f} s"),
         ("hypervolume (log10 objectives)", f"{result.hypervolume:.6g} {hypervolume_unit(len(result.problem.objective_names))}"),
+        *(
+            []
+            if result.catalogue_cost is None
+            else [
+                (
+                    "catalogue cost (hypervolume)",
+                    result.catalogue_cost.line(hypervolume_unit(len(result.problem.objective_names))) + "; continuous_front.csv",
+                )
+            ]
+        ),
         ("stop rule", stop_words(result)),
         ("run directory", str(result.run_dir) if result.run_dir else "-"),
     ]

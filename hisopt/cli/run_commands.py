@@ -72,14 +72,19 @@ def optimize_cmd(
 
     refuse_occupied(out)  # says what state a run already there is in
     prepare_run_directory(out, fresh=True)  # fail before any work
+    from hisopt.optim.catalogue_cost import wants_catalogue_cost
+
+    relaxed = wants_catalogue_cost(p)
     typer.echo(
         f"{p.name}: {settings.algorithm.upper()}, population {settings.pop_size}, {settings.generations} generations, "
-        f"seed {settings.seed}{_stop_words(settings)} -> {out}" + ("" if tolerances is None else f"; thinned front within {tolerances.describe()}"),
+        f"seed {settings.seed}{_stop_words(settings)} -> {out}"
+        + ("" if tolerances is None else f"; thinned front within {tolerances.describe()}")
+        + ("; then the same with its choices continuous, for what the catalogues cost ([optimizer] catalogue_cost)" if relaxed else ""),
         err=True,
     )
     code = run_with_console(
         lambda update: optimize(p, out=out, seed=seed, pop_size=pop, generations=gens, until=until, progress=update, epsilon=epsilon),
-        total=settings.generations,
+        total=settings.generations * (2 if relaxed else 1),
         done=0,
         run_dir=out,
         debug=DEBUG["on"],
@@ -115,7 +120,10 @@ def resume_cmd(
         return
     state = plan.state
     typer.echo(f"resuming {run_dir} at generation {state.generation} of {state.generations}", err=True)
-    code = run_with_console(plan.run, total=state.generations, done=state.generation, run_dir=run_dir, debug=DEBUG["on"])
+    from hisopt.optim.catalogue_cost import wants_catalogue_cost
+
+    total = state.generations * (2 if wants_catalogue_cost(plan.engine.problem) else 1)
+    code = run_with_console(plan.run, total=total, done=state.generation, run_dir=run_dir, debug=DEBUG["on"])
     if code:
         raise SystemExit(code)  # click returns (drops) a typer.Exit code in non-standalone mode
 

@@ -53,6 +53,69 @@ class GenerationStats:
     elapsed_s: float
 
 
+@dataclass(frozen=True)
+class CatalogueCost:
+    """What choosing from lists costs (docs/model.md §17.5): the catalogue front's hypervolume
+    against that of the same problem with every choice variable made continuous between its
+    first and last value, optimised with the same settings and measured from the same
+    reference point.
+
+    Attributes
+    ----------
+    catalogue : float
+        [decades^n_obj] hypervolume of the catalogue run's front (log10 objectives)
+    continuous : float
+        [decades^n_obj] hypervolume of the continuous relaxation's front
+    evaluations : int
+        [-] designs the continuous run evaluated
+    front_size : int
+        [-] designs on the continuous front
+    wall_time_s : float
+        [s] wall time of the continuous run
+    """
+
+    catalogue: float
+    continuous: float
+    evaluations: int
+    front_size: int
+    wall_time_s: float
+
+    @property
+    def ratio(self) -> float:
+        """[-] ``catalogue / continuous`` (below 1: the standard parts cost that share; NaN
+        when the continuous front is empty)."""
+        return self.catalogue / self.continuous if self.continuous > 0 else float("nan")
+
+    def record(self) -> dict[str, Any]:
+        """The ``run.json`` entry."""
+        return {
+            "hypervolume_catalogue": self.catalogue,
+            "hypervolume_continuous": self.continuous,
+            "ratio": self.ratio,
+            "continuous_evaluations": self.evaluations,
+            "continuous_front_size": self.front_size,
+            "continuous_wall_time_s": self.wall_time_s,
+        }
+
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> CatalogueCost:
+        """From :meth:`record`'s dictionary."""
+        return cls(
+            float(record["hypervolume_catalogue"]),
+            float(record["hypervolume_continuous"]),
+            int(record["continuous_evaluations"]),
+            int(record["continuous_front_size"]),
+            float(record["continuous_wall_time_s"]),
+        )
+
+    def line(self, unit: str) -> str:
+        """One line for a summary: both hypervolumes and their ratio."""
+        return (
+            f"{self.catalogue:.6g} of the continuous relaxation's {self.continuous:.6g} {unit} "
+            f"({100 * self.ratio:.1f} %; its front of {self.front_size} designs from {self.evaluations} evaluations)"
+        )
+
+
 @dataclass
 class OptimizationResult:
     """What a run found: the front, every evaluation, quality and decision support.
@@ -87,6 +150,11 @@ class OptimizationResult:
     converged_at : int | None
         [-] generation at which the convergence stop fired (None: it did not, or the run
         does not use it)
+    catalogue_cost : CatalogueCost | None
+        [-] a problem with choices: its front against the continuous relaxation's
+        (:mod:`hisopt.optim.catalogue_cost`); None otherwise or when switched off
+    continuous_front : pd.DataFrame | None
+        [physical units] the continuous relaxation's front (with ``catalogue_cost``)
     """
 
     problem: Problem
@@ -101,6 +169,8 @@ class OptimizationResult:
     completed: bool = True
     epsilon: EpsilonTolerances | None = None
     converged_at: int | None = None
+    catalogue_cost: CatalogueCost | None = None
+    continuous_front: pd.DataFrame | None = None
 
     def stop_record(self) -> dict[str, Any]:
         """[-] The run's stop rule and whether and where it fired (for ``run.json`` and the summary)."""

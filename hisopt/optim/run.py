@@ -33,9 +33,10 @@ import numpy as np
 import hisopt.interrupt as interrupt
 from hisopt.errors import ConfigError, RunError
 from hisopt.optim import rundir, runstate
+from hisopt.optim.catalogue_cost import catalogue_cost, wants_catalogue_cost
 from hisopt.optim.decision import reference_point
 from hisopt.optim.engine import Engine
-from hisopt.optim.results import GenerationStats, OptimizationResult, ProgressFn
+from hisopt.optim.results import CatalogueCost, GenerationStats, OptimizationResult, ProgressFn
 from hisopt.optim.settings import AlgorithmChoice, RunSettings, build_algorithm, resolve_settings
 from hisopt.optim.thinning import EpsilonInput, epsilon_from_record, resolve_epsilon
 
@@ -110,6 +111,8 @@ def _drive_session(engine: Engine, run: rundir.RunDirectory | None, progress: Pr
             with interrupt.deferred():
                 _save(engine, run)
         result = engine.result(run_dir)
+        if wants_catalogue_cost(engine.problem):
+            result.catalogue_cost, result.continuous_front = catalogue_cost(engine, progress)
         if run is not None:
             with interrupt.deferred():  # a signal now waits until every file is written
                 rundir.write_outputs(run.path, result)
@@ -259,7 +262,12 @@ class ResumePlan:
     def run(self, progress: ProgressFn | None = None) -> OptimizationResult:
         """Continue to the end (a finished run: its result, no file touched)."""
         if self.finished:
-            return self.engine.result(self.state.run_dir)
+            result = self.engine.result(self.state.run_dir)
+            recorded = self.info.get("result", {}).get("catalogue_cost")
+            if recorded is not None:
+                result.catalogue_cost = CatalogueCost.from_record(recorded)
+                result.continuous_front = rundir.read_front(self.state.run_dir / rundir.CONTINUOUS_FRONT_CSV)
+            return result
         return _drive(self.engine, rundir.RunDirectory(self.state.run_dir, self.info), progress)
 
 

@@ -82,6 +82,8 @@ PROBLEM_TOML = "problem.toml"
 PROBLEM_JSON = "problem.json"
 FRONT_THINNED_CSV = "front_thinned.csv"
 """Thinned front (a run with epsilon tolerances): ``front.csv``'s columns, a subset of its rows."""
+CONTINUOUS_FRONT_CSV = "continuous_front.csv"
+"""The continuous relaxation's front (a run of a problem with choices, docs/model.md §17.5): ``front.csv``'s columns."""
 FRONT_REFINED_CSV = "front_refined.csv"
 """Refined front (``hisopt refine``): ``front.csv``'s columns plus ``source_index``."""
 REFINE_JSON = "refine.json"
@@ -423,6 +425,8 @@ def _summary(result: OptimizationResult) -> dict[str, Any]:
         "stop": result.stop_record(),
         "hypervolume_history": [{"evaluations": e, "hypervolume": h} for e, h in result.hypervolume_history()],
     }
+    if result.catalogue_cost is not None:
+        out["catalogue_cost"] = result.catalogue_cost.record()
     if len(result.front):
         out["knee"] = {k: float(v) for k, v in result.knee.items()}
         out["asf_pick"] = {k: float(v) for k, v in result.asf_pick().items()}
@@ -435,6 +439,8 @@ def write_outputs(run_dir: Path, result: OptimizationResult) -> None:
     write_csv(with_bound_column(result.front, result.problem), run_dir / FRONT_CSV)
     if result.thinned is not None:
         write_csv(with_bound_column(result.thinned, result.problem), run_dir / FRONT_THINNED_CSV)
+    if result.continuous_front is not None:
+        write_csv(with_bound_column(result.continuous_front, result.problem), run_dir / CONTINUOUS_FRONT_CSV)
     interrupt.hook_point("final-write")
     write_csv(result.generations, run_dir / GENERATIONS_CSV)
     buffer = io.BytesIO()

@@ -105,6 +105,24 @@ def front_scatter_matrix(
     return _scatter_matrix([view], front, refined, highlights, len(objectives), "Pareto front: objectives (hover for the design)")
 
 
+def catalogue_scatter_matrix(
+    front: pd.DataFrame, continuous: pd.DataFrame, objectives: Sequence[str], variables: Sequence[str], units: Mapping[str, str] | None = None
+) -> go.Figure:
+    """Scatter matrix of a catalogue run's front over its continuous relaxation's
+    (docs/model.md §17.5): where the standard parts give up performance."""
+    units = dict(front.attrs.get("units", {}) if units is None else units)
+    shown = displays(pd.concat([front, continuous], ignore_index=True), list(variables) + list(objectives), units)
+    view = _View(
+        dims=lambda df: [{"label": shown[o].label(o), "values": shown[o].values(df[o])} for o in objectives],
+        hover=lambda df: _hover(df, shown),
+        name="catalogue front",
+        refined_name="continuous relaxation's front",
+        colour=COLORS[0],
+        refined_colour="#d1495b",
+    )
+    return _scatter_matrix([view], front, continuous, None, len(objectives), "Catalogue front and its continuous relaxation's (hover for the design)")
+
+
 def scenario_scatter_matrix(
     front: pd.DataFrame,
     quantities: Sequence[str],

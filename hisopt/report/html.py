@@ -59,7 +59,13 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
         raise RunError(f"{front_path}: missing; the run has not finished a generation yet")
     problem = rundir.load_run_problem(run_dir, record["problem"], check_original=False)
     out: dict[str, Any] = {"record": record, "problem": problem, "front": without_bound_column(read_csv(front_path))}
-    for key, name in (("thinned", rundir.FRONT_THINNED_CSV), ("refined", rundir.FRONT_REFINED_CSV), ("generations", rundir.GENERATIONS_CSV)):
+    files = (
+        ("thinned", rundir.FRONT_THINNED_CSV),
+        ("refined", rundir.FRONT_REFINED_CSV),
+        ("generations", rundir.GENERATIONS_CSV),
+        ("continuous", rundir.CONTINUOUS_FRONT_CSV),
+    )
+    for key, name in files:
         path = run_dir / name
         out[key] = without_bound_column(read_csv(path)) if path.is_file() else None  # marks: recomputed where shown
     return out
@@ -203,6 +209,36 @@ def envelope_sections(problem: Any, x: np.ndarray, label: str) -> list[tuple[str
     ]
 
 
+def parts_section(problem: Problem, x: np.ndarray, label: str) -> str:
+    """The bill of parts and settings of design ``x`` (as ``hisopt sheet`` writes it)."""
+    from hisopt.report.sheet import parts_shown
+    from hisopt.studies.design_sheet import parts_table
+
+    design = problem.replace_values(dict(zip(problem.variable_names, (float(v) for v in x), strict=True)))
+    caption = f"What to build for the {label} design: its cylinders, accumulators, charge, valves and pipes (`hisopt sheet` writes the whole sheet)"
+    return html_table(parts_shown(parts_table(design)), caption, text_columns=("item", "note"))
+
+
+def catalogue_section(run: Mapping[str, Any], objectives: list[str], variables: list[str], units: Mapping[str, str]) -> str | None:
+    """A catalogue run's hypervolume against its continuous relaxation's, over both fronts
+    (docs/model.md §17.5); None for a run without the relaxation."""
+    from hisopt.optim.results import CatalogueCost
+    from hisopt.plotting.figures import catalogue_scatter_matrix
+
+    record = run["record"].get("result", {}).get("catalogue_cost")
+    if record is None or run["continuous"] is None:
+        return None
+    cost = CatalogueCost.from_record(record)
+    line = cost.line(hypervolume_unit(len(objectives)))
+    figure = catalogue_scatter_matrix(run["front"], run["continuous"], objectives, variables, units)
+    note = (
+        f"<p>Hypervolume of the catalogue front (log10 objectives): {html.escape(line)}. The relaxation lets every choice "
+        "variable take any value between its first and last listed one, with the run's settings and reference point; "
+        "below 100 % is the performance the standard parts give up.</p>"
+    )
+    return note + '<div class="figure">' + figure.to_html(full_html=False, include_plotlyjs=False, div_id="catalogue") + "</div>"
+
+
 def build_report(run_dir: str | Path, color_by: str | None = None, design: str = "knee") -> Path:
     """Write ``RUN_DIR/report.html`` and return its path.
 
@@ -298,7 +334,11 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
             html_table(modes, "Modes without and with HIS (paper Table 1): undamped natural frequency f, damping ratio zeta", text_columns=("mode", "motion")),
         ),
         ("Highlighted designs", html_table(picks, designs_caption, text_columns=("quantity [unit]",))),
+        (f"Parts and settings of the {chosen_label} design", parts_section(problem, x, chosen_label)),
     ]
+    cost = catalogue_section(run, objectives, variables, units)
+    if cost is not None:
+        sections.append(("What the catalogues cost", cost))
     if problem.spec.scenarios:
         sections.append(
             (

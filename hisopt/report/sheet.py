@@ -18,13 +18,14 @@ SHEET_FILES = ("sheet.md", "sheet.html", "sheet.toml")
 """What :func:`write_sheet` writes into its folder."""
 
 
-def parts_shown(sheet: DesignSheet) -> pd.DataFrame:
-    """The bill of parts for reading: ``item``, ``value`` with its unit, ``note``."""
+def parts_shown(parts: pd.DataFrame) -> pd.DataFrame:
+    """The bill of parts (:func:`hisopt.studies.design_sheet.parts_table`) for reading:
+    ``item``, ``value`` with its unit, ``note``."""
     return pd.DataFrame(
         {
-            "item": sheet.parts["item"],
-            "value": [_shown(v, u) for v, u in zip(sheet.parts["value"], sheet.parts["unit"], strict=True)],
-            "note": sheet.parts["note"],
+            "item": parts["item"],
+            "value": [_shown(v, u) for v, u in zip(parts["value"], parts["unit"], strict=True)],
+            "note": parts["note"],
         }
     )
 
@@ -46,7 +47,7 @@ def quantities_shown(sheet: DesignSheet) -> pd.DataFrame:
 def tables(sheet: DesignSheet) -> list[tuple[str, pd.DataFrame]]:
     """``(title, table of strings)`` of every section, in order."""
     return [
-        ("Parts and settings", parts_shown(sheet)),
+        ("Parts and settings", parts_shown(sheet.parts)),
         ("Quantities", quantities_shown(sheet)),
         ("Operating envelope", display_frame(shown_envelope(sheet.envelope))),
         ("Modes with HIS", display_frame(sheet.modes)),

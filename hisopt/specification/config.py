@@ -206,6 +206,9 @@ class Optimizer(_Strict):
     )
     tolerance: float = Field(1e-3, gt=0, lt=1, description='until = "converged": relative hypervolume gain over the window', json_schema_extra=si("-"))
     window: int = Field(20, ge=1, description='until = "converged": generations the gain is measured over')
+    catalogue_cost: bool = Field(
+        True, description="a problem with choices: also optimise it with those variables continuous and report the hypervolume ratio (docs/model.md §17.5)"
+    )
 
 
 class ProblemSpec(_Strict):
