@@ -181,10 +181,8 @@ def main() -> None:
     print(f"  hisopt catalogue run               {np.median(cat):.5f} ({cat.min():.5f})")
     print(f"  continuous relaxation              {np.median(cont):.5f} ({cont.min():.5f})   catalogue / continuous {np.median(cat / cont):.3f}")
     print(
-        print(
-            f"  (i) continuous, snapped to parts   {np.median(snap):.5f} ({snap.min():.5f})   catalogue / snapped {np.median(cat / snap):.3f} "
-            f"(worst {np.min(cat / snap):.3f})"
-        )
+        f"  (i) continuous, snapped to parts   {np.median(snap):.5f} ({snap.min():.5f})   catalogue / snapped {np.median(cat / snap):.3f} "
+        f"(worst {np.min(cat / snap):.3f})"
     )
     print(
         f"  (ii) pymoo MixedVariableGA         {np.median(mixed):.5f} ({mixed.min():.5f})   catalogue / MixedVariableGA {np.median(cat / mixed):.3f} "

@@ -106,6 +106,15 @@ def test_a_run_is_made_of_listed_parts_and_its_refinement_keeps_them(parts):
     for j, values in parts.choices.items():
         assert listed(refined.front[parts.variable_names[j]].to_numpy(dtype=float), values).all()
     assert refined.hypervolume_after >= refined.hypervolume_before
+    # each kept design, evaluated again, is no worse than its start in any objective, with its parts
+    kept = refined.points[refined.points["accepted"]]
+    assert len(kept) > 0
+    names = list(parts.objective_names)
+    again = parts.evaluate(kept[list(parts.variable_names)].to_numpy(dtype=float), log=False)
+    start = front.iloc[kept["source_index"].to_numpy()]
+    assert (again[names].to_numpy() <= start[names].to_numpy()).all()
+    listed_columns = [parts.variable_names[j] for j in parts.choices]
+    np.testing.assert_array_equal(kept[listed_columns].to_numpy(), start[listed_columns].to_numpy())
 
 
 def test_a_sweep_of_a_choice_takes_its_listed_values(parts):
