@@ -54,6 +54,7 @@ def relative_errors(problem: hisopt.Problem, x: np.ndarray) -> dict[str, np.ndar
 
 
 @pytest.mark.slow
+@pytest.mark.discretisation
 @pytest.mark.parametrize("speed", [10.0, 20.0, 33.0])
 @pytest.mark.parametrize("case", list(CASES))
 def test_every_quantity_within_1e3_of_converged_reference(problem, rng, speed, case):
@@ -64,6 +65,7 @@ def test_every_quantity_within_1e3_of_converged_reference(problem, rng, speed, c
 
 
 @pytest.mark.slow
+@pytest.mark.discretisation
 def test_charged_quantities_within_1e3_of_converged_reference(problem, rng):
     """A charged HIS with chamber volumes, every quantity and the accumulators' swing (docs/model.md §16.9)."""
     data = variant(problem, 20.0, {"charge": {"gas_fraction": 0.7}, "chamber_volume": 1e-4}).spec.model_dump(by_alias=True)
@@ -75,6 +77,7 @@ def test_charged_quantities_within_1e3_of_converged_reference(problem, rng):
 
 
 @pytest.mark.slow
+@pytest.mark.discretisation
 def test_isotropic_road_and_band_method_within_1e3(problem, rng):
     data = variant(problem, 20.0, {}, coherence="isotropic").spec.model_dump(by_alias=True)
     isotropic = problem_from_dict(data)

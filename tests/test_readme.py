@@ -120,6 +120,7 @@ def test_plan_covers_the_readme():
         "hisopt", "optimize", "p.toml", "--refine", "--pop", "8", "--gens", "2", "--max-points", "2"]  # fmt: skip
 
 
+@pytest.mark.slow  # every command of the README, about 3 min
 def test_every_readme_command_runs_as_written(tmp_path):
     for name in LINKED:
         (tmp_path / name).symlink_to(ROOT / name, target_is_directory=True)
