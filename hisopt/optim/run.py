@@ -187,7 +187,10 @@ def optimize(
     OptimizationResult
         Front (archive of every feasible non-dominated design evaluated), history,
         hypervolume, knee point and ASF pick; with tolerances also the thinned front, of
-        which the knee and the ASF pick are then members.
+        which the knee and the ASF pick are then members; for a problem with choices (and
+        ``[optimizer] catalogue_cost`` on) also the continuous relaxation's front and the
+        catalogue cost (:mod:`hisopt.optim.catalogue_cost`), after a second run of the
+        same budget.
 
     Raises
     ------

@@ -215,7 +215,7 @@ def parts_section(problem: Problem, x: np.ndarray, label: str) -> str:
     from hisopt.studies.design_sheet import parts_table
 
     design = problem.replace_values(dict(zip(problem.variable_names, (float(v) for v in x), strict=True)))
-    caption = f"What to build for the {label} design: its cylinders, accumulators, charge, valves and pipes (`hisopt sheet` writes the whole sheet)"
+    caption = f"What to build for the {label} design: its cylinders, accumulators, charge, valves and pipes (hisopt sheet writes the whole sheet)"
     return html_table(parts_shown(parts_table(design)), caption, text_columns=("item", "note"))
 
 
