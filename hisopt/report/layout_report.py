@@ -15,7 +15,7 @@ import numpy as np
 
 from hisopt.plotting.axes import log_axis
 from hisopt.plotting.theme import COLORS, template
-from hisopt.report.html import REPORT_CSS, html_table
+from hisopt.report.tables import REPORT_CSS, html_table
 from hisopt.units import display_for, display_frame, format_quantity
 
 if TYPE_CHECKING:

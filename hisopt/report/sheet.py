@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from hisopt.plausibility import bound_labels
-from hisopt.report.html import REPORT_CSS, html_table
+from hisopt.report.tables import REPORT_CSS, html_table
 from hisopt.studies.design_sheet import DesignSheet, write_problem
 from hisopt.studies.envelope import CELSIUS_OFFSET, shown_envelope
 from hisopt.units import column_units, display_frame, format_quantity
