@@ -286,3 +286,34 @@ def test_oil_without_an_element_weighs_in_the_static_balance_as_chamber_oil_does
     with_volume = problem_at(temperature, {"gas_fraction": 0.7, "oil_volume": 1e-3})
     x = random_designs(with_volume, 4, rng, corners=False)
     np.testing.assert_allclose(with_volume.model(x).his.static_pressure, with_chambers.model(x).his.static_pressure, rtol=1e-13)
+
+
+def test_one_temperature_per_design_gives_each_designs_values_to_the_bit():
+    """Temperatures as an array (one per design, for sampled inputs): every parameter and
+    every element value of each design is that of its temperature alone, the reference's
+    ratios exactly 1 (docs/model.md §16.2)."""
+    from hisopt.hydraulics.catalogue import his_parameter_values
+    from hisopt.hydraulics.network import element_values
+
+    data = tomllib.loads(DEFAULT_PROBLEM.read_text())
+    data["his"]["charge"] = {"gas_fraction": 0.7, "temperature": "20 degC"}
+    problem = problem_from_dict(data)
+    his, network = problem.spec.his, problem.network()
+    temperatures = np.array([253.15, 293.15, 313.15, 353.15, 293.15])
+    overrides = {"p0": np.linspace(1e6, 3e6, 5), "Rv": np.linspace(2e5, 1e6, 5)}
+    batch = his_parameter_values(his, overrides, temperatures)
+    values = element_values(network, batch)
+    for i, t in enumerate(temperatures):
+        one = his_parameter_values(his, {k: v[i] for k, v in overrides.items()}, float(t))
+        for key, value in one.items():
+            got = batch[key][i] if np.ndim(batch[key]) else batch[key]
+            assert got == value, (key, t)
+        single = element_values(network, one)
+        for kind in ("shunt", "resistance", "inertance", "compliance", "gas"):
+            for element, want in getattr(single, kind).items():
+                got = getattr(values, kind)[element]
+                for g, w in zip(np.broadcast_arrays(*got) if isinstance(got, tuple) else [got], want if isinstance(want, tuple) else [want], strict=True):
+                    assert np.broadcast_to(g, temperatures.shape)[i] == w, (kind, element, t)
+    reference = [i for i, t in enumerate(temperatures) if t == 293.15]
+    for key in ("gas_temperature_ratio", "viscosity_ratio", "density_ratio", "oil_volume_ratio"):
+        assert (batch[key][reference] == 1.0).all()

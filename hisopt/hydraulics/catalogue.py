@@ -22,7 +22,7 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from importlib import resources
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
@@ -44,6 +44,9 @@ from hisopt.hydraulics.network import FLUID_PARAMETERS, compile_network, element
 from hisopt.hydraulics.roll_plane import RollPlaneHIS, parameter_values, roll_plane_layout
 from hisopt.plausibility import rule_reason
 from hisopt.quantities import field_unit
+
+if TYPE_CHECKING:
+    import numpy as np
 
 CATALOGUE_NAMES = (
     "roll_plane",
@@ -217,7 +220,7 @@ def his_layout(his: RollPlaneHIS) -> Layout:
     return catalogue()[his.layout].layout(pipes, chamber)
 
 
-def his_parameter_values(his: RollPlaneHIS, overrides: Mapping[str, Any] | None = None, temperature: float | None = None) -> dict[str, Any]:
+def his_parameter_values(his: RollPlaneHIS, overrides: Mapping[str, Any] | None = None, temperature: float | np.ndarray | None = None) -> dict[str, Any]:
     """Every parameter the layout and the cylinders read: ``[his]`` values, the layout's extra
     parameters (:func:`layout_defaults`), then ``overrides`` (design variables); the fluid at
     ``temperature`` [K] (None: the reference temperature; :func:`~hisopt.hydraulics.roll_plane.parameter_values`)."""

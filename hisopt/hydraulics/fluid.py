@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hisopt.quantities import si
@@ -145,18 +147,33 @@ def expanded_density(temperature: float, density: float, at: float, expansion: f
 
 @dataclass(frozen=True)
 class ThermalRatios:
-    """[-] The oil's properties at a temperature over those at the reference temperature."""
+    """[-] The oil's properties at a temperature over those at the reference temperature
+    (floats for one temperature, arrays of its shape for an array of temperatures)."""
 
-    density: float
-    viscosity: float
+    density: Any
+    viscosity: Any
     """dynamic viscosity ``mu = nu rho``"""
-    volume: float
+    volume: Any
     """oil volume of a fixed mass: the inverse of ``density``"""
 
 
-def thermal_ratios(oil: Oil, temperature: float, reference: float) -> ThermalRatios:
+def thermal_ratios(oil: Oil, temperature: float | np.ndarray, reference: float) -> ThermalRatios:
     """The ratios of :class:`ThermalRatios` at ``temperature`` over ``reference`` [K]; all 1
-    exactly when the two are equal."""
+    exactly when the two are equal.
+
+    An array of temperatures (one per design or sample) gives arrays of its shape, each
+    element computed as for that temperature alone, to the same bits (the Walther equation's
+    ``math.log10`` and powers are not numpy's, whose rounding may differ by an ulp).
+    """
+    if np.ndim(temperature) == 0:
+        return _thermal_ratios_at(oil, float(temperature), reference)
+    levels, where = np.unique(np.asarray(temperature, dtype=float), return_inverse=True)
+    each = [_thermal_ratios_at(oil, float(t), reference) for t in levels]
+    shape = np.shape(temperature)
+    return ThermalRatios(*(np.array([getattr(r, name) for r in each])[where].reshape(shape) for name in ("density", "viscosity", "volume")))
+
+
+def _thermal_ratios_at(oil: Oil, temperature: float, reference: float) -> ThermalRatios:
     if temperature == reference:
         return ThermalRatios(1.0, 1.0, 1.0)
     density = oil.density_at(temperature) / oil.density_at(reference)

@@ -160,15 +160,16 @@ def reference_temperature(base: RollPlaneHIS) -> float:
     return base.charge.temperature if base.charge is not None else REFERENCE_TEMPERATURE
 
 
-def thermal_parameters(base: RollPlaneHIS, temperature: float | None) -> dict[str, float]:
+def thermal_parameters(base: RollPlaneHIS, temperature: float | np.ndarray | None) -> dict[str, Any]:
     """[-] What the temperature changes, as parameters of :func:`hisopt.hydraulics.network.element_values`
     and :mod:`hisopt.coupled.operating_point`: the gas's temperature ratio ``T / T_ref`` and
     the oil's density, viscosity and volume ratios (:func:`hisopt.hydraulics.fluid.thermal_ratios`);
-    at the reference temperature every ratio is 1 exactly."""
+    at the reference temperature every ratio is 1 exactly. An array of temperatures (one per
+    design) gives arrays, each element as for its temperature alone."""
     reference = reference_temperature(base)
     at = reference if temperature is None else temperature
     ratios = thermal_ratios(base.oil, at, reference)
-    gas = 1.0 if at == reference else at / reference
+    gas = (1.0 if at == reference else at / reference) if np.ndim(at) == 0 else np.where(np.asarray(at) == reference, 1.0, np.asarray(at) / reference)
     return {
         "gas_temperature_ratio": gas,
         "viscosity_ratio": ratios.viscosity,
@@ -177,7 +178,7 @@ def thermal_parameters(base: RollPlaneHIS, temperature: float | None) -> dict[st
     }
 
 
-def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | None = None, temperature: float | None = None) -> dict[str, Any]:
+def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | None = None, temperature: float | np.ndarray | None = None) -> dict[str, Any]:
     """Every parameter the roll-plane layout and the cylinders read, for a batch of designs.
 
     ``[his]`` values of ``base`` with ``overrides`` (design variables: arrays of one batch
