@@ -138,3 +138,34 @@ def test_an_unknown_vehicle_parameter_is_named():
     with pytest.raises(ConfigError, match="unknown vehicle parameter 'mass'") as info:
         VehicleBatch.of(VehicleParams(), {"mass": [1.0]})
     assert info.value.key == "vehicle.mass"
+
+
+@pytest.mark.parametrize("name", ["roll_plane_his", "roll_plane_his_pipes", "roll_plane_his_parts"])
+def test_a_model_of_many_cars_is_each_cars_model(cars, name, rng):
+    """CoupledModel with a batch of cars and a batch of HIS designs: each design's direct
+    FRF and state-space FRF are those of its car alone, within the solve's rounding
+    (10 cond(D) eps of the response, D the design's dynamic stiffness or sI - A)."""
+    import hisopt
+    from hisopt.coupled.model import CoupledModel
+    from tests.conftest import DEFAULT_PROBLEM, random_designs
+
+    problem = hisopt.load_problem(DEFAULT_PROBLEM.with_name(f"{name}.toml"))
+    x = random_designs(problem, 6, rng, corners=False)
+    his = problem.model(x).his
+    many = CoupledModel(cars, his)
+    s = 2j * np.pi * np.array([0.7, 1.9, 9.5, 30.0])
+    sb = np.broadcast_to(s, (6, 4))
+    h = many.frequency_response(sb)
+    ss = many.state_space()
+    h_ss = ss.frequency_response(sb)
+    eps = np.finfo(float).eps
+    for i in range(6):
+        one = CoupledModel(cars.car(i), his.subset([i]))
+        want = one.frequency_response(s)[0]
+        cond = np.linalg.cond(one.dynamic_stiffness(s)[0])  # (F,)
+        assert (np.abs(h[i] - want) <= 10 * cond[:, None, None] * eps * np.abs(want).max(axis=(-2, -1), keepdims=True)).all()
+        one_ss = one.state_space()
+        want_ss = one_ss.frequency_response(s)[0]
+        n = one_ss.n_states
+        cond_ss = np.linalg.cond(s[:, None, None] * np.eye(n) - one_ss.a[0])
+        assert (np.abs(h_ss[i] - want_ss) <= 10 * cond_ss[:, None, None] * eps * np.abs(want_ss).max(axis=(-2, -1), keepdims=True)).all()

@@ -22,6 +22,7 @@ from hisopt.hydraulics.realisation import Descriptor, Realisation, realise
 from hisopt.linalg import bsum
 from hisopt.vehicle import (
     VehicleParams,
+    at_frequencies,
     damping_matrix,
     dynamic_stiffness_matrix,
     mass_matrix,
@@ -30,9 +31,10 @@ from hisopt.vehicle import (
     stiffness_matrix,
     stroke_matrix,
 )
+from hisopt.vehicle.batch import VehicleBatch
 
 
-def coupled_stiffness(car: Any, vehicle: VehicleParams, stroke: Any) -> Any:
+def coupled_stiffness(car: Any, vehicle: VehicleParams | VehicleBatch, stroke: Any) -> Any:
     """``car + G^T stroke G``: a car matrix with the HIS's stroke stiffness acting through ``G``.
 
     ``K + G^T K_his G`` (static) and ``s^2 M + s C + K + G^T D(s) G`` (dynamic, paper Eq. 21)
@@ -42,8 +44,9 @@ def coupled_stiffness(car: Any, vehicle: VehicleParams, stroke: Any) -> Any:
     ----------
     car : np.ndarray
         [N/m, N m/rad] the car's matrix, numpy ``(..., 7, 7)``
-    vehicle : VehicleParams
-        the car (its stroke map ``G``)
+    vehicle : VehicleParams | VehicleBatch
+        the car (its stroke map ``G``), or a batch of cars (``G`` per design, meeting a
+        ``stroke`` with a frequency axis as ``B + (1, 4, 7)``)
     stroke : np.ndarray or casadi matrix
         [N/m] the HIS's 4 x 4 stroke stiffness: numpy ``B + (..., 4, 4)`` (batched) or a
         CasADi matrix (or :class:`~hisopt.hydraulics.backend.Complex` pair)
@@ -54,6 +57,8 @@ def coupled_stiffness(car: Any, vehicle: VehicleParams, stroke: Any) -> Any:
         numpy ``B + (..., 7, 7)``, or a CasADi matrix when ``stroke`` is one
     """
     g = stroke_matrix(vehicle)
+    if isinstance(vehicle, VehicleBatch) and np.ndim(stroke) > g.ndim:  # a dynamic stiffness: B + (F, 4, 4)
+        g = at_frequencies(g, vehicle)
     return car + bk.matmul(bk.matmul(bk.transpose(g), stroke), g)
 
 
@@ -93,8 +98,22 @@ class StateSpace:
 class CoupledModel:
     """7-DOF car, optionally with a HIS. ``his=None`` is the reference vehicle."""
 
-    vehicle: VehicleParams
+    vehicle: VehicleParams | VehicleBatch
     his: HydraulicSystem | None = None
+
+    @property
+    def car(self) -> VehicleParams:
+        """The one car of this model.
+
+        Raises
+        ------
+        ModelError
+            The model holds a batch of cars, which the transient quantities, the roll
+            gradient and the time-domain simulation do not take yet.
+        """
+        if isinstance(self.vehicle, VehicleBatch):
+            raise ModelError("a batch of cars reaches only the frequency-domain model so far (CoupledModel.car)")
+        return self.vehicle
 
     @property
     def pipe_model(self) -> PipeModel:
@@ -123,7 +142,8 @@ class CoupledModel:
     def road_input(self, s: ArrayLike) -> np.ndarray:
         """Generalised road force per road displacement ``K_t + s C_t`` rows, ``(F, 7, 4)``."""
         s = np.asarray(s, dtype=complex)[..., None, None]
-        return road_stiffness_input(self.vehicle) + s * road_damping_input(self.vehicle)
+        v = self.vehicle
+        return at_frequencies(road_stiffness_input(v), v) + s * at_frequencies(road_damping_input(v), v)
 
     def frequency_response(self, s: ArrayLike) -> np.ndarray:
         """``H(s) = X(s) / z_g(s)`` by direct solve of the dynamic stiffness, ``B + (F, 7, 4)``.
@@ -142,7 +162,8 @@ class CoupledModel:
         if self.his is None:
             return np.zeros(np.shape(h_x)[:-2] + (0, 4), dtype=complex)
         s = np.asarray(s, dtype=complex)
-        flows = s[..., None, None] * (np.asarray(self.his.incidence)[..., None, :, :] @ stroke_matrix(self.vehicle) @ h_x)  # (.., F, ports, 4)
+        g = at_frequencies(stroke_matrix(self.vehicle), self.vehicle)
+        flows = s[..., None, None] * (np.asarray(self.his.incidence)[..., None, :, :] @ g @ h_x)  # (.., F, ports, 4)
         pressure = self.his.accumulator_pressures(s) @ flows
         return self.his.accumulator_compliances()[..., None, :, None] * pressure
 
@@ -168,11 +189,11 @@ class CoupledModel:
             raise ModelError("the car without HIS has no hydraulic descriptor")
         v = self.vehicle
         net = self.his.network
-        m_diag = np.diag(self.mass)
+        m_diag = np.diagonal(self.mass, axis1=-2, axis2=-1)
         e_h, a_h = self.his.descriptor()
         g = stroke_matrix(v)
         n_inc = np.asarray(self.his.incidence)
-        batch = np.broadcast_shapes(np.shape(e_h)[:-1], n_inc.shape[:-2])
+        batch = np.broadcast_shapes(np.shape(e_h)[:-1], n_inc.shape[:-2], g.shape[:-2])
         n_h = net.size
         size = 14 + n_h
         coupling = net.injection @ n_inc @ g  # h rows <- V: injected port flows, B + (n_h, 7)
@@ -184,9 +205,9 @@ class CoupledModel:
         a[..., 14:, 7:14] = coupling
         a[..., 14:, 14:] = a_h
         e = np.concatenate([np.ones(batch + (7,)), np.broadcast_to(m_diag, batch + (7,)), np.broadcast_to(e_h, batch + (n_h,))], axis=-1)
-        b0 = np.zeros((size, 4))
-        b1 = np.zeros((size, 4))
-        b0[7:14], b1[7:14] = road_stiffness_input(v), road_damping_input(v)
+        b0 = np.zeros(g.shape[:-2] + (size, 4))
+        b1 = np.zeros(g.shape[:-2] + (size, 4))
+        b0[..., 7:14, :], b1[..., 7:14, :] = road_stiffness_input(v), road_damping_input(v)
         dynamic = np.concatenate([np.ones(14, dtype=bool), net.dynamic])
         invariants = []
         accumulator_rows = {row for _, _, row in net.accumulators()}
@@ -215,15 +236,9 @@ class CoupledModel:
         to share its pattern of shorts (:meth:`groups` splits a batch).
         """
         v = self.vehicle
-        m_diag = np.diag(self.mass)
+        m_diag = np.diagonal(self.mass, axis1=-2, axis2=-1)
         if self.his is None:
-            k, c = stiffness_matrix(v), damping_matrix(v)
-            a = np.block([[np.zeros((7, 7)), np.eye(7)], [-k / m_diag[:, None], -c / m_diag[:, None]]])
-            zeros = np.zeros((7, 4))
-            labels = DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES)
-            weights = np.r_[np.zeros(7), m_diag]
-            b0, b1 = road_stiffness_input(v), road_damping_input(v)
-            return StateSpace(a, np.vstack([zeros, b0 / m_diag[:, None]]), np.vstack([zeros, b1 / m_diag[:, None]]), labels, weights)
+            return _state_space_without_his(v, m_diag)
         if self.his.network.fidelity != "lumped":
             return CoupledModel(self.vehicle, self.his.lumped()).state_space()
         groups = self.groups()
@@ -233,13 +248,13 @@ class CoupledModel:
         d = model.descriptor()
         r = realise(d)
         is_flow = np.concatenate([np.zeros(14, dtype=bool), model.his.network.is_flow])  # type: ignore[union-attr]
-        weights = np.where(is_flow, d.e, 0.0)
+        weights = np.array(np.broadcast_to(np.where(is_flow, d.e, 0.0), np.broadcast_shapes(d.e.shape, m_diag.shape[:-1] + (1,))))
         weights[..., 7:14] = m_diag
         return StateSpace(r.a, r.b0, r.b1, r.labels, weights[..., r.kept], r)
 
     def subset(self, rows: np.ndarray) -> CoupledModel:
         """The designs ``rows`` (indices or a boolean mask) of a batch of models."""
-        return CoupledModel(self.vehicle, None if self.his is None else self.his.subset(rows))
+        return CoupledModel(_rows(self.vehicle, rows), None if self.his is None else self.his.subset(rows))
 
     def groups(self) -> list[tuple[np.ndarray, CoupledModel]]:
         """The batch split by the valves each design shorts (``R = 0``): ``(rows, model)`` pairs
@@ -262,5 +277,24 @@ class CoupledModel:
         for key in keys:
             rows = np.flatnonzero(np.isin(inverse.ravel(), [i for i, m in enumerate(merges) if m == key]))
             his = self.his.subset(rows) if len(keys) > 1 else self.his
-            out.append((rows, CoupledModel(self.vehicle, his.contracted(key) if key else his)))
+            vehicle = _rows(self.vehicle, rows) if len(keys) > 1 else self.vehicle
+            out.append((rows, CoupledModel(vehicle, his.contracted(key) if key else his)))
         return out
+
+
+def _rows(vehicle: VehicleParams | VehicleBatch, rows: np.ndarray) -> VehicleParams | VehicleBatch:
+    """The cars of designs ``rows``: one car stays itself; a batch keeps those rows."""
+    return vehicle if isinstance(vehicle, VehicleParams) else vehicle.rows(rows)
+
+
+def _state_space_without_his(v: VehicleParams | VehicleBatch, m_diag: np.ndarray) -> StateSpace:
+    """The car alone: ``x = [X, V]``, ``A = [0, I; -M^-1 K, -M^-1 C]``, batch shape of ``v``."""
+    k, c = stiffness_matrix(v), damping_matrix(v)
+    batch = m_diag.shape[:-1]
+    a = np.zeros(batch + (14, 14))
+    a[..., :7, 7:] = np.eye(7)
+    a[..., 7:, :7], a[..., 7:, 7:] = -k / m_diag[..., :, None], -c / m_diag[..., :, None]
+    b0, b1 = np.zeros(batch + (14, 4)), np.zeros(batch + (14, 4))
+    b0[..., 7:, :], b1[..., 7:, :] = road_stiffness_input(v) / m_diag[..., :, None], road_damping_input(v) / m_diag[..., :, None]
+    weights = np.concatenate([np.zeros(batch + (7,)), m_diag], axis=-1)
+    return StateSpace(a, b0, b1, DOF_NAMES + tuple(f"d{n}" for n in DOF_NAMES), weights)

@@ -225,7 +225,7 @@ class Evaluator:
         :attr:`unread`."""
         names = [m.name for m in self.metrics if m.kind == "transient"]
         wanted = [name for name in names if name not in self.unread]
-        steps = transient_quantities(model, model.vehicle, wanted, self.problem.spec.handling.step_g) if wanted else {}
+        steps = transient_quantities(model, model.car, wanted, self.problem.spec.handling.step_g) if wanted else {}
         return steps | {name: np.full(n, np.nan) for name in names if name in self.unread}
 
     def _shared_samples(self, lam: np.ndarray, channels: Channels, evaluators: list[Evaluator]) -> list[Prior]:
@@ -594,7 +594,7 @@ def static_quantity(model: CoupledModel, name: str) -> np.ndarray:
 
 def roll_gradient(model: CoupledModel) -> np.ndarray:
     """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
-    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
+    return psd_kernels.roll_gradient(model.stiffness(), model.car)
 
 
 def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:

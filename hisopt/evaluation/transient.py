@@ -412,7 +412,7 @@ def static_roll_gain(model: CoupledModel) -> np.ndarray:
     ``roll_gradient``): well conditioned where the state matrix is not (pipes of 1e-10 m
     make ``A`` numerically singular, and which designs' solves fail then depends on the
     BLAS kernel)."""
-    return np.asarray(roll_gradient(model.stiffness(), model.vehicle), dtype=float) / G_MPS2
+    return np.asarray(roll_gradient(model.stiffness(), model.car), dtype=float) / G_MPS2
 
 
 def _static_gain(a: np.ndarray, b: np.ndarray) -> np.ndarray:

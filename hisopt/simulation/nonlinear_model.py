@@ -100,7 +100,7 @@ class NonlinearModel:
     """
 
     def __init__(self, model: CoupledModel, valve_kq: float, tyre_liftoff: bool):
-        v = model.vehicle
+        v = model.car
         self.m = np.diag(mass_matrix(v))
         # Tyres are split off the conventional matrices so lift-off can clip their force.
         self.kt = np.diag(road_stiffness_input(v)[3:])

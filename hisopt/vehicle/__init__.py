@@ -1,6 +1,7 @@
 """7-DOF full car: validated parameters and its M, C, K, D0(s), stroke and road-input matrices."""
 
 from hisopt.vehicle.full_car import (
+    at_frequencies,
     body_to_corners,
     damping_matrix,
     dynamic_stiffness_matrix,
@@ -14,6 +15,7 @@ from hisopt.vehicle.parameters import VehicleParams
 
 __all__ = [
     "VehicleParams",
+    "at_frequencies",
     "body_to_corners",
     "damping_matrix",
     "dynamic_stiffness_matrix",

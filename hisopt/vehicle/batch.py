@@ -81,6 +81,10 @@ class VehicleBatch:
         """[kg] sprung plus unsprung mass, shape ``B``."""
         return self.m_s + 2.0 * (self.m_uf + self.m_ur)
 
+    def rows(self, rows: np.ndarray) -> VehicleBatch:
+        """The cars ``rows`` (indices or a boolean mask of the batch's first axis)."""
+        return VehicleBatch(*(np.asarray(getattr(self, f.name))[rows] for f in fields(self)))
+
     def car(self, index: int | tuple[int, ...]) -> VehicleParams:
         """One car of the batch, validated.
 
