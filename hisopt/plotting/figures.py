@@ -93,16 +93,20 @@ def front_scatter_matrix(
     units: Mapping[str, str] | None = None,
 ) -> go.Figure:
     """Scatter matrix of the objectives; hovering a point shows its whole design."""
-    shown = displays(front, list(variables) + list(objectives), units)
-    view = _View(
+    view = _objective_view(displays(front, list(variables) + list(objectives), units), objectives, ("front", "refined front"), "#66a182")
+    return _scatter_matrix([view], front, refined, highlights, len(objectives), "Pareto front: objectives (hover for the design)")
+
+
+def _objective_view(shown: Mapping[str, Display], objectives: Sequence[str], names: tuple[str, str], second_colour: str) -> _View:
+    """The objectives' axes of a front and a second set of designs drawn over it (``names``)."""
+    return _View(
         dims=lambda df: [{"label": shown[o].label(o), "values": shown[o].values(df[o])} for o in objectives],
         hover=lambda df: _hover(df, shown),
-        name="front",
-        refined_name="refined front",
+        name=names[0],
+        refined_name=names[1],
         colour=COLORS[0],
-        refined_colour="#66a182",
+        refined_colour=second_colour,
     )
-    return _scatter_matrix([view], front, refined, highlights, len(objectives), "Pareto front: objectives (hover for the design)")
 
 
 def catalogue_scatter_matrix(
@@ -112,14 +116,7 @@ def catalogue_scatter_matrix(
     (docs/model.md §17.5): where the standard parts give up performance."""
     units = dict(front.attrs.get("units", {}) if units is None else units)
     shown = displays(pd.concat([front, continuous], ignore_index=True), list(variables) + list(objectives), units)
-    view = _View(
-        dims=lambda df: [{"label": shown[o].label(o), "values": shown[o].values(df[o])} for o in objectives],
-        hover=lambda df: _hover(df, shown),
-        name="catalogue front",
-        refined_name="continuous relaxation's front",
-        colour=COLORS[0],
-        refined_colour="#d1495b",
-    )
+    view = _objective_view(shown, objectives, ("catalogue front", "continuous relaxation's front"), "#d1495b")
     return _scatter_matrix([view], front, continuous, None, len(objectives), "Catalogue front and its continuous relaxation's (hover for the design)")
 
 
