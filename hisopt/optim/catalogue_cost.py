@@ -46,8 +46,9 @@ def continuous_relaxation(problem: Problem) -> Problem:
     return type(problem)(problem.spec.model_copy(update={"variables": variables}), problem.path)
 
 
-def catalogue_cost(engine: Engine, progress: ProgressFn | None = None) -> tuple[CatalogueCost, pd.DataFrame]:
-    """The catalogue run ``engine``'s front against its continuous relaxation's, and that front.
+def catalogue_cost(engine: Engine, catalogue: float, progress: ProgressFn | None = None) -> tuple[CatalogueCost, pd.DataFrame]:
+    """The catalogue run ``engine``'s front (hypervolume ``catalogue`` [decades^n_obj], the
+    run's result) against its continuous relaxation's, and that front.
 
     The relaxation is run with ``engine``'s settings and reference point; ``progress``
     receives its generations counted on from the catalogue run's.
@@ -61,7 +62,7 @@ def catalogue_cost(engine: Engine, progress: ProgressFn | None = None) -> tuple[
         if stats is not None and progress is not None:
             progress(replace(stats, generation=offset + stats.generation, generations=offset + stats.generations))
     cost = CatalogueCost(
-        catalogue=hypervolume(engine.archive.f, engine.reference_log),
+        catalogue=catalogue,
         continuous=hypervolume(relaxed.archive.f, relaxed.reference_log),
         evaluations=relaxed.evaluations,
         front_size=len(relaxed.archive),

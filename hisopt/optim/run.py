@@ -112,7 +112,7 @@ def _drive_session(engine: Engine, run: rundir.RunDirectory | None, progress: Pr
                 _save(engine, run)
         result = engine.result(run_dir)
         if wants_catalogue_cost(engine.problem):
-            result.catalogue_cost, result.continuous_front = catalogue_cost(engine, progress)
+            result.catalogue_cost, result.continuous_front = catalogue_cost(engine, result.hypervolume, progress)
         if run is not None:
             with interrupt.deferred():  # a signal now waits until every file is written
                 rundir.write_outputs(run.path, result)
