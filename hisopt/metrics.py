@@ -68,5 +68,10 @@ METRICS: dict[str, Metric] = {
     )
 }
 
+ROAD_POWER: dict[Kind, float] = {"comfort": 0.5, "rms": 0.5, "swing": 0.5, "max": 1.0, "static": 0.0, "transient": 0.0}
+"""The power of the road's roughness ``G_d(n0)`` each kind of quantity is proportional to: a
+PSD is linear in it, so an RMS value goes as its square root and a PSD maximum as itself;
+static and transient quantities do not see the road (ISO 8608: the class only scales the PSD)."""
+
 COMFORT_OUTPUTS = {"x": "acc_x", "y": "acc_y", "z": "acc_z"}
 """Translational accelerations entering sigma_aw, by axis (paper Eq. 26)."""

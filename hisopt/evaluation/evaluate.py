@@ -61,7 +61,7 @@ from hisopt.units import NO_UNIT, attach_units
 if TYPE_CHECKING:
     from hisopt.coupled.model import CoupledModel
     from hisopt.specification.config import Comfort
-    from hisopt.specification.design_space import DesignSpace
+    from hisopt.specification.design_space import DesignSpace, Inputs
 
 
 class Evaluator:
@@ -157,22 +157,28 @@ class Evaluator:
         )
 
     # --- public ------------------------------------------------------------------------
-    def __call__(self, designs: Any) -> dict[str, np.ndarray]:
-        """Quantities by name, each shape ``(n,)``, plus ``"valid"`` (finite, stable model)."""
-        return self.shared(designs, [self])[0]
+    def __call__(self, designs: Any, inputs: Inputs | None = None) -> dict[str, np.ndarray]:
+        """Quantities by name, each shape ``(n,)``, plus ``"valid"`` (finite, stable model);
+        ``inputs``: model inputs per design, as :meth:`~hisopt.specification.design_space.DesignSpace.model` takes them."""
+        return self.shared(designs, [self], inputs)[0]
 
-    def shared(self, designs: Any, evaluators: list[Evaluator]) -> list[dict[str, np.ndarray]]:
+    def shared(self, designs: Any, evaluators: list[Evaluator], inputs: Inputs | None = None) -> list[dict[str, np.ndarray]]:
         """``[ev(designs) for ev in evaluators]`` with this evaluator's models, poles and
         residues computed once for all of them: ``evaluators`` are of problems that differ
         from this one only in the road (class, speed, coherence), load cases sharing a model
-        (docs/model.md §14.4)."""
+        (docs/model.md §14.4). ``inputs``: model inputs per design (``(n,)`` arrays, checked
+        by the caller), as :meth:`~hisopt.specification.design_space.DesignSpace.model` takes them."""
         x = self.problem.design_matrix(designs)
+        given = dict(inputs or {})
         with one_blas_thread():
-            results = [self._chunk(x[i : i + self.chunk_size], evaluators) for i in range(0, max(len(x), 1), self.chunk_size)]
+            results = [
+                self._chunk(x[i : i + self.chunk_size], evaluators, {k: v[i : i + self.chunk_size] for k, v in given.items()})
+                for i in range(0, max(len(x), 1), self.chunk_size)
+            ]
         return [{k: np.concatenate([r[j][k] for r in results]) for k in results[0][j]} for j in range(len(evaluators))]
 
     # --- internals -----------------------------------------------------------------------
-    def _chunk(self, x: np.ndarray, evaluators: list[Evaluator]) -> list[dict[str, np.ndarray]]:
+    def _chunk(self, x: np.ndarray, evaluators: list[Evaluator], inputs: Inputs) -> list[dict[str, np.ndarray]]:
         n = len(x)
         outs = [{name: np.full(n, np.nan) for name in ev.names} for ev in evaluators]
         valid = admissible(self.problem, x)  # finite and within every parameter's rule
@@ -181,22 +187,23 @@ class Evaluator:
         idx = np.flatnonzero(valid)
         oks = [valid.copy() for _ in evaluators]
         with np.errstate(all="ignore"):
-            for rows, model in self.problem.model(x[valid]).groups():
+            given = {k: v[valid] for k, v in inputs.items()}
+            for rows, model in self.problem.model(x[valid], inputs=given).groups():
                 try:
                     solved = self._solve(model, evaluators)
                 except (np.linalg.LinAlgError, ModelError):
-                    solved = self._one_by_one(x[valid][rows], evaluators)
+                    solved = self._one_by_one(x[valid][rows], evaluators, {k: v[rows] for k, v in given.items()})
                 for out, ok_all, ev, (values, ok) in zip(outs, oks, evaluators, solved, strict=True):
                     for name in ev.names:
                         out[name][idx[rows]] = np.where(ok, values[name], np.nan)
                     ok_all[idx[rows]] = ok
         return [out | {"valid": ok} for out, ok in zip(outs, oks, strict=True)]
 
-    def _one_by_one(self, x: np.ndarray, evaluators: list[Evaluator]) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
+    def _one_by_one(self, x: np.ndarray, evaluators: list[Evaluator], inputs: Inputs) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
         out = [({name: np.full(len(x), np.nan) for name in ev.names}, np.zeros(len(x), dtype=bool)) for ev in evaluators]
         for i, row in enumerate(x):
             try:
-                ((_, model),) = self.problem.model(row[None, :]).groups()
+                ((_, model),) = self.problem.model(row[None, :], inputs={k: v[i : i + 1] for k, v in inputs.items()}).groups()
                 solved = self._solve(model, evaluators)
             except (np.linalg.LinAlgError, ValueError):
                 continue
@@ -594,7 +601,7 @@ def static_quantity(model: CoupledModel, name: str) -> np.ndarray:
 
 def roll_gradient(model: CoupledModel) -> np.ndarray:
     """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
-    return psd_kernels.roll_gradient(model.stiffness(), model.car)
+    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
 def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:

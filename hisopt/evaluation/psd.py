@@ -32,6 +32,7 @@ from hisopt.standards import iso_2631_1_1997 as iso2631
 if TYPE_CHECKING:
     from hisopt.specification.config import Comfort
     from hisopt.vehicle import VehicleParams
+    from hisopt.vehicle.batch import VehicleBatch
 
 Pair = tuple[Any, Any]
 """A complex value as (real, imaginary) parts."""
@@ -142,7 +143,7 @@ def reduce_metrics(
     return out
 
 
-def roll_gradient(stiffness: Any, vehicle: VehicleParams) -> Any:
+def roll_gradient(stiffness: Any, vehicle: VehicleParams | VehicleBatch) -> Any:
     """[rad/g] Static roll angle under the moment ``m_s g h_0s`` on the roll DOF.
 
     Parameters
@@ -151,10 +152,11 @@ def roll_gradient(stiffness: Any, vehicle: VehicleParams) -> Any:
         [N/m, N m/rad] static stiffness ``K + G^T K_his G`` (numpy ``B + (7, 7)`` or
         a CasADi matrix)
     """
-    load = np.zeros(7)
-    load[1] = vehicle.m_s * G_MPS2 * vehicle.h_0s
+    moment = vehicle.m_s * G_MPS2 * vehicle.h_0s  # one per car of a batch
+    load = np.zeros(np.shape(moment) + (7,))
+    load[..., 1] = moment
     if bk.is_casadi(stiffness):
         return bk.solve(stiffness, load)[1]
     k = np.asarray(stiffness)
-    x = np.linalg.solve(k, np.broadcast_to(load[:, None], k.shape[:-1] + (1,)))
+    x = np.linalg.solve(k, np.broadcast_to(load[..., None], k.shape[:-1] + (1,)))
     return np.atleast_1d(x[..., 1, 0])

@@ -18,7 +18,7 @@ from hisopt.evaluation.evaluate import Evaluator
 from hisopt.robust import aggregate, split_column, worst
 
 if TYPE_CHECKING:
-    from hisopt.specification.design_space import DesignSpace
+    from hisopt.specification.design_space import DesignSpace, Inputs
 
 
 class ScenarioEvaluator:
@@ -47,12 +47,14 @@ class ScenarioEvaluator:
         plain = list(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
         self.names = tuple(plain) + problem.scenario_columns
 
-    def __call__(self, designs: Any) -> dict[str, np.ndarray]:
+    def __call__(self, designs: Any, inputs: Inputs | None = None) -> dict[str, np.ndarray]:
+        """Every load case's quantities and their aggregates; ``inputs`` as
+        :meth:`hisopt.evaluation.evaluate.Evaluator.shared` takes them (the same in every case)."""
         x = self.problem.design_matrix(designs)
         per: list[dict[str, np.ndarray]] = [{} for _ in self.scenarios]
         for group in self.groups:
             lead = self.evaluators[group[0]]
-            for i, result in zip(group, lead.shared(x, [self.evaluators[i] for i in group]), strict=True):
+            for i, result in zip(group, lead.shared(x, [self.evaluators[i] for i in group], inputs), strict=True):
                 per[i] = result
         return self.combine(per)
 

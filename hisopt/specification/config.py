@@ -35,6 +35,7 @@ from hisopt.plausibility import given_warnings, rule_reason, speed_problem, warn
 from hisopt.quantities import si
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.tolerances import parse_tolerances
+from hisopt.specification.uncertain import UncertainInput, resolve_uncertain
 from hisopt.specification.validation import bounds_problem, design_parameters, implausible_number, read_file, switched_off
 from hisopt.vehicle import VehicleParams
 
@@ -232,6 +233,7 @@ class ProblemSpec(_Strict):
     )
     scenarios: list[Scenario] = Field(default_factory=list)
     robust: Robust = Field(default_factory=Robust)
+    uncertain: list[UncertainInput] = Field(default_factory=list)
 
     @field_validator("objectives")
     @classmethod
@@ -472,6 +474,7 @@ def parse_problem(data: dict[str, Any], source: str = "<problem>", *, warn_impla
     found = implausible_number(data)
     if found:
         raise ConfigError(found[1], file=source, key=found[0])
+    resolve_uncertain(spec, source)  # checks [[uncertain]], whose units depend on the input each names
     if warn_implausible:
         warn(implausible_values(spec, written), source)
     return spec

@@ -22,6 +22,7 @@ from hisopt.errors import ConfigError
 from hisopt.hydraulics.catalogue import PIPE_PARAMETERS, his_layout, his_parameter_values, layout_defaults
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import compile_network
+from hisopt.hydraulics.roll_plane import reference_temperature
 from hisopt.plausibility import warn
 from hisopt.robust import scenario_column
 from hisopt.specification.config import ProblemSpec, implausible_values, parse_problem
@@ -33,11 +34,18 @@ from hisopt.specification.validation import (
     require_admissible,
     variable_si_units,
 )
+from hisopt.vehicle.batch import VehicleBatch
 
 if TYPE_CHECKING:
     from hisopt.hydraulics.layout import Layout
     from hisopt.hydraulics.network import Network
     from hisopt.vehicle import VehicleParams
+
+Inputs = Mapping[str, np.ndarray]
+"""Model inputs per design that the problem file fixes (:meth:`DesignSpace.model`)."""
+
+VEHICLE_PREFIX = "vehicle."
+TEMPERATURE_OFFSET = "temperature_offset"
 
 
 @dataclass(frozen=True)
@@ -212,29 +220,48 @@ class DesignSpace:
         x = self.design_matrix(designs)
         return {n: x[:, i] for i, n in enumerate(self.variable_names)}
 
-    def model(self, designs: Any = None, his: bool = True) -> CoupledModel:
+    def model(self, designs: Any = None, his: bool = True, inputs: Inputs | None = None) -> CoupledModel:
         """The coupled model for a batch of designs (batch shape ``(n,)``).
 
         ``designs=None`` is the baseline design; ``his=False`` the reference vehicle. A design
         that is not finite or breaks a parameter's rule raises :class:`ConfigError` naming
-        the row and the rule.
+        the row and the rule. ``inputs`` vary what the file fixes, per design (``(n,)``
+        arrays, SI, checked by the caller; docs/model.md §18): ``"vehicle.<field>"`` a field of
+        the car, a ``[his]`` or layout parameter's name its value, ``"temperature_offset"`` [K]
+        a shift of the problem's temperature.
         """
         if not his:
             return CoupledModel(self.vehicle, None)
         x = self.design_matrix(self.baseline if designs is None else designs)
         require_admissible(self, x)  # never build a model from a rule-breaking design
         params = {n: x[:, i] for i, n in enumerate(self.variable_names)}
-        return CoupledModel(self.vehicle, self.hydraulic_system(params))
+        given = dict(inputs or {})
+        offset = given.pop(TEMPERATURE_OFFSET, None)
+        cars = {k.removeprefix(VEHICLE_PREFIX): v for k, v in given.items() if k.startswith(VEHICLE_PREFIX)}
+        params |= {k: v for k, v in given.items() if not k.startswith(VEHICLE_PREFIX)}
+        temperature = None if offset is None else self.temperature + np.asarray(offset, dtype=float)
+        if cars and (self.spec.his.charge is not None or (self.spec.payload is not None and self.spec.payload.active)):
+            raise ValueError("a batch of cars with a charged HIS or a payload is evaluated one car at a time (a problem per car)")
+        vehicle = VehicleBatch.of(self.vehicle, cars) if cars else self.vehicle
+        return CoupledModel(vehicle, self.hydraulic_system(params, temperature))
 
-    def hydraulic_system(self, overrides: Mapping[str, Any]) -> HydraulicSystem:
+    @property
+    def temperature(self) -> float:
+        """[K] The problem's operating temperature: ``temperature``, else the reference one the
+        ``[his]`` values are given at."""
+        return self.spec.temperature if self.spec.temperature is not None else reference_temperature(self.spec.his)
+
+    def hydraulic_system(self, overrides: Mapping[str, Any], temperature: np.ndarray | None = None) -> HydraulicSystem:
         """The HIS with design variables set from ``overrides`` (numpy arrays of one batch
         shape, or CasADi expressions for the refinement), the rest at the ``[his]`` values.
-        The fluid and the gas are at the problem's ``temperature``. With a ``[payload]`` the
+        The fluid and the gas are at the problem's ``temperature`` (or at ``temperature`` [K],
+        one per design). With a ``[payload]`` the
         accumulators are linearised at the laden static pressures
         (:func:`hisopt.coupled.payload.static_pressure_rise`); a charged HIS (``[his.charge]``)
         at its static pressures at that temperature and payload
         (:func:`hisopt.coupled.operating_point.charged_static_pressure`)."""
-        his = HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides, self.spec.temperature))
+        at = self.spec.temperature if temperature is None else temperature
+        his = HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides, at))
         payload = self.spec.payload
         if self.spec.his.charge is not None:
             return HydraulicSystem(his.network, his.params, static_pressure=charged_static_pressure(self.spec.vehicle, payload, his))

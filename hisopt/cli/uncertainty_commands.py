@@ -1,0 +1,136 @@
+"""Uncertainty studies: ``sensitivity`` (Sobol indices) and ``tolerance`` (Monte Carlo of one
+design); :func:`register` adds them to the app (docs/model.md §18)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hisopt.cli.options import SetOpt, load
+from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
+
+DesignOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--design",
+        metavar="baseline|RUN_DIR",
+        help="the design: 'baseline' (the [his] values, with --set) or a run directory (its knee design)",
+    ),
+]
+SeedOpt = Annotated[int, typer.Option("--seed", parser=integer, metavar="N", help="seed of the sample set (same seed, same numbers)")]
+
+
+def _design(p, design: str):  # noqa: ANN001, ANN202 - a Problem and its design row
+    from hisopt.studies.envelope import knee_design
+
+    if design == "baseline":
+        return p.baseline[None, :], "the baseline design"
+    path = Path(design)
+    if not path.is_dir():
+        from hisopt.errors import ConfigError
+
+        raise ConfigError(f"expected 'baseline' or a run directory; {design!r} is neither", key="--design")
+    return knee_design(p, path), f"the knee of {path}"
+
+
+def _print(shown, title: str) -> None:  # noqa: ANN001 - a DataFrame of strings
+    """A table of strings, text columns left and numbers right."""
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    table = Table(title=Text(title))
+    for col in shown.columns:
+        table.add_column(Text(col), justify="left" if col in ("quantity", "input", "distribution", "constraint") else "right")
+    for row in shown.itertuples(index=False):
+        table.add_row(*(Text(str(v)) for v in row))
+    Console(width=200).print(table)
+
+
+def sensitivity_cmd(
+    problem: ProblemArg,
+    design: DesignOpt = None,
+    samples: Annotated[
+        int, typer.Option("--samples", parser=integer, metavar="N", help="base samples N of Saltelli's design (N (D + 2) evaluations; a power of 2)")
+    ] = 1024,
+    seed: SeedOpt = 0,
+    out: Annotated[Path, typer.Option("--out", help="output directory for sensitivity.csv and sensitivity.html")] = Path("."),
+    set_: SetOpt = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Sobol indices: which inputs drive each quantity.
+
+    First- and total-order Sobol indices with bootstrap 95 % intervals (SALib) of every
+    objective and constraint: with --design, with respect to the [[uncertain]] inputs around
+    that design; without, over the whole box, with respect to the design variables and the
+    uncertain inputs. Writes OUT/sensitivity.csv and OUT/sensitivity.html.
+    """
+    from hisopt.errors import ConfigError
+    from hisopt.evaluation.parallel import open_backend
+    from hisopt.io import ensure_writable_dir
+    from hisopt.report.uncertainty import sensitivity_shown, write_sensitivity
+    from hisopt.studies.uncertainty import sensitivity
+
+    if samples < 2 or samples & (samples - 1):
+        raise ConfigError(f"expected a power of 2 of at least 2 (Sobol sequences balance at powers of 2); got {samples}", key="--samples")
+    p = load(problem, set_)
+    if not p.spec.uncertain and design is not None:
+        raise ConfigError("the problem has no [[uncertain]] inputs, so nothing varies around a design; add them (docs/model.md §18)", file=str(problem))
+    x, where = (None, "over the whole box of the design variables") if design is None else _design(p, design)
+    ensure_writable_dir(out)
+    with open_backend(workers, scheduler) as backend:
+        result = sensitivity(p, x, n_base=samples, seed=seed, backend=backend)
+    files = write_sensitivity(result, out, f"{p.name}: which inputs matter", f"around {where}" if x is not None else where)
+    _print(sensitivity_shown(result.indices), f"{p.name}: Sobol indices {'around ' + where if x is not None else where} (95 % half-widths)")
+    if result.dropped:
+        typer.echo(f"{result.dropped} sample blocks dropped where the model failed")
+    typer.echo(f"wrote {' and '.join(map(str, files))}")
+
+
+def tolerance_cmd(
+    problem: ProblemArg,
+    design: DesignOpt = "baseline",
+    samples: Annotated[int, typer.Option("--samples", parser=integer, metavar="N", help="Monte Carlo samples")] = 100_000,
+    seed: SeedOpt = 0,
+    out: Annotated[Path, typer.Option("--out", help="output directory for tolerance.csv, violations.csv, samples.parquet and tolerance.html")] = Path("."),
+    set_: SetOpt = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Monte Carlo of one design under its tolerances.
+
+    Each objective's and constraint's mean, standard deviation and percentiles over the
+    samples, and each constraint's probability of violation with its 95 % interval (a sample
+    the model cannot evaluate counts as a violation). Writes OUT/tolerance.csv,
+    OUT/violations.csv, OUT/samples.parquet and OUT/tolerance.html.
+    """
+    from hisopt.errors import ConfigError
+    from hisopt.evaluation.parallel import open_backend
+    from hisopt.io import ensure_writable_dir
+    from hisopt.report.uncertainty import tolerance_shown, violations_shown, write_tolerance
+    from hisopt.studies.uncertainty import tolerance
+
+    if samples < 2:
+        raise ConfigError(f"expected at least 2 samples; got {samples}", key="--samples")
+    p = load(problem, set_)
+    if not p.spec.uncertain:
+        raise ConfigError("the problem has no [[uncertain]] inputs; add them (docs/model.md §18)", file=str(problem))
+    x, where = _design(p, design or "baseline")
+    ensure_writable_dir(out)
+    with open_backend(workers, scheduler) as backend:
+        result = tolerance(p, x, n_samples=samples, seed=seed, backend=backend)
+    limits = {c.name: c.limit for c in p.spec.constraints}
+    files = write_tolerance(result, out, f"{p.name}: tolerance study", where, limits)
+    _print(tolerance_shown(result.summary), f"{p.name}: {where} over {samples} samples (seed {seed}), mean ± 95 % half-width")
+    if len(result.violations):
+        _print(violations_shown(result.violations), "probability of violating each constraint")
+    typer.echo(f"wrote {', '.join(map(str, files))}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add this module's commands to ``app``, in the order ``hisopt --help`` lists them."""
+    app.command("sensitivity")(sensitivity_cmd)
+    app.command("tolerance")(tolerance_cmd)

@@ -1,0 +1,114 @@
+"""The uncertainty studies as files (docs/model.md §18): ``hisopt sensitivity`` writes
+``sensitivity.csv`` and ``sensitivity.html``, ``hisopt tolerance`` writes ``tolerance.csv``,
+``violations.csv``, ``samples.parquet`` and ``tolerance.html``. Tables in engineering units,
+CSVs in SI with a units row."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pandas as pd
+
+from hisopt.io import atomic_write_text, write_csv
+from hisopt.plotting.uncertainty import sensitivity_figure, tolerance_figure
+from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.units import format_quantity
+
+if TYPE_CHECKING:
+    from hisopt.studies.uncertainty import SensitivityResult, ToleranceResult
+
+SENSITIVITY_FILES = ("sensitivity.csv", "sensitivity.html")
+TOLERANCE_FILES = ("tolerance.csv", "violations.csv", "samples.parquet", "tolerance.html")
+
+
+def _page(title: str, meta: str, body: str) -> str:
+    return (
+        f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(title)}</title><style>{REPORT_CSS}</style></head>'
+        f'<body><h1>{html.escape(title)}</h1><p class="meta">{meta}</p>{body}</body></html>'
+    )
+
+
+def _figure(fig) -> str:
+    return '<div class="figure">' + fig.to_html(include_plotlyjs=True, full_html=False) + "</div>"
+
+
+def sensitivity_shown(indices: pd.DataFrame) -> pd.DataFrame:
+    """The indices for reading: one row per (quantity, input), 3 decimals, ``±`` half-widths."""
+    return pd.DataFrame(
+        {
+            "quantity": indices["quantity"],
+            "input": indices["input"],
+            "distribution": indices["distribution"],
+            "S1 [-]": [f"{s:.3f} ± {c:.3f}" for s, c in zip(indices["S1"], indices["S1_conf"], strict=True)],
+            "ST [-]": [f"{s:.3f} ± {c:.3f}" for s, c in zip(indices["ST"], indices["ST_conf"], strict=True)],
+        }
+    )
+
+
+def write_sensitivity(result: SensitivityResult, out: Path, title: str, where: str) -> list[Path]:
+    """``sensitivity.csv`` (SI, units row) and ``sensitivity.html`` (bars and the table) in ``out``."""
+    frame = result.indices
+    units = {"S1": "-", "S1_conf": "-", "ST": "-", "ST_conf": "-", "quantity": "", "unit": "", "input": "", "input_unit": "", "distribution": ""}
+    csv = write_csv(frame, out / SENSITIVITY_FILES[0], units)
+    meta = html.escape(f"{where}; {result.evaluations} model evaluations (SALib Saltelli sample, bootstrap 95 % half-widths)")
+    if result.dropped:
+        meta += html.escape(f"; {result.dropped} sample blocks dropped where the model failed")
+    body = _figure(sensitivity_figure(frame, "Sobol indices: total (ST) and first order (S1)"))
+    body += html_table(sensitivity_shown(frame), "Sobol indices", text_columns=("quantity", "input", "distribution"))
+    page = atomic_write_text(out / SENSITIVITY_FILES[1], _page(title, meta, body))
+    return [csv, page]
+
+
+def tolerance_shown(summary: pd.DataFrame) -> pd.DataFrame:
+    """The Monte Carlo summary for reading: each quantity's statistics in its engineering unit."""
+    rows = []
+    for r in summary.to_dict("records"):
+        unit = r["unit"]
+        fmt = lambda v, unit=unit: format_quantity(v, unit)  # noqa: E731
+        rows.append(
+            {
+                "quantity": r["quantity"],
+                "nominal": fmt(r["nominal"]),
+                "mean": f"{fmt(r['mean'])} ± {format_quantity(r['mean_half_width'], unit)}",
+                "sd": fmt(r["sd"]),
+                "p5": fmt(r["p5"]),
+                "p50": fmt(r["p50"]),
+                "p95": fmt(r["p95"]),
+                "failed": str(r["failed"]),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def violations_shown(table: pd.DataFrame) -> pd.DataFrame:
+    """Each constraint's probability of violation with its interval, for reading."""
+    return pd.DataFrame(
+        {
+            "constraint": table["constraint"],
+            "limit": [format_quantity(v, u) for v, u in zip(table["limit"], table["unit"], strict=True)],
+            "P(violated)": [f"{p:.4g}" for p in table["probability"]],
+            "95 % interval": [f"{lo:.4g} to {hi:.4g}" for lo, hi in zip(table["low"], table["high"], strict=True)],
+        }
+    )
+
+
+def write_tolerance(result: ToleranceResult, out: Path, title: str, where: str, limits: dict[str, float]) -> list[Path]:
+    """``tolerance.csv``, ``violations.csv`` (SI, units rows), ``samples.parquet`` (every
+    sample's inputs and quantities, SI) and ``tolerance.html`` in ``out``."""
+    summary = result.summary
+    stat_units = {c: "" for c in summary.columns}
+    csv = write_csv(summary, out / TOLERANCE_FILES[0], stat_units | {"failed": "-", "samples": "-"})
+    viol = write_csv(result.violations, out / TOLERANCE_FILES[1], {c: "-" for c in result.violations.columns} | {"constraint": "", "unit": "", "limit": ""})
+    samples = out / TOLERANCE_FILES[2]
+    result.values.to_parquet(samples, index=False)
+    quantities = list(summary["quantity"])
+    units = dict(zip(summary["quantity"], summary["unit"], strict=True))
+    meta = html.escape(f"{where}; {len(result.values)} Monte Carlo samples, seed {result.seed}; statistics over the samples the model could evaluate")
+    body = html_table(tolerance_shown(summary), "Each quantity over the samples (mean ± its 95 % half-width)", text_columns=("quantity",))
+    if len(result.violations):
+        body += html_table(violations_shown(result.violations), "Probability of violating each constraint (Wilson 95 % interval)", text_columns=("constraint",))
+    body += _figure(tolerance_figure(result.values, quantities, units, limits, "Spread of each quantity (red: the constraint's limit)"))
+    page = atomic_write_text(out / TOLERANCE_FILES[3], _page(title, meta, body))
+    return [csv, viol, samples, page]

@@ -1,0 +1,252 @@
+"""Which inputs matter and how a design spreads: Sobol indices and Monte Carlo tolerance
+studies over the ``[[uncertain]]`` inputs (docs/model.md §18).
+
+- :func:`sensitivity`: first- and total-order Sobol indices of every quantity with respect
+  to the uncertain inputs around one design, or to the design variables and the uncertain
+  inputs over the whole box. Saltelli's sample and the estimators with their bootstrap
+  intervals are SALib's (:func:`sobol_indices`, which takes any function, so an analytical
+  one checks the same path).
+- :func:`tolerance`: one design at ``N`` Monte Carlo samples: each quantity's mean, standard
+  deviation and percentiles, and each constraint's probability of violation with its Wilson
+  interval.
+
+Sample sets come from a seed (:func:`monte_carlo_variates`), so the same seed gives the same
+numbers on one process or on Dask (within rounding, 1e-12).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from hisopt.evaluation.uncertain import UncertainEvaluator
+from hisopt.metrics import METRICS
+from hisopt.robust import quantity_of
+from hisopt.specification.uncertain import resolve_uncertain
+
+if TYPE_CHECKING:
+    from hisopt.evaluation.parallel import Backend
+    from hisopt.specification.design_space import DesignSpace
+
+PERCENTILES = (1.0, 5.0, 50.0, 95.0, 99.0)
+CONFIDENCE = 0.95
+
+
+def monte_carlo_variates(n_samples: int, n_inputs: int, seed: int) -> np.ndarray:
+    """[-] ``(N, K)`` independent standard uniform variates in (0, 1) from ``seed`` (numpy's
+    PCG64): the fixed sample set every design meets."""
+    return np.random.default_rng(seed).random((n_samples, n_inputs))
+
+
+def quantity_unit(name: str) -> str:
+    """[-] SI unit of a quantity column (``"sigma_aw@city"`` as ``sigma_aw``)."""
+    return METRICS[quantity_of(name)].unit
+
+
+# --- tolerance: Monte Carlo of one design --------------------------------------------------------
+@dataclass(frozen=True)
+class ToleranceResult:
+    """A design's quantities over the sample set.
+
+    Attributes
+    ----------
+    values : pd.DataFrame
+        [quantity units] one row per sample: the inputs' values, then every quantity (NaN where
+        the model failed or a drawn input is impossible), ``valid``
+    summary : pd.DataFrame
+        [quantity units] per quantity: nominal, mean, sd, mean's half-width, percentiles
+    violations : pd.DataFrame
+        [-] per constraint: limit, probability of violation and its interval
+    seed : int
+        [-] the sample set's seed
+    """
+
+    values: pd.DataFrame
+    summary: pd.DataFrame
+    violations: pd.DataFrame
+    seed: int
+
+
+def tolerance(space: DesignSpace, design: np.ndarray, n_samples: int = 100_000, seed: int = 0, backend: Backend | None = None) -> ToleranceResult:
+    """Monte Carlo of ``design`` (one row) over the problem's uncertain inputs.
+
+    A sample where the model fails (unstable, or an input drawn beyond its rule) counts as a
+    violation of every constraint: what cannot be evaluated is not shown to hold.
+    """
+    evaluator = UncertainEvaluator(space)
+    if not evaluator.inputs:
+        raise ValueError("the problem has no [[uncertain]] inputs; add one (docs/model.md §18)")
+    x = space.design_matrix(design)[:1]
+    u = monte_carlo_variates(n_samples, len(evaluator.inputs), seed)
+    got = evaluator(x, u, backend)
+    inputs = evaluator.values(np.repeat(x, len(u), axis=0), u)
+    nominal = {k: float(v[0]) for k, v in space_nominal(space, x).items()}
+    frame = pd.DataFrame(inputs | {k: got[k][0] for k in evaluator.names} | {"valid": got["valid"][0]})
+    return ToleranceResult(frame, summarise(frame, evaluator.names, nominal), violations(space, frame), seed)
+
+
+def space_nominal(space: DesignSpace, x: np.ndarray) -> dict[str, np.ndarray]:
+    """The quantities of designs ``x`` with every input at its nominal value."""
+    from hisopt.evaluation.scenarios import evaluator_for
+
+    return evaluator_for(space)(x)
+
+
+def summarise(frame: pd.DataFrame, names: Sequence[str], nominal: Mapping[str, float]) -> pd.DataFrame:
+    """Per quantity over the valid samples: nominal, mean (and its half-width at
+    :data:`CONFIDENCE`), sd, :data:`PERCENTILES`, how many samples failed."""
+    rows = []
+    z = stats.norm.ppf(0.5 + CONFIDENCE / 2)
+    for name in names:
+        v = frame[name].to_numpy()
+        ok = v[np.isfinite(v)]
+        sd = float(np.std(ok, ddof=1)) if ok.size > 1 else np.nan
+        row = {"quantity": name, "unit": quantity_unit(name), "nominal": nominal.get(name, np.nan), "mean": float(np.mean(ok)) if ok.size else np.nan}
+        row |= {"mean_half_width": z * sd / np.sqrt(max(ok.size, 1)), "sd": sd}
+        row |= {f"p{p:g}": float(np.percentile(ok, p)) if ok.size else np.nan for p in PERCENTILES}
+        row |= {"failed": int(v.size - ok.size), "samples": int(v.size)}
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def violations(space: DesignSpace, frame: pd.DataFrame) -> pd.DataFrame:
+    """Per constraint: ``P(quantity > limit)`` over the samples (a failed sample violates)
+    with its Wilson score interval at :data:`CONFIDENCE` (scipy's ``binomtest``)."""
+    rows = []
+    for c in space.spec.constraints:
+        v = frame[c.name].to_numpy()
+        with np.errstate(invalid="ignore"):
+            hits = int(np.sum(~(v <= c.limit)))
+        ci = stats.binomtest(hits, len(v)).proportion_ci(CONFIDENCE, method="wilson")
+        rows.append(
+            {
+                "constraint": c.name,
+                "unit": quantity_unit(c.name),
+                "limit": c.limit,
+                "probability": hits / len(v),
+                "low": ci.low,
+                "high": ci.high,
+                "samples": len(v),
+            }
+        )
+    return pd.DataFrame(rows, columns=["constraint", "unit", "limit", "probability", "low", "high", "samples"])
+
+
+# --- sensitivity: Sobol indices ------------------------------------------------------------------
+def sobol_indices(
+    names: Sequence[str],
+    model: Callable[[np.ndarray], Mapping[str, np.ndarray]],
+    n_base: int = 1024,
+    seed: int = 0,
+    resamples: int = 1000,
+) -> tuple[pd.DataFrame, int]:
+    """First- and total-order Sobol indices of every output of ``model`` with respect to
+    factors ``names``, each standard uniform on (0, 1) (``model`` maps them to its inputs).
+
+    SALib's Saltelli sample (Sobol sequence, ``n_base (D + 2)`` rows, no second order) and its
+    estimators (Saltelli 2010, Jansen) with bootstrap intervals at :data:`CONFIDENCE`. A
+    block of ``D + 2`` rows with a NaN output is dropped for that output (SALib would read
+    NaN as zero variance); how many were dropped is returned as the second value.
+
+    Returns
+    -------
+    indices : pd.DataFrame
+        [-] one row per (output, factor): ``S1``, ``S1_conf``, ``ST``, ``ST_conf`` (half-widths)
+    dropped : int
+        [-] blocks dropped for any output
+    """
+    from SALib.analyze import sobol as sobol_analyze
+    from SALib.sample import sobol as sobol_sample
+
+    d = len(names)
+    problem = {"num_vars": d, "names": list(names), "bounds": [[0.0, 1.0]] * d}
+    u = sobol_sample.sample(problem, n_base, calc_second_order=False, scramble=True, seed=seed)
+    outputs = model(np.asarray(u))
+    rows, dropped = [], 0
+    for out_name, y in outputs.items():
+        blocks = np.asarray(y, dtype=float).reshape(-1, d + 2)
+        keep = np.all(np.isfinite(blocks), axis=1)
+        dropped = max(dropped, int(np.sum(~keep)))
+        if keep.sum() < 2:
+            rows += [{"quantity": out_name, "input": n, "S1": np.nan, "S1_conf": np.nan, "ST": np.nan, "ST_conf": np.nan} for n in names]
+            continue
+        si = sobol_analyze.analyze(problem, blocks[keep].ravel(), calc_second_order=False, num_resamples=resamples, conf_level=CONFIDENCE, seed=seed)
+        for j, n in enumerate(names):
+            rows.append({"quantity": out_name, "input": n, "S1": si["S1"][j], "S1_conf": si["S1_conf"][j], "ST": si["ST"][j], "ST_conf": si["ST_conf"][j]})
+    return pd.DataFrame(rows), dropped
+
+
+@dataclass(frozen=True)
+class SensitivityResult:
+    """Sobol indices of a problem's quantities.
+
+    Attributes
+    ----------
+    indices : pd.DataFrame
+        [-] per (quantity, input): S1, S1_conf, ST, ST_conf, with the units and what each input is
+    design : np.ndarray | None
+        [SI] the design the study is around (None: over the whole box)
+    evaluations, dropped : int
+        [-] model evaluations, blocks dropped (a failed model)
+    """
+
+    indices: pd.DataFrame
+    design: np.ndarray | None
+    evaluations: int
+    dropped: int
+
+
+def sensitivity(
+    space: DesignSpace, design: np.ndarray | None = None, n_base: int = 1024, seed: int = 0, resamples: int = 1000, backend: Backend | None = None
+) -> SensitivityResult:
+    """Sobol indices of every objective and constraint of ``space``.
+
+    With ``design`` (one row): with respect to the uncertain inputs around it. Without: over
+    the whole box, with respect to the design variables (uniform between their bounds; a
+    choice variable uniform over its list) and the uncertain inputs.
+    """
+    evaluator = UncertainEvaluator(space)
+    uncertain = list(evaluator.inputs)
+    variables = [] if design is not None else list(space.variable_names)
+    factors = variables + [f"{u.name} (tolerance)" if u.name in variables else u.name for u in uncertain]
+    if not factors:
+        raise ValueError("nothing varies: the problem has no [[uncertain]] inputs and a design was given")
+    fixed = None if design is None else space.design_matrix(design)[:1]
+    units = space.variable_units
+
+    def model(u: np.ndarray) -> dict[str, np.ndarray]:
+        x = np.repeat(fixed, len(u), axis=0) if fixed is not None else box_designs(space, u[:, : len(variables)])
+        if not uncertain:
+            from hisopt.evaluation.scenarios import evaluator_for
+
+            got = evaluator_for(space)(x)
+        else:
+            got = evaluator.paired(x, u[:, len(variables) :], backend)
+        return {k: got[k] for k in evaluator.names}
+
+    indices, dropped = sobol_indices(factors, model, n_base, seed, resamples)
+    described = {f: ("uniform over its bounds", units.get(f, "")) for f in variables}
+    described |= {factor: (u.text, u.unit) for factor, u in zip(factors[len(variables) :], uncertain, strict=True)}
+    indices.insert(1, "unit", [quantity_unit(q) for q in indices["quantity"]])
+    indices["input_unit"] = [described[f][1] for f in indices["input"]]
+    indices["distribution"] = [described[f][0] for f in indices["input"]]
+    return SensitivityResult(indices, fixed, n_base * (len(factors) + 2), dropped)
+
+
+def box_designs(space: DesignSpace, u: np.ndarray) -> np.ndarray:
+    """[SI] Designs from standard uniform variates ``(M, n_var)``: each variable uniform
+    between its bounds, a choice variable uniform over its listed values."""
+    x = space.lower + u * (space.upper - space.lower)
+    for j, listed in space.choices.items():
+        x[:, j] = listed[np.minimum((u[:, j] * len(listed)).astype(int), len(listed) - 1)]
+    return x
+
+
+def inputs_of(space: DesignSpace) -> list[str]:
+    """[-] The uncertain inputs' names of ``space``, in file order."""
+    return [u.name for u in resolve_uncertain(space.spec)]
