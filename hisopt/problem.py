@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 
 from hisopt.evaluation.evaluate import Evaluator, results_frame
-from hisopt.evaluation.scenarios import ScenarioEvaluator, evaluator_for
+from hisopt.evaluation.robust_evaluator import RobustEvaluator, evaluator_for
+from hisopt.evaluation.scenarios import ScenarioEvaluator
 from hisopt.specification.config import parse_problem, read_problem_file
 from hisopt.specification.design_space import DesignSpace
 from hisopt.specification.validation import design_matrix, flag_summary
@@ -26,9 +27,11 @@ if TYPE_CHECKING:
 class Problem(DesignSpace):
     """A design problem with its (cached) evaluator: vehicle, HIS, variables, road, objectives."""
 
-    def evaluator(self) -> Evaluator | ScenarioEvaluator:
+    def evaluator(self) -> Evaluator | ScenarioEvaluator | RobustEvaluator:
         """The (cached) batched evaluator of this problem's objectives and constraints (a
-        :class:`~hisopt.evaluation.scenarios.ScenarioEvaluator` for a problem with scenarios)."""
+        :class:`~hisopt.evaluation.scenarios.ScenarioEvaluator` for a problem with scenarios, a
+        :class:`~hisopt.evaluation.robust_evaluator.RobustEvaluator` for one whose columns are
+        statistics over ``[[uncertain]]`` samples)."""
         return evaluator_for(self)
 
     def results_frame(self, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:

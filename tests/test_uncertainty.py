@@ -12,11 +12,11 @@ from scipy import stats
 
 from hisopt.errors import ConfigError
 from hisopt.evaluation.parallel import open_backend
-from hisopt.evaluation.uncertain import UncertainEvaluator, with_inputs
+from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates, with_inputs
 from hisopt.problem import Problem, problem_from_dict
 from hisopt.specification.uncertain import resolve_uncertain
 from hisopt.standards.iso_8608_2016 import class_gd_n0
-from hisopt.studies.uncertainty import monte_carlo_variates, sensitivity, sobol_indices, tolerance
+from hisopt.studies.uncertainty import sensitivity, sobol_indices, tolerance
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 

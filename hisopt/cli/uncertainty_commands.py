@@ -111,7 +111,7 @@ def tolerance_cmd(
     from hisopt.evaluation.parallel import open_backend
     from hisopt.io import ensure_writable_dir
     from hisopt.report.uncertainty import tolerance_shown, violations_shown, write_tolerance
-    from hisopt.studies.uncertainty import tolerance
+    from hisopt.studies.uncertainty import tolerance, uncertain_inputs
 
     if samples < 2:
         raise ConfigError(f"expected at least 2 samples; got {samples}", key="--samples")
@@ -123,7 +123,8 @@ def tolerance_cmd(
     with open_backend(workers, scheduler) as backend:
         result = tolerance(p, x, n_samples=samples, seed=seed, backend=backend)
     limits = {c.name: c.limit for c in p.spec.constraints}
-    files = write_tolerance(result, out, f"{p.name}: tolerance study", where, limits)
+    inputs = uncertain_inputs(p)
+    files = write_tolerance(result, out, f"{p.name}: tolerance study", where, limits, inputs)
     _print(tolerance_shown(result.summary), f"{p.name}: {where} over {samples} samples (seed {seed}), mean ± 95 % half-width")
     if len(result.violations):
         _print(violations_shown(result.violations), "probability of violating each constraint")

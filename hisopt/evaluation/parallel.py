@@ -132,7 +132,7 @@ def chunks(n: int, size: int) -> list[slice]:
 
 
 def _evaluate_chunk(x: np.ndarray, problem: DesignSpace) -> dict[str, np.ndarray]:
-    from hisopt.evaluation.scenarios import evaluator_for
+    from hisopt.evaluation.robust_evaluator import evaluator_for
 
     return evaluator_for(problem)(x)
 

@@ -76,10 +76,12 @@ class ScenarioEvaluator:
         return out
 
 
-def evaluator_for(space: DesignSpace) -> Evaluator | ScenarioEvaluator:
-    """The evaluator of ``space`` (a :class:`ScenarioEvaluator` for a problem with
-    ``[[scenarios]]``), built once and kept with it (its cache survives as long as the problem
-    object; a pickled problem builds its own)."""
-    if "evaluator" not in space._cache:
-        space._cache["evaluator"] = ScenarioEvaluator(space) if space.spec.scenarios else Evaluator(space)
-    return space._cache["evaluator"]
+def case_evaluator_for(space: DesignSpace) -> Evaluator | ScenarioEvaluator:
+    """The evaluator of ``space`` at its inputs' nominal values (a :class:`ScenarioEvaluator`
+    for a problem with ``[[scenarios]]``), built once and kept with it (its cache survives as
+    long as the problem object; a pickled problem builds its own). A problem's own evaluator,
+    which may take statistics over ``[[uncertain]]`` samples, is
+    :func:`hisopt.evaluation.robust_evaluator.evaluator_for`'s."""
+    if "case_evaluator" not in space._cache:
+        space._cache["case_evaluator"] = ScenarioEvaluator(space) if space.spec.scenarios else Evaluator(space)
+    return space._cache["case_evaluator"]

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from hisopt.evaluation.parallel import Backend, chunks
-from hisopt.evaluation.scenarios import evaluator_for
+from hisopt.evaluation.scenarios import case_evaluator_for
 from hisopt.metrics import METRICS, ROAD_POWER
 from hisopt.robust import quantity_of
 from hisopt.specification.design_space import TEMPERATURE_OFFSET, VEHICLE_PREFIX
@@ -44,6 +44,12 @@ output, road delay or coherence reads (the roll gradient takes each car's ``m_s`
 
 ROWS_PER_TASK = 8192
 """(design, sample) rows per task of a parallel backend."""
+
+
+def monte_carlo_variates(n_samples: int, n_inputs: int, seed: int) -> np.ndarray:
+    """[-] ``(N, K)`` independent standard uniform variates in (0, 1) from ``seed`` (numpy's
+    PCG64): the fixed sample set every design meets."""
+    return np.random.default_rng(seed).random((n_samples, n_inputs))
 
 
 def route(item: Uncertain, space: DesignSpace) -> Route:
@@ -96,7 +102,7 @@ class UncertainEvaluator:
         self.routes = tuple(route(u, space) for u in self.inputs)
         if space.spec.scenarios and any(r in ("road",) or u.name == ROAD_SPEED for u, r in zip(self.inputs, self.routes, strict=True)):
             raise ValueError("a problem with [[scenarios]] has a road per load case; vary the road in a single-case problem")
-        self.names = evaluator_for(space).names
+        self.names = case_evaluator_for(space).names
         self.nominal = {u.name: nominal_value(u.name, space.spec) for u in self.inputs}
         self.fixed_names = tuple(u.name for u, r in zip(self.inputs, self.routes, strict=True) if r == "problem")
 
@@ -163,7 +169,7 @@ class UncertainEvaluator:
 def _evaluate_rows(rows: Rows, space: DesignSpace) -> dict[str, np.ndarray]:
     """Quantities of ``rows``: one problem per distinct value of their "problem" inputs."""
     fixed_names = rows.fixed_names
-    names = evaluator_for(space).names
+    names = case_evaluator_for(space).names
     out = {k: np.full(len(rows.x), np.nan) for k in names}
     valid = np.zeros(len(rows.x), dtype=bool)
     if fixed_names:
@@ -176,7 +182,7 @@ def _evaluate_rows(rows: Rows, space: DesignSpace) -> dict[str, np.ndarray]:
         if take.size == 0:
             continue
         sub = with_inputs(space, dict(zip(fixed_names, map(float, values), strict=True)))
-        got = evaluator_for(sub)(rows.x[take], inputs={k: v[take] for k, v in rows.batched.items()})
+        got = case_evaluator_for(sub)(rows.x[take], inputs={k: v[take] for k, v in rows.batched.items()})
         for k in names:
             out[k][take] = got[k] * rows.road[take] ** ROAD_POWER[METRICS[quantity_of(k)].kind]
         valid[take] = got["valid"]

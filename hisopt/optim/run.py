@@ -228,13 +228,26 @@ def optimize(
         info = run.info
         info["settings"] = asdict(settings) | {
             "objectives": list(problem.objective_names),
-            "constraints": [{"name": c.name, "limit": c.limit} | ({"scenarios": c.scenarios} if c.scenarios else {}) for c in problem.spec.constraints],
+            "constraints": [
+                {"name": c.name, "limit": c.limit}
+                | ({"scenarios": c.scenarios} if c.scenarios else {})
+                | ({"probability": c.probability} if c.probability else {})
+                for c in problem.spec.constraints
+            ],
             "hypervolume_reference_log10": reference.tolist(),
         }
         if tolerances is not None:
             info["settings"]["epsilon"] = tolerances.record()
         if problem.spec.scenarios:  # load cases (docs/model.md §14)
             info["settings"] |= {"scenarios": list(problem.scenario_names), "aggregate": problem.spec.robust.aggregate}
+        if problem.spec.uncertain:  # statistics over common random samples (docs/model.md §18.4)
+            robust = problem.spec.robust
+            info["settings"]["uncertain"] = {
+                "inputs": [u.input for u in problem.spec.uncertain],
+                "statistic": robust.statistic,
+                "samples": robust.samples,
+                "seed": robust.seed,
+            }
         info["versions"] = rundir.versions()
     return _drive(engine, run, progress)
 

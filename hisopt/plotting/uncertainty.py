@@ -59,7 +59,9 @@ def sensitivity_figure(indices: pd.DataFrame, title: str) -> go.Figure:
     return fig
 
 
-def tolerance_figure(values: pd.DataFrame, quantities: Sequence[str], units: Mapping[str, str], limits: Mapping[str, float], title: str) -> go.Figure:
+def tolerance_figure(
+    values: pd.DataFrame, quantities: Sequence[str], units: Mapping[str, str], limits: Mapping[str, float], nominal: Mapping[str, float], title: str
+) -> go.Figure:
     """A histogram per quantity over the Monte Carlo samples, in engineering units, with the
     nominal design's value (dashed) and any constraint's limit (red).
 
@@ -73,6 +75,8 @@ def tolerance_figure(values: pd.DataFrame, quantities: Sequence[str], units: Map
         SI unit of each
     limits
         [SI] constraint limits by quantity
+    nominal
+        [SI] each quantity with every input at its nominal value
     title
         the figure's title
     """
@@ -88,6 +92,8 @@ def tolerance_figure(values: pd.DataFrame, quantities: Sequence[str], units: Map
         show = display_for(units.get(q, ""), v)
         row, col = k // cols + 1, k % cols + 1
         fig.add_trace(go.Histogram(x=show.values(v), nbinsx=60, marker_color=COLORS[0], showlegend=False, name=q), row=row, col=col)
+        if np.isfinite(nominal.get(q, np.nan)):
+            fig.add_vline(x=float(show.values(nominal[q])), line_color=COLORS[2], line_dash="dash", line_width=2, row=row, col=col)
         if q in limits:
             fig.add_vline(x=float(show.values(limits[q])), line_color=COLORS[1], line_width=2, row=row, col=col)
         fig.update_xaxes(title_text=show.label(q), row=row, col=col)

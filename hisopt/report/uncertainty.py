@@ -47,6 +47,14 @@ def sensitivity_shown(indices: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def total_indices_shown(indices: pd.DataFrame) -> pd.DataFrame:
+    """Total indices at a glance: one row per input, one column per quantity, ``ST ± half-width``."""
+    cells = indices.assign(cell=[f"{s:.2f} ± {c:.2f}" for s, c in zip(indices["ST"], indices["ST_conf"], strict=True)])
+    table = cells.pivot(index="input", columns="quantity", values="cell")
+    order = list(dict.fromkeys(indices["input"]))
+    return table.loc[order, list(dict.fromkeys(indices["quantity"]))].reset_index()
+
+
 def write_sensitivity(result: SensitivityResult, out: Path, title: str, where: str) -> list[Path]:
     """``sensitivity.csv`` (SI, units row) and ``sensitivity.html`` (bars and the table) in ``out``."""
     frame = result.indices
@@ -56,7 +64,8 @@ def write_sensitivity(result: SensitivityResult, out: Path, title: str, where: s
     if result.dropped:
         meta += html.escape(f"; {result.dropped} sample blocks dropped where the model failed")
     body = _figure(sensitivity_figure(frame, "Sobol indices: total (ST) and first order (S1)"))
-    body += html_table(sensitivity_shown(frame), "Sobol indices", text_columns=("quantity", "input", "distribution"))
+    body += html_table(total_indices_shown(frame), "Total Sobol index ST of each input on each quantity (± 95 % half-width)", text_columns=("input",))
+    body += html_table(sensitivity_shown(frame), "Every index, with the input's distribution", text_columns=("quantity", "input", "distribution"))
     page = atomic_write_text(out / SENSITIVITY_FILES[1], _page(title, meta, body))
     return [csv, page]
 
@@ -94,9 +103,10 @@ def violations_shown(table: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-def write_tolerance(result: ToleranceResult, out: Path, title: str, where: str, limits: dict[str, float]) -> list[Path]:
+def write_tolerance(result: ToleranceResult, out: Path, title: str, where: str, limits: dict[str, float], inputs: pd.DataFrame) -> list[Path]:
     """``tolerance.csv``, ``violations.csv`` (SI, units rows), ``samples.parquet`` (every
-    sample's inputs and quantities, SI) and ``tolerance.html`` in ``out``."""
+    sample's inputs and quantities, SI) and ``tolerance.html`` in ``out``; ``inputs`` lists
+    what varies (``input``, ``distribution``)."""
     summary = result.summary
     stat_units = {c: "" for c in summary.columns}
     csv = write_csv(summary, out / TOLERANCE_FILES[0], stat_units | {"failed": "-", "samples": "-"})
@@ -106,9 +116,13 @@ def write_tolerance(result: ToleranceResult, out: Path, title: str, where: str, 
     quantities = list(summary["quantity"])
     units = dict(zip(summary["quantity"], summary["unit"], strict=True))
     meta = html.escape(f"{where}; {len(result.values)} Monte Carlo samples, seed {result.seed}; statistics over the samples the model could evaluate")
-    body = html_table(tolerance_shown(summary), "Each quantity over the samples (mean ± its 95 % half-width)", text_columns=("quantity",))
+    body = html_table(inputs, "What varies", text_columns=tuple(inputs.columns))
+    body += html_table(tolerance_shown(summary), "Each quantity over the samples (mean ± its 95 % half-width)", text_columns=("quantity",))
     if len(result.violations):
         body += html_table(violations_shown(result.violations), "Probability of violating each constraint (Wilson 95 % interval)", text_columns=("constraint",))
-    body += _figure(tolerance_figure(result.values, quantities, units, limits, "Spread of each quantity (red: the constraint's limit)"))
+    nominal = dict(zip(summary["quantity"], summary["nominal"], strict=True))
+    body += _figure(
+        tolerance_figure(result.values, quantities, units, limits, nominal, "Spread of each quantity (dashed: the nominal design; red: the constraint's limit)")
+    )
     page = atomic_write_text(out / TOLERANCE_FILES[3], _page(title, meta, body))
     return [csv, viol, samples, page]

@@ -134,6 +134,7 @@ class Constraint(_Strict):
     name: str
     limit: float = Field(gt=0)
     scenarios: list[str] | None = Field(None, min_length=1)
+    probability: float | None = Field(None, gt=0, lt=1, description="a chance constraint: P(value > limit) <= probability over the [[uncertain]] samples")
 
     @field_validator("name")
     @classmethod
@@ -166,10 +167,23 @@ class Scenario(_Strict):
 
 
 class Robust(_Strict):
-    """How a scenario problem's objectives combine its scenarios (docs/model.md §14.3)."""
+    """How a scenario problem's objectives combine its scenarios (docs/model.md §14.3), and a
+    problem with ``[[uncertain]]`` inputs its samples (§18.4)."""
 
     aggregate: Literal["worst", "expected", "cvar", "per_scenario"] = "worst"
     alpha: float = Field(0.8, ge=0, lt=1, description="CVaR level: the mean of the worst 1 - alpha of the weight", json_schema_extra=si("-"))
+    statistic: Literal["nominal", "mean", "mean_plus_k_sigma"] = "nominal"
+    k: float = Field(2.0, ge=0, le=10, description="sigmas added to the mean by mean_plus_k_sigma", json_schema_extra=si("-"))
+    samples: int = Field(64, ge=2, le=100_000, description="common random samples of the uncertain inputs every design meets")
+    seed: int = Field(0, ge=0, description="seed of the common random samples")
+
+    @field_validator("k")
+    @classmethod
+    def _k_of_its_statistic(cls, v: float, info: ValidationInfo) -> float:
+        how = info.data.get("statistic", "nominal")
+        if how != "mean_plus_k_sigma":
+            raise ValueError(f'k is read by statistic = "mean_plus_k_sigma" only; expected no k with statistic = "{how}"')
+        return v
 
     @field_validator("alpha")
     @classmethod
@@ -185,6 +199,8 @@ class Robust(_Strict):
         data = handler(self)
         if self.aggregate != "cvar":  # a dump reads back: alpha only where the file may hold it
             data.pop("alpha", None)
+        if self.statistic != "mean_plus_k_sigma":
+            data.pop("k", None)
         return data
 
 
@@ -288,11 +304,21 @@ class ProblemSpec(_Strict):
                     f"constraints: {c.name} is also an objective; in a scenario problem its column is then the objective's "
                     f'aggregate, so expected [robust] aggregate = "worst" and the limit in every scenario, or one role only'
                 )
-        if "robust" in self.model_fields_set and not self.scenarios:  # a [robust] table at all, whatever it holds
+        robust_set = self.robust.model_fields_set
+        if "robust" in self.model_fields_set and not self.scenarios and not (self.uncertain and not robust_set & {"aggregate", "alpha"}):
             raise ValueError(
-                "robust: [robust] combines the results of [[scenarios]] and this problem has none; "
+                "robust: [robust] combines the results of [[scenarios]] (or, with statistic, of [[uncertain]] samples) and this problem has none; "
                 "expected at least one [[scenarios]] table, or no [robust] table"
             )
+        if self.robust.statistic != "nominal" and not self.uncertain:
+            raise ValueError("robust.statistic: a statistic over the samples needs [[uncertain]] inputs to draw them from; add them, or no statistic")
+        for c in self.constraints:
+            if c.probability is not None and not self.uncertain:
+                raise ValueError(
+                    f"constraints: {c.name} has a probability, a chance over [[uncertain]] inputs, and this problem has none; add them, or no probability"
+                )
+            if c.probability is not None and c.name in self.objectives:
+                raise ValueError(f"constraints: {c.name} is an objective too and its column holds one value; expected no probability on it, or not both roles")
         return self
 
     def temperatures(self) -> list[tuple[str, float]]:
@@ -304,8 +330,10 @@ class ProblemSpec(_Strict):
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
         data = handler(self)
-        if not self.scenarios:  # a dump reads back: [robust] only where the file may hold it
+        if not self.scenarios and self.robust.statistic == "nominal":  # a dump reads back: [robust] only where the file may hold it
             data.pop("robust", None)
+        elif not self.scenarios:  # the samples' statistic without load cases to aggregate
+            data["robust"] = {k: v for k, v in data["robust"].items() if k not in ("aggregate", "alpha")}
         return data
 
     @model_validator(mode="after")

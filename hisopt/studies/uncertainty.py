@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from hisopt.evaluation.uncertain import UncertainEvaluator
+from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates
 from hisopt.metrics import METRICS
 from hisopt.robust import quantity_of
 from hisopt.specification.uncertain import resolve_uncertain
@@ -35,12 +35,6 @@ if TYPE_CHECKING:
 
 PERCENTILES = (1.0, 5.0, 50.0, 95.0, 99.0)
 CONFIDENCE = 0.95
-
-
-def monte_carlo_variates(n_samples: int, n_inputs: int, seed: int) -> np.ndarray:
-    """[-] ``(N, K)`` independent standard uniform variates in (0, 1) from ``seed`` (numpy's
-    PCG64): the fixed sample set every design meets."""
-    return np.random.default_rng(seed).random((n_samples, n_inputs))
 
 
 def quantity_unit(name: str) -> str:
@@ -92,9 +86,9 @@ def tolerance(space: DesignSpace, design: np.ndarray, n_samples: int = 100_000, 
 
 def space_nominal(space: DesignSpace, x: np.ndarray) -> dict[str, np.ndarray]:
     """The quantities of designs ``x`` with every input at its nominal value."""
-    from hisopt.evaluation.scenarios import evaluator_for
+    from hisopt.evaluation.scenarios import case_evaluator_for
 
-    return evaluator_for(space)(x)
+    return case_evaluator_for(space)(x)
 
 
 def summarise(frame: pd.DataFrame, names: Sequence[str], nominal: Mapping[str, float]) -> pd.DataFrame:
@@ -222,9 +216,9 @@ def sensitivity(
     def model(u: np.ndarray) -> dict[str, np.ndarray]:
         x = np.repeat(fixed, len(u), axis=0) if fixed is not None else box_designs(space, u[:, : len(variables)])
         if not uncertain:
-            from hisopt.evaluation.scenarios import evaluator_for
+            from hisopt.evaluation.scenarios import case_evaluator_for
 
-            got = evaluator_for(space)(x)
+            got = case_evaluator_for(space)(x)
         else:
             got = evaluator.paired(x, u[:, len(variables) :], backend)
         return {k: got[k] for k in evaluator.names}
@@ -247,6 +241,10 @@ def box_designs(space: DesignSpace, u: np.ndarray) -> np.ndarray:
     return x
 
 
-def inputs_of(space: DesignSpace) -> list[str]:
-    """[-] The uncertain inputs' names of ``space``, in file order."""
-    return [u.name for u in resolve_uncertain(space.spec)]
+def uncertain_inputs(space: DesignSpace) -> pd.DataFrame:
+    """[-] What varies in ``space``: each uncertain input, its distribution and how the
+    evaluator takes it (:func:`hisopt.evaluation.uncertain.route`), in file order."""
+    from hisopt.evaluation.uncertain import route
+
+    items = resolve_uncertain(space.spec)
+    return pd.DataFrame({"input": [u.name for u in items], "distribution": [u.text for u in items], "route": [route(u, space) for u in items]})
