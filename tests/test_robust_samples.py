@@ -136,3 +136,58 @@ def test_a_robust_problem_reads_back_from_its_dump():
     again = p.with_values(V0=1.1e-3)  # dumps the specification and reads it back
     assert again.spec.robust.statistic == "mean_plus_k_sigma" and again.spec.robust.samples == 32
     assert [u.input for u in again.spec.uncertain] == [u.input for u in p.spec.uncertain]
+
+
+def test_the_casadi_sample_parts_equal_the_evaluator_sample_by_sample():
+    """The IPOPT refinement's parts (a problem, a moved design and a road factor per sample) on
+    the evaluator's nodes give each sample's value as the evaluator's samples do, within the
+    two paths' rounding budget (tests/error_budget.py, as tests/test_casadi_model.py)."""
+    import casadi as ca
+
+    from hisopt.evaluation.symmetry import split, state_mirror
+    from hisopt.optim.gradient.asf_nlp import RefineSettings, node_plan
+    from hisopt.optim.gradient.refine import model_parts
+    from hisopt.optim.gradient.sample_parts import road_shift
+    from tests.error_budget import assert_discriminating, pole_budget, solve_budget
+
+    data = tomllib.loads(UNCERTAIN_PROBLEM.read_text())
+    data["robust"] = {"statistic": "mean", "samples": 4}
+    data["uncertain"].append({"input": "road.gd_n0", "lower": 1e-4, "upper": 5e-4})
+    p = problem_from_dict(data)
+    x = p.baseline.copy()
+    x[0] = 1.5e6
+    per = UncertainEvaluator(p)(x[None, :], p.evaluator().variates)
+    budgets = []
+    for s, part in enumerate(model_parts(p)):
+        moved = part.design(x)
+        plan = node_plan(part.problem, part.model, moved, RefineSettings())
+        got = {k: float(v) * 10 ** road_shift(k, part.road) for k, v in part.model.integrals(ca.DM(moved), plan.fs).items()}
+        model = part.problem.model(moved[None])
+        ss = model.state_space()
+        halves = [h.a for h in split(ss, state_mirror(model, ss)).values()]
+        budget = (
+            solve_budget(model, plan.fs.f_hz, backward=("componentwise", "normwise"))[0] + pole_budget(halves, p.spec.band.f_min_hz, p.spec.band.f_max_hz)[0]
+        )
+        budgets.append(budget)
+        for name in ("sigma_aw", "roll_gradient"):
+            assert got[name] == pytest.approx(per[name][0, s], rel=budget), (name, s)
+    assert_discriminating(np.array(budgets))
+
+
+def test_ipopt_refines_a_robust_front_on_its_sample_average():
+    """IPOPT on the sample average with a chance constraint (as CVaR) moves designs; one is
+    kept only if the robust evaluator finds it no worse in any objective and feasible (its
+    chance constraint met on the samples)."""
+    from hisopt.optim.gradient.refine import refine_front
+
+    data = tomllib.loads(UNCERTAIN_PROBLEM.read_text())
+    data["robust"] = {"statistic": "mean", "samples": 4}
+    data["constraints"][0] |= {"probability": 0.25, "limit": "2 deg/g"}
+    p = problem_from_dict(data)
+    front = hisopt.optimize(p, pop_size=16, generations=6, seed=2).front
+    points = refine_front(p, front, max_points=2, method="ipopt").points
+    assert points["accepted"].any(), points
+    for _, row in points[points["accepted"]].iterrows():
+        start = front.iloc[int(row["source_index"])]
+        assert all(row[name] <= start[name] for name in p.objective_names)
+        assert row["roll_gradient"] <= p.spec.constraints[0].limit

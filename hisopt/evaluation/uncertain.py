@@ -189,6 +189,33 @@ def _evaluate_rows(rows: Rows, space: DesignSpace) -> dict[str, np.ndarray]:
     return out | {"valid": valid}
 
 
+def sample_space(space: DesignSpace, values: dict[str, float]) -> DesignSpace:
+    """``space`` at one sample as a plain problem: every input that is not a design variable
+    (nor the road's roughness) set in its specification, no ``[[uncertain]]`` entries, no
+    statistic, no chance constraints (the engines that take one problem per sample, e.g. the
+    CasADi refinement's sample average)."""
+    spec = space.spec
+    his_names = {k: v for k, v in values.items() if not k.startswith((VEHICLE_PREFIX, PAYLOAD)) and k not in (ROAD_SPEED, TEMPERATURE)}
+    extra = {k: v for k, v in his_names.items() if k not in type(spec.his).model_fields and not k.startswith("pipe_")}  # a layout's own
+    pipes = {k.removeprefix("pipe_"): v for k, v in his_names.items() if k.startswith("pipe_")}
+    fields = {k: v for k, v in his_names.items() if k not in extra and not k.startswith("pipe_")}
+    his = spec.his.model_copy(update=fields | ({"parameters": spec.his.parameters | extra} if extra else {}))
+    if pipes:
+        assert his.pipes is not None
+        his = his.model_copy(update={"pipes": his.pipes.model_copy(update=pipes)})
+    update: dict[str, Any] = {
+        "his": his,
+        "uncertain": [],
+        "robust": type(spec.robust)(),
+        "constraints": [c.model_copy(update={"probability": None}) for c in spec.constraints],
+    }
+    if TEMPERATURE in values:
+        update["temperature"] = values[TEMPERATURE]
+    plain = type(space)(spec.model_copy(update=update), space.path)
+    rest = {k: v for k, v in values.items() if k.startswith((VEHICLE_PREFIX, PAYLOAD)) or k == ROAD_SPEED}
+    return with_inputs(plain, rest)
+
+
 def with_inputs(space: DesignSpace, values: dict[str, float]) -> DesignSpace:
     """``space`` with problem-level inputs set: ``vehicle.<field>``, ``road.speed``,
     ``payload.<field>`` (values checked by the caller)."""

@@ -189,6 +189,13 @@ class SolveOutcome:
     gap: np.ndarray
 
 
+SOFT_MAXIMUM_DECADES = 1e-3
+"""[decades] Temperature of the soft maximum ``tau ln sum exp(log10 S_k / tau)`` of a band
+maximum under a spread statistic: above the nodes' maximum by at most ``tau ln(n)`` decades,
+0.007 (1.6 %) for 1000 nodes (the evaluator, which keeps a design only if it is no worse, has
+the last word)."""
+
+
 @dataclass(frozen=True)
 class Part:
     """One load case of the NLP: its single-case problem, CasADi model and nodes (the problem
@@ -198,6 +205,17 @@ class Part:
     problem: Problem
     model: CasadiModel
     plan: NodePlan | None = None
+    shift: np.ndarray | None = None  # a sample's design map x_s = shift + scale x (hisopt.optim.gradient.sample_parts)
+    scale: np.ndarray | None = None
+    road: float = 1.0  # a sample's factor on the road PSD
+
+    def design(self, x: np.ndarray) -> np.ndarray:
+        """[variable units] The design this part evaluates for design ``x`` (a sample's moved one)."""
+        return x if self.shift is None or self.scale is None else self.shift + self.scale * x
+
+    def bounds(self, lower: np.ndarray, span: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """[variable units] ``(lower, span)`` that map the scaled design ``u`` to this part's design."""
+        return (lower, span) if self.shift is None or self.scale is None else (self.shift + self.scale * lower, self.scale * span)
 
 
 def solve_asf(
@@ -230,6 +248,7 @@ def solve_asf(
     import casadi as ca
 
     from hisopt.optim.gradient.casadi_model import SpectraCallback
+    from hisopt.optim.gradient.sample_parts import road_shift, sample_constraints, sample_objectives, uses_samples
     from hisopt.optim.gradient.transient_callback import TransientCallback
 
     lower, upper = problem.lower, problem.upper
@@ -242,32 +261,41 @@ def solve_asf(
     # ---- decision variables -------------------------------------------------------------------
     u = ca.MX.sym("u", n_var)  # design scaled to [0, 1] over its bounds
     s = ca.MX.sym("s")  # ASF level
-    x = ca.DM(lower) + ca.DM(upper - lower) * u
     levels: list[Any] = []  # log10 epigraph level of each band maximum in each part
     g: list[Any] = []
 
     # ---- each load case's model on its fixed nodes ----------------------------------------------
     z_of: list[dict[str, Any]] = []
+    soft = uses_samples(problem) and problem.spec.robust.statistic == "mean_plus_k_sigma"
     callbacks: list[Any] = []  # CasADi keeps no reference to a Python callback: these must outlive the solve
     for part in parts:
         assert part.plan is not None
-        callbacks.append(SpectraCallback(part.model, part.plan.fs, lower, upper - lower))
+        low, width = part.bounds(lower, upper - lower)
+        callbacks.append(SpectraCallback(part.model, part.plan.fs, low, width))
         psd = callbacks[-1](u)
         steps = [m.name for m in part.model.metrics if m.kind == "transient"]
         transient = None
         if steps:  # from the numpy code through a callback (hisopt.optim.gradient.transient_callback)
-            callbacks.append(TransientCallback(part.problem, steps, lower, upper - lower))
+            callbacks.append(TransientCallback(part.problem, steps, low, width))
             values = callbacks[-1](u)
             transient = {name: values[k] for k, name in enumerate(steps)}.__getitem__
-        z = {name: log10(value) for name, value in part.model.integrals(x, part.plan.fs, psd, transient).items()}
+        x_part = ca.DM(low) + ca.DM(width) * u
+        z = {name: log10(value) + road_shift(name, part.road) for name, value in part.model.integrals(x_part, part.plan.fs, psd, transient).items()}
         for name, nodes in part.plan.max_nodes.items():
+            shifted = log10(psd[part.model.output_index[METRICS[name].signal], [int(k) for k in nodes]].T) + road_shift(name, part.road)
+            if soft:  # a spread statistic is not monotone in an epigraph level: a soft maximum instead
+                z[name] = SOFT_MAXIMUM_DECADES * ca.logsumexp(shifted / SOFT_MAXIMUM_DECADES)
+                continue
             t = ca.MX.sym(f"t_{name}_{len(levels)}")
             levels.append(t)
-            row = part.model.output_index[METRICS[name].signal]
-            g.append(log10(psd[row, [int(k) for k in nodes]].T) - t)  # epigraph of the maximum
+            g.append(shifted - t)  # epigraph of the maximum
             z[name] = t
         z_of.append(z)
-    z_obj, extra, g_agg = _aggregated(problem, parts, z_of, ref_log)
+    if uses_samples(problem):  # statistics over common random samples (hisopt.optim.gradient.sample_parts)
+        z_obj = sample_objectives(problem, z_of, ref_log)
+        extra, g_agg = sample_constraints(problem, z_of)
+    else:
+        z_obj, extra, g_agg = _aggregated(problem, parts, z_of, ref_log)
     floor = np.r_[np.full(len(levels), -np.inf), [b for _, b in extra]]
     levels += [v for v, _ in extra]
     g += g_agg
@@ -278,7 +306,7 @@ def solve_asf(
     # ---- constraints ----------------------------------------------------------------------------
     g.append(gap - s)  # ASF epigraph
     g.append(gap + ca.DM(margin))  # no objective worse than the start
-    for c in problem.spec.constraints:
+    for c in problem.spec.constraints if not uses_samples(problem) else ():  # a sample set's are in g_agg
         where = problem.constraint_scenarios(c.name) if problem.spec.scenarios else (None,)
         g += [z[c.name] - np.log10(c.limit) for part, z in zip(parts, z_of, strict=True) if part.scenario in where]
 

@@ -53,7 +53,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -255,7 +255,7 @@ def refine_point(
     margin = np.full(len(names), settings.margin)
     radius, rounds, iterations, status = settings.trust_radius, 0, 0, "not_started"
     while rounds < settings.rounds and radius >= settings.min_radius:
-        planned = [Part(p.scenario, p.problem, p.model, node_plan(p.problem, p.model, lower + span * u_c, settings)) for p in parts]
+        planned = [replace(p, plan=node_plan(p.problem, p.model, p.design(lower + span * u_c), settings)) for p in parts]
         outcome = solve_asf(problem, planned, u_c, ref, weights, radius, settings, margin)
         rounds, iterations, status = rounds + 1, iterations + outcome.iterations, outcome.status
         x_new = lower + span * outcome.u
@@ -358,7 +358,10 @@ _WORKER: dict[str, Any] = {}
 def model_parts(problem: Problem) -> list[Part]:
     """The load cases of ``problem`` with their CasADi models (one part without scenarios)."""
     from hisopt.optim.gradient.casadi_model import CasadiModel
+    from hisopt.optim.gradient.sample_parts import sample_parts, uses_samples
 
+    if uses_samples(problem):  # one part per common random sample (docs/model.md §18.4)
+        return sample_parts(problem, Part, CasadiModel)
     if not problem.spec.scenarios:
         return [Part(None, problem, CasadiModel(problem))]
     spaces = [(name, problem.scenario_space(name)) for name in problem.scenario_names]
