@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 import hisopt
-from hisopt.evaluation.parallel import Backend, evaluate_designs, open_backend
+from hisopt.evaluation.parallel import Backend, open_backend
+from hisopt.evaluation.robust_evaluator import evaluate_designs
 
 ROOT = Path(__file__).resolve().parents[1]
 

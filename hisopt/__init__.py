@@ -9,6 +9,7 @@ and may move. ::
     problem = hisopt.load_problem("problems/roll_plane_his.toml")
     df = problem.evaluate(X)
     modes = hisopt.modal_analysis(problem, design, his=True)
+    spread = hisopt.tolerance(problem, design, n_samples=100_000)
     run = hisopt.optimize(problem, ...)
     table = hisopt.compare_layouts(problem, layouts="axle_roll,pitch_plane", seeds="1-3", out="runs/layouts")
 """
@@ -46,7 +47,8 @@ if TYPE_CHECKING:
     from hisopt.studies.screening import STROKE_PATTERNS, mode_stiffness
     from hisopt.studies.spectra import response_spectra
     from hisopt.studies.sweeps import regions, sweep
-    from hisopt.units import display_frame
+    from hisopt.studies.uncertainty import SensitivityResult, ToleranceResult, sensitivity, tolerance, uncertain_inputs
+    from hisopt.units import display_frame, format_quantity
 
 # The model pulls in scipy and pandas, optimisation pymoo, figures plotly: import them only
 # when a name is asked for, so that `import hisopt` (and `hisopt --help`) stays light.
@@ -84,7 +86,13 @@ _LAZY = {
     "mode_stiffness": "hisopt.studies.screening",
     "compare_layouts": "hisopt.studies.layout_study",
     "run_layout_study": "hisopt.studies.layout_study",
+    "sensitivity": "hisopt.studies.uncertainty",
+    "tolerance": "hisopt.studies.uncertainty",
+    "uncertain_inputs": "hisopt.studies.uncertainty",
+    "SensitivityResult": "hisopt.studies.uncertainty",
+    "ToleranceResult": "hisopt.studies.uncertainty",
     "display_frame": "hisopt.units",
+    "format_quantity": "hisopt.units",
     "read_csv": "hisopt.io",
 }
 
@@ -102,11 +110,14 @@ __all__ = [
     "ProblemFileNotFoundError",
     "RunError",
     "STROKE_PATTERNS",
+    "SensitivityResult",
+    "ToleranceResult",
     "admissible",
     "catalogue",
     "compare_layouts",
     "display_frame",
     "drop_table",
+    "format_quantity",
     "his_parameter_values",
     "load_problem",
     "measured_drop_test",
@@ -125,11 +136,14 @@ __all__ = [
     "roll_gradient",
     "run_drop_tests",
     "run_layout_study",
+    "sensitivity",
     "simulate",
     "simulate_drop",
     "spectra_figure",
     "sweep",
+    "tolerance",
     "track_modes",
+    "uncertain_inputs",
 ]
 
 _DOCUMENTED_SUBPACKAGES = ("hisopt.plotting", "hisopt.report", "hisopt.road")

@@ -57,7 +57,7 @@ class Problem(DesignSpace):
         log : bool, optional
             [-] log the warning line (the CLI prints it itself)
         """
-        from hisopt.evaluation.parallel import evaluate_designs
+        from hisopt.evaluation.robust_evaluator import evaluate_designs
 
         x = design_matrix(self, designs, source)
         df = results_frame(self, x, evaluate_designs(self, x, backend))

@@ -7,7 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hisopt.evaluation.parallel import Backend, chunks, evaluate_designs, open_backend
+from hisopt.evaluation.parallel import Backend, chunks, open_backend
+from hisopt.evaluation.robust_evaluator import evaluate_designs
 from hisopt.io import read_csv
 from tests.conftest import DEFAULT_PROBLEM, random_designs
 

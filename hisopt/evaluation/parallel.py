@@ -17,10 +17,8 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypeVar
 
-import numpy as np
-
 if TYPE_CHECKING:
-    from hisopt.specification.design_space import DesignSpace
+    pass
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -129,19 +127,3 @@ def open_backend(workers: int | None = None, scheduler: str | None = None, clien
 def chunks(n: int, size: int) -> list[slice]:
     """Consecutive slices covering ``range(n)``, each at most ``size`` long."""
     return [slice(i, min(i + size, n)) for i in range(0, n, size)]
-
-
-def _evaluate_chunk(x: np.ndarray, problem: DesignSpace) -> dict[str, np.ndarray]:
-    from hisopt.evaluation.robust_evaluator import evaluator_for
-
-    return evaluator_for(problem)(x)
-
-
-def evaluate_designs(problem: DesignSpace, designs: Any, backend: Backend | None = None, chunk_size: int = DEFAULT_CHUNK) -> dict[str, np.ndarray]:
-    """Objectives/constraints of many designs through ``backend`` (same keys as the evaluator)."""
-    backend = backend or Backend()
-    x = problem.design_matrix(designs)
-    if not backend.is_distributed:
-        return _evaluate_chunk(x, problem)
-    parts = backend.map(_evaluate_chunk, [x[s] for s in chunks(len(x), chunk_size)], problem)
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hisopt.evaluation.evaluate import Evaluator
+from hisopt.evaluation.parallel import DEFAULT_CHUNK, Backend, chunks
 from hisopt.evaluation.scenarios import ScenarioEvaluator, case_evaluator_for
 from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates
 from hisopt.robust import quantity_of
@@ -115,3 +116,18 @@ def evaluator_for(space: DesignSpace) -> Evaluator | ScenarioEvaluator | RobustE
     if "evaluator" not in space._cache:
         space._cache["evaluator"] = RobustEvaluator(space)
     return space._cache["evaluator"]
+
+
+def _evaluate_chunk(x: np.ndarray, problem: DesignSpace) -> dict[str, np.ndarray]:
+    return evaluator_for(problem)(x)
+
+
+def evaluate_designs(problem: DesignSpace, designs: Any, backend: Backend | None = None, chunk_size: int = DEFAULT_CHUNK) -> dict[str, np.ndarray]:
+    """Objectives/constraints of many designs through ``backend`` (same keys as the evaluator
+    of :func:`evaluator_for`)."""
+    backend = backend or Backend()
+    x = problem.design_matrix(designs)
+    if not backend.is_distributed:
+        return _evaluate_chunk(x, problem)
+    parts = backend.map(_evaluate_chunk, [x[s] for s in chunks(len(x), chunk_size)], problem)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -4,7 +4,8 @@ it imports nothing of hisopt above the small leaves, so any layer's ``.plot()`` 
 Domain result objects gather their data and hand it to a module here, imported inside the
 method, so that plotly loads only when something is drawn: :mod:`.spectra` (response
 spectra), :mod:`.sweeps` (sweeps and feasible regions), :mod:`.timeseries` (time responses),
-:mod:`.droptest` (drop-test spectra), :mod:`.figures` (optimisation results).
+:mod:`.droptest` (drop-test spectra), :mod:`.figures` (optimisation results), :mod:`.uncertainty`
+(Sobol indices and Monte Carlo spreads).
 
 Public API (documented sub-package): the names of ``__all__``, imported when first used.
 """
@@ -19,6 +20,7 @@ if TYPE_CHECKING:
 
     from hisopt.plotting.figures import convergence, front_scatter_matrix, parallel_coordinates
     from hisopt.plotting.theme import COLORS, template, write_html
+    from hisopt.plotting.uncertainty import sensitivity_figure, tolerance_figure
 
 _LAZY = {
     "COLORS": "hisopt.plotting.theme",
@@ -27,6 +29,8 @@ _LAZY = {
     "convergence": "hisopt.plotting.figures",
     "front_scatter_matrix": "hisopt.plotting.figures",
     "parallel_coordinates": "hisopt.plotting.figures",
+    "sensitivity_figure": "hisopt.plotting.uncertainty",
+    "tolerance_figure": "hisopt.plotting.uncertainty",
 }
 
 __all__ = [
@@ -34,7 +38,9 @@ __all__ = [
     "convergence",
     "front_scatter_matrix",
     "parallel_coordinates",
+    "sensitivity_figure",
     "template",
+    "tolerance_figure",
     "write_html",
 ]
 

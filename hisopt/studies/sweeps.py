@@ -433,7 +433,7 @@ def regions(problem: Problem, pair: tuple[str, str], points: int = 41, backend: 
     xx, yy = np.meshgrid(grid_x, grid_y)
     x = np.repeat(problem.baseline[None, :], xx.size, axis=0)
     x[:, ia], x[:, ib] = xx.ravel(), yy.ravel()
-    from hisopt.evaluation.parallel import evaluate_designs
+    from hisopt.evaluation.robust_evaluator import evaluate_designs
 
     derived = indicator_problem(problem)
     ev = derived.evaluator()
