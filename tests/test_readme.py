@@ -55,6 +55,8 @@ BUDGETS = {
     "sweep": {"--points": "3"},
     "regions": {"--points": "3"},
     "droptest": {"--p0": "2e6"},  # one precharge: three drop simulations, not nine
+    "sensitivity": {"--samples": "64"},
+    "tolerance": {"--samples": "2000"},
 }
 REFINE_BUDGET = {"--max-points": "2"}  # optimize --refine
 
@@ -112,7 +114,7 @@ def test_plan_covers_the_readme():
     runs, not_run = plan(README.read_text(encoding="utf-8"))
     commands = {words[1] for words in runs}
     assert {"optimize", "resume", "report", "modes", "evaluate", "response", "sweep", "regions", "refine",
-            "droptest", "study", "init"} <= commands  # fmt: skip
+            "droptest", "study", "init", "sensitivity", "tolerance"} <= commands  # fmt: skip
     assert any("--measured" in words for words in runs) and any("--designs" in words for words in runs)
     assert all(reason for _, reason in not_run)
     assert with_budget(["hisopt", "sweep", "p.toml", "--points", "41"])[-2:] == ["--points", "3"]

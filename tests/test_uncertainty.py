@@ -244,5 +244,8 @@ def test_cli_tolerance_and_sensitivity_write_their_files(tmp_path):
     out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--design", "baseline", "--samples", "32", "--out", str(tmp_path / "s"))
     assert out.code == 0, out.stderr
     assert (tmp_path / "s" / "sensitivity.csv").exists() and (tmp_path / "s" / "sensitivity.html").exists()
+    out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--samples", "32", "--log", "--out", str(tmp_path / "b"))
+    assert out.code == 0 and "log10 of each quantity" in out.stdout, out.stderr
+    assert "decades" in (tmp_path / "b" / "sensitivity.csv").read_text()
     out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--samples", "30", "--out", str(tmp_path / "s"))
     assert out.code == 2 and "power of 2" in out.stderr

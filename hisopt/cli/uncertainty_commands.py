@@ -23,16 +23,19 @@ SeedOpt = Annotated[int, typer.Option("--seed", parser=integer, metavar="N", hel
 
 
 def _design(p, design: str):  # noqa: ANN001, ANN202 - a Problem and its design row
+    """The design row ``--design`` names, and how to say it (with its values, in engineering units)."""
     from hisopt.studies.envelope import knee_design
+    from hisopt.units import format_design
 
     if design == "baseline":
-        return p.baseline[None, :], "the baseline design"
-    path = Path(design)
-    if not path.is_dir():
+        x, what = p.baseline[None, :], "the baseline design"
+    elif Path(design).is_dir():
+        x, what = knee_design(p, Path(design)), f"the knee of {design}"
+    else:
         from hisopt.errors import ConfigError
 
         raise ConfigError(f"expected 'baseline' or a run directory; {design!r} is neither", key="--design")
-    return knee_design(p, path), f"the knee of {path}"
+    return x, f"{what} ({format_design(dict(zip(p.variable_names, x[0], strict=True)), p.variable_units)})"
 
 
 def _print(shown, title: str) -> None:  # noqa: ANN001 - a DataFrame of strings
@@ -43,7 +46,7 @@ def _print(shown, title: str) -> None:  # noqa: ANN001 - a DataFrame of strings
 
     table = Table(title=Text(title))
     for col in shown.columns:
-        table.add_column(Text(col), justify="left" if col in ("quantity", "input", "distribution", "constraint") else "right")
+        table.add_column(Text(col), justify="left" if col in ("quantity", "input", "distribution", "constraint") else "right", no_wrap=True)
     for row in shown.itertuples(index=False):
         table.add_row(*(Text(str(v)) for v in row))
     Console(width=200).print(table)
@@ -56,6 +59,9 @@ def sensitivity_cmd(
         int, typer.Option("--samples", parser=integer, metavar="N", help="base samples N of Saltelli's design (N (D + 2) evaluations; a power of 2)")
     ] = 1024,
     seed: SeedOpt = 0,
+    log: Annotated[
+        bool, typer.Option("--log", help="indices of log10 of each quantity (its relative changes; steadier over a box where it spans decades)")
+    ] = False,
     out: Annotated[Path, typer.Option("--out", help="output directory for sensitivity.csv and sensitivity.html")] = Path("."),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
@@ -71,7 +77,7 @@ def sensitivity_cmd(
     from hisopt.errors import ConfigError
     from hisopt.evaluation.parallel import open_backend
     from hisopt.io import ensure_writable_dir
-    from hisopt.report.uncertainty import sensitivity_shown, write_sensitivity
+    from hisopt.report.uncertainty import total_indices_shown, write_sensitivity
     from hisopt.studies.uncertainty import sensitivity
 
     if samples < 2 or samples & (samples - 1):
@@ -82,9 +88,11 @@ def sensitivity_cmd(
     x, where = (None, "over the whole box of the design variables") if design is None else _design(p, design)
     ensure_writable_dir(out)
     with open_backend(workers, scheduler) as backend:
-        result = sensitivity(p, x, n_base=samples, seed=seed, backend=backend)
-    files = write_sensitivity(result, out, f"{p.name}: which inputs matter", f"around {where}" if x is not None else where)
-    _print(sensitivity_shown(result.indices), f"{p.name}: Sobol indices {'around ' + where if x is not None else where} (95 % half-widths)")
+        result = sensitivity(p, x, n_base=samples, seed=seed, backend=backend, log=log)
+    of = "log10 of each quantity, " if log else ""
+    place = f"{of}around {where}" if x is not None else f"{of}{where}"
+    files = write_sensitivity(result, out, f"{p.name}: which inputs matter", place)
+    _print(total_indices_shown(result.indices), f"{p.name}: total Sobol indices ST, {place} (± 95 % half-widths; S1 in the files)")
     if result.dropped:
         typer.echo(f"{result.dropped} sample blocks dropped where the model failed")
     typer.echo(f"wrote {' and '.join(map(str, files))}")

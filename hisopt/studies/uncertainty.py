@@ -196,13 +196,21 @@ class SensitivityResult:
 
 
 def sensitivity(
-    space: DesignSpace, design: np.ndarray | None = None, n_base: int = 1024, seed: int = 0, resamples: int = 1000, backend: Backend | None = None
+    space: DesignSpace,
+    design: np.ndarray | None = None,
+    n_base: int = 1024,
+    seed: int = 0,
+    resamples: int = 1000,
+    backend: Backend | None = None,
+    log: bool = False,
 ) -> SensitivityResult:
     """Sobol indices of every objective and constraint of ``space``.
 
     With ``design`` (one row): with respect to the uncertain inputs around it. Without: over
     the whole box, with respect to the design variables (uniform between their bounds; a
-    choice variable uniform over its list) and the uncertain inputs.
+    choice variable uniform over its list) and the uncertain inputs. With ``log``: of
+    ``log10`` of each quantity (its relative changes, as the optimiser ranks them), whose
+    variance a few extreme designs do not dominate when a quantity spans decades over the box.
     """
     evaluator = UncertainEvaluator(space)
     uncertain = list(evaluator.inputs)
@@ -221,12 +229,15 @@ def sensitivity(
             got = case_evaluator_for(space)(x)
         else:
             got = evaluator.paired(x, u[:, len(variables) :], backend)
+        if log:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return {k: np.where(got[k] > 0, np.log10(np.where(got[k] > 0, got[k], 1.0)), np.nan) for k in evaluator.names}
         return {k: got[k] for k in evaluator.names}
 
     indices, dropped = sobol_indices(factors, model, n_base, seed, resamples)
     described = {f: ("uniform over its bounds", units.get(f, "")) for f in variables}
     described |= {factor: (u.text, u.unit) for factor, u in zip(factors[len(variables) :], uncertain, strict=True)}
-    indices.insert(1, "unit", [quantity_unit(q) for q in indices["quantity"]])
+    indices.insert(1, "unit", ["decades" if log else quantity_unit(q) for q in indices["quantity"]])
     indices["input_unit"] = [described[f][1] for f in indices["input"]]
     indices["distribution"] = [described[f][0] for f in indices["input"]]
     return SensitivityResult(indices, fixed, n_base * (len(factors) + 2), dropped)
