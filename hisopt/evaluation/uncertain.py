@@ -100,8 +100,6 @@ class UncertainEvaluator:
         self.space = space
         self.inputs = tuple(resolve_uncertain(space.spec) if inputs is None else inputs)
         self.routes = tuple(route(u, space) for u in self.inputs)
-        if space.spec.scenarios and any(r in ("road",) or u.name == ROAD_SPEED for u, r in zip(self.inputs, self.routes, strict=True)):
-            raise ValueError("a problem with [[scenarios]] has a road per load case; vary the road in a single-case problem")
         self.names = case_evaluator_for(space).names
         self.nominal = {u.name: nominal_value(u.name, space.spec) for u in self.inputs}
         self.fixed_names = tuple(u.name for u, r in zip(self.inputs, self.routes, strict=True) if r == "problem")

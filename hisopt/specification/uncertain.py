@@ -291,6 +291,10 @@ def _resolve(entry: UncertainInput, spec: ProblemSpec, source: str, key: str) ->
         )
     if name.startswith(PAYLOAD) and (spec.payload is None or spec.scenarios):
         raise ConfigError(f"{name} varies the problem's [payload], which this problem has not; give a [payload] table", file=source, key=f"{key}.input")
+    if name in (ROAD_CLASS, ROAD_ROUGHNESS, ROAD_SPEED) and spec.scenarios:
+        raise ConfigError(
+            f"{name}: a problem with [[scenarios]] has a road per load case; vary the road in a single-case problem", file=source, key=f"{key}.input"
+        )
     variable = name in spec.variables
     if name == ROAD_CLASS:
         return _class_band(entry, source, key)

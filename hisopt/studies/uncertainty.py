@@ -137,13 +137,15 @@ def sobol_indices(
     model: Callable[[np.ndarray], Mapping[str, np.ndarray]],
     n_base: int = 1024,
     seed: int = 0,
-    resamples: int = 1000,
+    resamples: int = 250,
 ) -> tuple[pd.DataFrame, int]:
     """First- and total-order Sobol indices of every output of ``model`` with respect to
     factors ``names``, each standard uniform on (0, 1) (``model`` maps them to its inputs).
 
     SALib's Saltelli sample (Sobol sequence, ``n_base (D + 2)`` rows, no second order) and its
-    estimators (Saltelli 2010, Jansen) with bootstrap intervals at :data:`CONFIDENCE`. A
+    estimators (Saltelli 2010, Jansen) with bootstrap intervals at :data:`CONFIDENCE` from
+    ``resamples`` resamples (250: a half-width to a few per cent; the bootstrap, not the
+    model, is most of the time at large ``n_base`` with 1000). A
     block of ``D + 2`` rows with a NaN output is dropped for that output (SALib would read
     NaN as zero variance); how many were dropped is returned as the second value.
 
@@ -169,7 +171,9 @@ def sobol_indices(
         if keep.sum() < 2:
             rows += [{"quantity": out_name, "input": n, "S1": np.nan, "S1_conf": np.nan, "ST": np.nan, "ST_conf": np.nan} for n in names]
             continue
-        si = sobol_analyze.analyze(problem, blocks[keep].ravel(), calc_second_order=False, num_resamples=resamples, conf_level=CONFIDENCE, seed=seed)
+        # SALib seeds its bootstrap only for a truthy seed (SALib 1.6, analyze/sobol.py): seed 0
+        # would draw fresh resamples each call, so the intervals get seed + 1, never 0
+        si = sobol_analyze.analyze(problem, blocks[keep].ravel(), calc_second_order=False, num_resamples=resamples, conf_level=CONFIDENCE, seed=seed + 1)
         for j, n in enumerate(names):
             rows.append({"quantity": out_name, "input": n, "S1": si["S1"][j], "S1_conf": si["S1_conf"][j], "ST": si["ST"][j], "ST_conf": si["ST_conf"][j]})
     return pd.DataFrame(rows), dropped
@@ -200,7 +204,7 @@ def sensitivity(
     design: np.ndarray | None = None,
     n_base: int = 1024,
     seed: int = 0,
-    resamples: int = 1000,
+    resamples: int = 250,
     backend: Backend | None = None,
     log: bool = False,
 ) -> SensitivityResult:
