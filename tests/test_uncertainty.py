@@ -302,3 +302,11 @@ def test_sensitivity_intervals_are_reproducible_at_seed_0():
     first = sensitivity(p, p.baseline[None, :], n_base=64, seed=0, resamples=50)
     again = sensitivity(p, p.baseline[None, :], n_base=64, seed=0, resamples=50)
     assert first.indices.equals(again.indices)
+
+
+def test_a_sample_the_file_would_refuse_is_flagged_not_evaluated():
+    """A payload drawn off the back of the body is no car: that sample is NaN and not valid."""
+    p = with_uncertain([{"input": "payload.x", "lower": "-3 m", "upper": "0 m"}], payload={"mass": 200.0})
+    got = UncertainEvaluator(p)(p.baseline[None, :], np.array([[0.01], [0.9]]))  # x = -2.97 m, then -0.3 m
+    assert not got["valid"][0, 0] and np.isnan(got["sigma_aw"][0, 0])
+    assert got["valid"][0, 1] and np.isfinite(got["sigma_aw"][0, 1])

@@ -26,6 +26,8 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from hisopt.coupled.payload import laden_problem
+from hisopt.errors import ConfigError
 from hisopt.evaluation.parallel import Backend, chunks
 from hisopt.evaluation.scenarios import case_evaluator_for
 from hisopt.metrics import METRICS, ROAD_POWER
@@ -179,7 +181,10 @@ def _evaluate_rows(rows: Rows, space: DesignSpace) -> dict[str, np.ndarray]:
         take = np.flatnonzero((which == g) & rows.possible)
         if take.size == 0:
             continue
-        sub = with_inputs(space, dict(zip(fixed_names, map(float, values), strict=True)))
+        try:  # a sample the problem file would refuse (a payload off the body, a CG outside the track)
+            sub = with_inputs(space, dict(zip(fixed_names, map(float, values), strict=True)))
+        except ValueError:
+            continue  # not evaluated: NaN, not valid
         got = case_evaluator_for(sub)(rows.x[take], inputs={k: v[take] for k, v in rows.batched.items()})
         for k in names:
             out[k][take] = got[k] * rows.road[take] ** ROAD_POWER[METRICS[quantity_of(k)].kind]
@@ -216,18 +221,30 @@ def sample_space(space: DesignSpace, values: dict[str, float]) -> DesignSpace:
 
 def with_inputs(space: DesignSpace, values: dict[str, float]) -> DesignSpace:
     """``space`` with problem-level inputs set: ``vehicle.<field>``, ``road.speed``,
-    ``payload.<field>`` (values checked by the caller)."""
+    ``payload.<field>``, each table validated again with its new values.
+
+    Raises
+    ------
+    ValueError
+        The values make a car, road or payload the problem file would refuse (pydantic's
+        ``ValidationError``, or :class:`~hisopt.errors.ConfigError` for a payload the car
+        cannot carry).
+    """
     if not values:
         return space
     spec = space.spec
     car = {k.removeprefix(VEHICLE_PREFIX): v for k, v in values.items() if k.startswith(VEHICLE_PREFIX)}
     load = {k.removeprefix(PAYLOAD): v for k, v in values.items() if k.startswith(PAYLOAD)}
-    update: dict[str, Any] = {}
-    if car:
-        update["vehicle"] = spec.vehicle.model_copy(update=car)
+    vehicle = type(spec.vehicle).model_validate(spec.vehicle.model_dump() | car) if car else spec.vehicle
+    update: dict[str, Any] = {"vehicle": vehicle}
     if ROAD_SPEED in values:
-        update["road"] = spec.road.model_copy(update={"speed": values[ROAD_SPEED]})
+        update["road"] = type(spec.road).model_validate(spec.road.model_dump() | {"speed": values[ROAD_SPEED]})
+    payload = spec.payload
     if load:
-        assert spec.payload is not None
-        update["payload"] = spec.payload.model_copy(update=load)
+        assert payload is not None
+        payload = type(payload).model_validate(payload.model_dump() | load)
+        update["payload"] = payload
+    problem = laden_problem(vehicle, payload) if payload is not None and payload.active and (car or load) else None
+    if problem:
+        raise ConfigError(problem)
     return type(space)(spec.model_copy(update=update), space.path, space.sha256)
