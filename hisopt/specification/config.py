@@ -330,9 +330,9 @@ class ProblemSpec(_Strict):
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
         data = handler(self)
-        if not self.scenarios and self.robust.statistic == "nominal":  # a dump reads back: [robust] only where the file may hold it
+        if not self.scenarios and not self.uncertain:  # a dump reads back: [robust] only where the file may hold it
             data.pop("robust", None)
-        elif not self.scenarios:  # the samples' statistic without load cases to aggregate
+        elif not self.scenarios:  # the samples' settings, without load cases to aggregate
             data["robust"] = {k: v for k, v in data["robust"].items() if k not in ("aggregate", "alpha")}
         return data
 
