@@ -244,7 +244,7 @@ def optimize(
             robust = problem.spec.robust
             info["settings"]["uncertain"] = {
                 "inputs": [u.input for u in problem.spec.uncertain],
-                "statistic": robust.statistic,
+                "statistic": f"mean + {robust.k:g} sd" if robust.statistic == "mean_plus_k_sigma" else robust.statistic,
                 "samples": robust.samples,
                 "seed": robust.seed,
             }

@@ -116,12 +116,15 @@ def settings_table(record: dict[str, Any], n_objectives: int) -> pd.DataFrame:
                 "; ".join(
                     f"{c['name']} <= {format_quantity(float(c['limit']), METRICS[c['name']].unit)}"
                     + (f" ({', '.join(c['scenarios'])})" if c.get("scenarios") else "")
+                    + (f" with probability >= {1 - float(c['probability']):g}" if c.get("probability") else "")
                     if c.get("name") in METRICS
                     else json.dumps(c)
                     for c in value
                 )
                 or "none"
             )
+        elif key == "uncertain":  # statistics over common random samples (docs/model.md §18.4)
+            text = f"{value['statistic']} over {value['samples']} common random samples (seed {value['seed']}) of {', '.join(value['inputs'])}"
         elif key == "epsilon":  # the thinned front's tolerances, as given
             text = ", ".join(f"{name} {entry['text']}" for name, entry in value.items())
         elif key == "hypervolume_reference_log10":
