@@ -1,7 +1,8 @@
 """The uncertainty studies as files (docs/model.md §18): ``hisopt sensitivity`` writes
 ``sensitivity.csv`` and ``sensitivity.html``, ``hisopt tolerance`` writes ``tolerance.csv``,
 ``violations.csv``, ``samples.parquet`` and ``tolerance.html``. Tables in engineering units,
-CSVs in SI with a units row."""
+CSVs in SI: the indices with a units row, the Monte Carlo tables with each row's unit in a
+``unit`` column (one quantity per row)."""
 
 from __future__ import annotations
 
@@ -104,13 +105,13 @@ def violations_shown(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def write_tolerance(result: ToleranceResult, out: Path, title: str, where: str, limits: dict[str, float], inputs: pd.DataFrame) -> list[Path]:
-    """``tolerance.csv``, ``violations.csv`` (SI, units rows), ``samples.parquet`` (every
+    """``tolerance.csv``, ``violations.csv`` (SI, each row's unit in its ``unit`` column), ``samples.parquet`` (every
     sample's inputs and quantities, SI) and ``tolerance.html`` in ``out``; ``inputs`` lists
     what varies (``input``, ``distribution``)."""
     summary = result.summary
-    stat_units = {c: "" for c in summary.columns}
-    csv = write_csv(summary, out / TOLERANCE_FILES[0], stat_units | {"failed": "-", "samples": "-"})
-    viol = write_csv(result.violations, out / TOLERANCE_FILES[1], {c: "-" for c in result.violations.columns} | {"constraint": "", "unit": "", "limit": ""})
+    # one quantity per row, each in the SI unit its "unit" column names (no units row: it differs by row)
+    csv = write_csv(summary, out / TOLERANCE_FILES[0], {})
+    viol = write_csv(result.violations, out / TOLERANCE_FILES[1], {})
     samples = out / TOLERANCE_FILES[2]
     result.values.to_parquet(samples, index=False)
     quantities = list(summary["quantity"])
