@@ -162,7 +162,7 @@ def test_an_impossible_draw_is_flagged_not_evaluated():
 # --- Sobol indices -----------------------------------------------------------------------------
 def test_sobol_indices_of_the_ishigami_function_match_the_closed_form():
     """Ishigami (a = 7, b = 0.1) through the same SALib path as the model: every index within its
-    bootstrap 95 % interval of the closed form (Saltelli et al. 2008, §4.5)."""
+    bootstrap 95 % interval of the closed form (Saltelli et al. 2008, section 4.5)."""
     a, b = 7.0, 0.1
 
     def ishigami(u):

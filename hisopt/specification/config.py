@@ -134,7 +134,9 @@ class Constraint(_Strict):
     name: str
     limit: float = Field(gt=0)
     scenarios: list[str] | None = Field(None, min_length=1)
-    probability: float | None = Field(None, gt=0, lt=1, description="a chance constraint: P(value > limit) <= probability over the [[uncertain]] samples")
+    probability: float | None = Field(
+        None, gt=0, lt=1, description="a chance constraint: P(value > limit) <= probability over the [[uncertain]] samples", json_schema_extra=si("-")
+    )
 
     @field_validator("name")
     @classmethod

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
@@ -41,7 +41,7 @@ from hisopt.standards.iso_8608_2016 import class_gd_n0, road_classes
 from hisopt.vehicle import VehicleParams
 
 if TYPE_CHECKING:
-    from hisopt.specification.config import ProblemSpec
+    from collections.abc import Mapping, Sequence
 
 Kind = Literal["normal", "uniform", "triangular", "loguniform"]
 
@@ -55,6 +55,29 @@ ROAD_SPEED = "road.speed"
 TEMPERATURE = "temperature"
 VEHICLE = "vehicle."
 PAYLOAD = "payload."
+
+
+class ProblemParts(Protocol):
+    """What the entries are read against: the parts of a problem specification
+    (:class:`hisopt.specification.config.ProblemSpec`, which holds the entries, so a structural
+    type here and no import back)."""
+
+    @property
+    def vehicle(self) -> VehicleParams: ...
+    @property
+    def his(self) -> RollPlaneHIS: ...
+    @property
+    def payload(self) -> Payload | None: ...
+    @property
+    def variables(self) -> Mapping[str, Any]: ...
+    @property
+    def road(self) -> Any: ...
+    @property
+    def temperature(self) -> float | None: ...
+    @property
+    def scenarios(self) -> Sequence[Any]: ...
+    @property
+    def uncertain(self) -> Sequence[UncertainInput]: ...
 
 
 class UncertainInput(BaseModel):
@@ -181,7 +204,7 @@ def _end(value: float | None, point: Any, missing: str) -> str:
 
 
 # --- reading the entries -------------------------------------------------------------------------
-def input_unit(name: str, spec: ProblemSpec) -> str | None:
+def input_unit(name: str, spec: ProblemParts) -> str | None:
     """[-] SI unit of the input ``name`` of ``spec``, None if it names nothing in the model."""
     if name.startswith(VEHICLE):
         return field_unit(VehicleParams, name.removeprefix(VEHICLE))
@@ -197,7 +220,7 @@ def input_unit(name: str, spec: ProblemSpec) -> str | None:
     return parameter_unit(name, parameter_uses(his_layout(spec.his)))
 
 
-def nominal_value(name: str, spec: ProblemSpec) -> float:
+def nominal_value(name: str, spec: ProblemParts) -> float:
     """[SI] The value the file gives the input ``name`` (a design variable's baseline)."""
     if name.startswith(VEHICLE):
         return float(getattr(spec.vehicle, name.removeprefix(VEHICLE)))
@@ -215,7 +238,7 @@ def nominal_value(name: str, spec: ProblemSpec) -> float:
     return float(given)
 
 
-def input_rule(name: str, spec: ProblemSpec) -> Rule:
+def input_rule(name: str, spec: ProblemParts) -> Rule:
     """The physical rule of input ``name``: its field's (and the layout elements') bounds, the
     oil's temperature range, a positive roughness."""
     if name.startswith(VEHICLE):
@@ -254,7 +277,7 @@ def _spread(value: Any, unit: str, file: str, key: str) -> tuple[float, bool]:
     return number, relative
 
 
-def resolve_uncertain(spec: ProblemSpec, source: str = "<problem>") -> tuple[Uncertain, ...]:
+def resolve_uncertain(spec: ProblemParts, source: str = "<problem>") -> tuple[Uncertain, ...]:
     """The checked, SI form of every ``[[uncertain]]`` entry of ``spec``.
 
     Raises
@@ -279,7 +302,7 @@ def resolve_uncertain(spec: ProblemSpec, source: str = "<problem>") -> tuple[Unc
     return tuple(out)
 
 
-def _resolve(entry: UncertainInput, spec: ProblemSpec, source: str, key: str) -> Uncertain:
+def _resolve(entry: UncertainInput, spec: ProblemParts, source: str, key: str) -> Uncertain:
     name = entry.input
     unit = input_unit(name, spec)
     if unit is None:
@@ -372,7 +395,7 @@ def _class_band(entry: UncertainInput, source: str, key: str) -> Uncertain:
     return Uncertain(ROAD_CLASS, "m^3", "loguniform", None, None, False, lower, upper)
 
 
-def _check_possible(item: Uncertain, spec: ProblemSpec, source: str, key: str) -> None:
+def _check_possible(item: Uncertain, spec: ProblemParts, source: str, key: str) -> None:
     """Refuse a distribution that puts more than :data:`IMPOSSIBLE_MASS` where the input is
     physically impossible, at the nominal value (each end of a design variable's bounds)."""
     rule = input_rule(item.name, spec)

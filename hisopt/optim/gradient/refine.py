@@ -358,10 +358,10 @@ _WORKER: dict[str, Any] = {}
 def model_parts(problem: Problem) -> list[Part]:
     """The load cases of ``problem`` with their CasADi models (one part without scenarios)."""
     from hisopt.optim.gradient.casadi_model import CasadiModel
-    from hisopt.optim.gradient.sample_parts import sample_parts, uses_samples
+    from hisopt.optim.gradient.sample_parts import sample_cases, uses_samples
 
     if uses_samples(problem):  # one part per common random sample (docs/model.md §18.4)
-        return sample_parts(problem, Part, CasadiModel)
+        return [Part(c.name, c.space, CasadiModel(c.space), None, c.shift, c.scale, c.road) for c in sample_cases(problem)]
     if not problem.spec.scenarios:
         return [Part(None, problem, CasadiModel(problem))]
     spaces = [(name, problem.scenario_space(name)) for name in problem.scenario_names]

@@ -16,6 +16,7 @@ only if it meets the chance constraint itself, has the last word.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -26,7 +27,6 @@ from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates
 from hisopt.metrics import METRICS, ROAD_POWER
 
 if TYPE_CHECKING:
-    from hisopt.optim.gradient.asf_nlp import Part
     from hisopt.problem import Problem
 
 SPREAD_FLOOR = 1e-12
@@ -64,9 +64,21 @@ def design_maps(evaluator: UncertainEvaluator, u: np.ndarray) -> tuple[np.ndarra
     return a, b
 
 
-def sample_parts(problem: Problem, part_type: type[Part], model_type: Any) -> list[Part]:
-    """One :class:`~hisopt.optim.gradient.asf_nlp.Part` per common random sample of ``problem``
-    (its ``[robust] samples`` from ``[robust] seed``, the evaluator's own set)."""
+@dataclass(frozen=True)
+class SampleCase:
+    """One common random sample as a load case of the NLP: its problem (the sample's inputs
+    set), the design map ``x_s = shift + scale x`` and the road PSD's factor."""
+
+    name: str
+    space: Problem
+    shift: np.ndarray
+    scale: np.ndarray
+    road: float
+
+
+def sample_cases(problem: Problem) -> list[SampleCase]:
+    """One :class:`SampleCase` per common random sample of ``problem`` (its ``[robust]
+    samples`` from ``[robust] seed``, the evaluator's own set)."""
     if problem.spec.scenarios:
         raise ConfigError("the IPOPT refinement takes samples or load cases, not both; refine with method slp (the default)", key="--method")
     evaluator = UncertainEvaluator(problem)
@@ -75,15 +87,14 @@ def sample_parts(problem: Problem, part_type: type[Part], model_type: Any) -> li
     baseline = np.repeat(problem.baseline[None, :], len(u), axis=0)
     values = evaluator.values(baseline, u)
     a, b = design_maps(evaluator, u)
-    parts = []
+    cases = []
+    routed = list(zip(evaluator.inputs, evaluator.routes, strict=True))
     for s in range(len(u)):
-        fixed = {item.name: float(values[item.name][s]) for item, how in zip(evaluator.inputs, evaluator.routes, strict=True) if how not in ("design", "road")}
-        road = [
-            float(values[item.name][s]) / evaluator.nominal[item.name] for item, how in zip(evaluator.inputs, evaluator.routes, strict=True) if how == "road"
-        ]
+        fixed = {item.name: float(values[item.name][s]) for item, how in routed if how not in ("design", "road")}
+        road = [float(values[item.name][s]) / evaluator.nominal[item.name] for item, how in routed if how == "road"]
         space = sample_space(problem, fixed)
-        parts.append(part_type(f"sample {s}", space, model_type(space), None, a[s], b[s], road[0] if road else 1.0))  # type: ignore[arg-type]
-    return parts
+        cases.append(SampleCase(f"sample {s}", space, a[s], b[s], road[0] if road else 1.0))  # type: ignore[arg-type]
+    return cases
 
 
 def road_shift(name: str, road: float) -> float:
