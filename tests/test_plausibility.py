@@ -190,13 +190,13 @@ def test_alpha_without_cvar_is_refused(tmp_path, aggregate):
 
 def test_dumps_of_every_shipped_problem_read_back_without_robust_or_alpha_refusals():
     """Derived problems (refinement, layout studies, --set) re-read a dump: it must hold
-    [robust] only with scenarios, and alpha only with cvar."""
+    [robust] only with scenarios or uncertain samples, and alpha only with cvar."""
     for path in sorted((ROOT / "problems").glob("*.toml")):
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=EXTRAPOLATED)  # the envelope problem's -20 C (below)
             p = hisopt.load_problem(path)
             data = p.spec.model_dump(by_alias=True)
-            assert ("robust" in data) == bool(p.spec.scenarios)
+            assert ("robust" in data) == bool(p.spec.scenarios or p.spec.uncertain)
             assert "alpha" not in data.get("robust", {})
             assert problem_from_dict(data).spec == p.spec
 
