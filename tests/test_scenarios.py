@@ -125,13 +125,16 @@ def test_scenarios_share_a_model_when_only_the_road_differs():
     assert ev.groups == [[0, 1, 2]]
 
 
+NO_SCENARIOS = "combines the results of [[scenarios]] (or, with statistic, of [[uncertain]] samples) and this problem has none"
+
+
 @pytest.mark.parametrize(
     "change, words",
     [
         ({"scenarios": [{"name": "a"}, {"name": "a"}]}, "'a' is named twice"),
         ({"scenarios": [{"name": "a@b"}]}, "expected letters, digits"),
-        ({"robust": {"aggregate": "cvar"}}, "combines the results of [[scenarios]] (or, with statistic, of [[uncertain]] samples) and this problem has none"),
-        ({"robust": {}}, "combines the results of [[scenarios]] (or, with statistic, of [[uncertain]] samples) and this problem has none"),  # a [robust] table at all
+        ({"robust": {"aggregate": "cvar"}}, NO_SCENARIOS),
+        ({"robust": {}}, NO_SCENARIOS),  # a [robust] table at all
         ({"scenarios": [{"name": "a"}], "robust": {"alpha": 0.6}}, "robust.alpha: alpha is the CVaR level"),
         ({"scenarios": [{"name": "a"}], "constraints": [{"name": "rms_roll", "limit": 1.0, "scenarios": ["b"]}]}, "names scenario 'b'"),
         ({"scenarios": [{"name": "a", "weight": 0}]}, "greater than 0"),
