@@ -44,13 +44,15 @@ def every_quantity(steps: bool = True, swing: bool = False) -> tuple[list[str], 
 
 
 def pytest_terminal_summary(terminalreporter) -> None:
-    """Print the outcome counts of the mutation corpus (tests/test_mutations.py) if it ran."""
+    """Print the outcome counts of the mutation corpus (tests/test_mutations.py) and the
+    decision room's brush times (tests/test_decision_room.py) if they ran."""
     import sys
 
     module = sys.modules.get("tests.test_mutations")
-    if module is None:
-        return
-    for corpus, counts in module.COUNTS.items():
+    for corpus, counts in (module.COUNTS if module is not None else {}).items():
         if counts:
             parts = ", ".join(f"{outcome}: {n}" for outcome, n in sorted(counts.items()))
             terminalreporter.write_line(f"mutation corpus, {corpus}: {sum(counts.values())} ({parts})")
+    room = sys.modules.get("tests.test_decision_room")
+    for archive, ms in (room.TIMINGS if room is not None else {}).items():
+        terminalreporter.write_line(f"decision room in headless Chromium: {archive}: every view updated in {ms:.0f} ms")

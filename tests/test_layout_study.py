@@ -334,7 +334,7 @@ def test_status_and_report_recognise_a_study_directory(serial, tmp_path):
     assert lines[5] == "  layouts.csv written, no report.html yet" and lines[6] == f"next: `hisopt report {out}` writes {out / 'report.html'}"
 
     report = run_cli("report", out)
-    assert report.code == 0 and report.stdout.strip() == f"wrote {out / 'report.html'}", report.stderr
+    assert report.code == 0 and report.stdout.splitlines() == [f"wrote {out / 'report.html'}", f"wrote {out / 'decision.html'}"], report.stderr
     direct = write_layout_report(serial, tmp_path / "direct.html")
     assert (out / "report.html").read_bytes() == direct.read_bytes()
     assert run_cli("status", out).stdout.splitlines()[-1].startswith(f"finished: open {out / 'report.html'}")
@@ -356,3 +356,37 @@ def test_status_and_report_recognise_a_study_directory(serial, tmp_path):
     assert finished.code == 0, finished.stderr
     assert run_cli("status", out).stdout.splitlines()[-1].startswith("finished: open")
     _numeric_equal(read_csv(serial.out / "layouts.csv"), read_csv(out / "layouts.csv"))  # the same study
+
+
+def test_the_decision_room_holds_every_layouts_fronts(serial, tmp_path):
+    """Issue 27: the layout study's decision room navigates its layouts' fronts: each seed's
+    front of each layout, every quantity the layout's own problem gives (NaN for a variable
+    another layout has), exports in the layout's problem file."""
+    import json
+    import re
+    import tomllib
+
+    from hisopt.problem import problem_from_dict
+    from hisopt.report.decision_page import study_decision_room
+    from hisopt.studies.decision_room import decision_room_data, layout_sources
+
+    sources = layout_sources(serial)
+    assert [(s.name, Path(s.location).name) for s in sources] == [(n, f"seed-{k}") for n in ("roll_plane", "axle_roll") for k in (1, 2)]
+    for s in sources:
+        front = read_csv(Path(s.location) / rundir.FRONT_CSV)
+        assert np.array_equal(s.x, front[list(s.problem.variable_names)].to_numpy(dtype=float))
+    room = decision_room_data(sources)
+    assert len(room.table) == sum(len(s.x) for s in sources)
+    for name in ("roll_plane", "axle_roll"):
+        assert (room.table["source"] == name).sum() == sum(len(s.x) for s in sources if s.name == name)
+    assert room.table["p0"].notna().all() and {c for c, g in room.groups.items() if g == "variable"} >= set(sources[-1].problem.variable_names)
+    page = study_decision_room(serial)
+    assert page == serial.out / "decision.html"
+    data = json.loads(re.search(r'<script type="application/json" id="room-data">(.*?)</script>', page.read_text(), re.S).group(1))
+    assert [s["label"] for s in data["sources"]] == [f"{n} (seed-{k})" for n in ("roll_plane", "axle_roll") for k in (1, 2)]
+    # each layout's template, with its baseline put in, is that layout's problem
+    for s, entry in zip(sources, data["sources"], strict=True):
+        text = entry["template"]
+        for v, value in zip(s.problem.variable_names, s.problem.baseline, strict=True):
+            text = text.replace("{{" + v + "}}", repr(float(value)))
+        assert problem_from_dict(tomllib.loads(text)).spec == s.problem.spec

@@ -101,7 +101,7 @@ def compare_layouts_command(
     Console(width=200).print(_table(result))
     for note in result.limit_notes():
         typer.echo(note)
-    typer.echo(f"wrote {out / 'layouts.csv'} and {report}")
+    typer.echo(f"wrote {out / 'layouts.csv'}, {report} and {report.parent / 'decision.html'}")
     return 0
 
 

@@ -201,11 +201,13 @@ def report(
         str, typer.Option(help="design for spectra and modes: knee, asf or a row index of front.csv (front_thinned.csv with --epsilon)")
     ] = "knee",
 ) -> None:
-    """Write RUN_DIR/report.html, the run's offline report.
+    """Write RUN_DIR/report.html and RUN_DIR/decision.html, the run's offline pages.
 
-    Front, parallel coordinates, convergence, spectra and modes of one design; plotly.js
-    is embedded, so the file opens offline. On a finished `hisopt compare-layouts` study,
-    its study report from its files.
+    report.html: front, parallel coordinates, convergence, spectra and modes of one design
+    (plotly.js embedded, so the file opens offline). decision.html, the decision room:
+    brush, filter and navigate the designs (reference point, E-NAUTILUS) and export the
+    chosen ones as CSV or problem files (docs/model.md §19). On a finished
+    `hisopt compare-layouts` study, its study report from its files.
     """
     from hisopt.cli.compare import study_report
     from hisopt.report.html import build_report
@@ -213,6 +215,9 @@ def report(
 
     path = study_report(run_dir, color_by, design) if is_layout_study(run_dir) else build_report(run_dir, color_by=color_by, design=design)
     typer.echo(f"wrote {path}")
+    decision = path.parent / "decision.html"
+    if decision.is_file():
+        typer.echo(f"wrote {decision}")
 
 
 def refine_cmd(

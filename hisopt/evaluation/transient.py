@@ -356,34 +356,21 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
     step_g : float
         [g] lateral-acceleration step of the step quantities
     """
-    from hisopt.coupled.model import CoupledModel
-
     unknown = [name for name in names if name not in NAMES]
     if unknown:
         raise ValueError(f"unknown transient quantity {unknown[0]!r}; expected one of {', '.join(NAMES)}")
-    coupled = model if isinstance(model, CoupledModel) else None
-    if coupled is not None and coupled.pipe_model == "lumped" and coupled.his is not None:
-        groups = coupled.groups()  # one state space per pattern of shorted valves
-        if len(groups) > 1:
-            parts = [(rows, transient_quantities(sub, vehicle, names, step_g)) for rows, sub in groups]
-            total = sum(len(rows) for rows, _ in parts)
-            merged = {name: np.full(total, np.nan) for name in names}
-            for rows, part in parts:
-                for name in names:
-                    merged[name][rows] = part[name]
-            return merged
-        coupled = groups[0][1]
-    ss = coupled.state_space() if coupled is not None else model
-    a = np.asarray(ss.a, dtype=float)  # type: ignore[union-attr]
-    a = a.reshape((-1,) + a.shape[-2:])
-    n, size = a.shape[:2]
-    b = np.broadcast_to(roll_moment_input(vehicle, size), (n, size))
-    out = {name: np.full(n, np.nan) for name in names}
-    with np.errstate(all="ignore"):
-        static = _static_gain(a, b) if coupled is None else static_roll_gain(coupled)
-        form, trusted = modal_form(a, b, static)
-        ok = stable(form.lam) & np.isfinite(static) & (static != 0)
-        static = np.where(ok, static, 1.0)  # placeholders: those rows stay NaN
+    groups = _valve_groups(model)
+    if len(groups) > 1:
+        parts = [(rows, transient_quantities(sub, vehicle, names, step_g)) for rows, sub in groups]
+        total = sum(len(rows) for rows, _ in parts)
+        merged = {name: np.full(total, np.nan) for name in names}
+        for rows, part in parts:
+            for name in names:
+                merged[name][rows] = part[name]
+        return merged
+    roll = _roll_form(groups[0][1], vehicle)
+    form, trusted, ok, a, b, coupled = roll.form, roll.trusted, roll.ok, roll.a, roll.b, roll.coupled
+    out = {name: np.full(len(a), np.nan) for name in names}
     if not ok.any():
         return out
     fast = ok & trusted  # untrusted residues: NaN steps (a matrix-exponential fallback was too slow and fragile there)
@@ -405,6 +392,68 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
         if "roll_gain_peak_hz" in out:
             out["roll_gain_peak_hz"][rows] = f_peak
     return out
+
+
+def step_responses(model: CoupledModel, vehicle: VehicleParams, t_s: np.ndarray, step_g: float) -> np.ndarray:
+    """[rad] Roll angle ``phi(t)`` of a batch of designs under a lateral-acceleration step of
+    ``step_g`` [g] at times ``t_s`` [s] ``(P,)``, shape ``(n, P)``: the pole-residue form of
+    the step quantities (module docstring); NaN where a design is unstable or its residues
+    are not trusted (as its ``roll_step_peak``)."""
+    t_s = np.asarray(t_s, dtype=float)
+    groups = _valve_groups(model)
+    out = np.full((sum(len(rows) for rows, _ in groups), t_s.size), np.nan)
+    for rows, sub in groups:
+        roll = _roll_form(sub, vehicle)
+        usable = roll.ok & roll.trusted
+        if usable.any():
+            with np.errstate(all="ignore"):
+                phi = _rows(roll.form, usable)(np.broadcast_to(t_s, (int(usable.sum()), t_s.size)), 0)
+            out[np.asarray(rows)[usable]] = step_g * G_MPS2 * phi
+    return out
+
+
+@dataclass(frozen=True)
+class _RollForm:
+    """The roll response per unit ``a_y`` of designs sharing one state space: the modal form,
+    whether its residues are trusted, whether the design is stable with a static gain (``ok``),
+    the state matrices ``a``, input columns ``b`` and the coupled model (None: a bare state
+    space)."""
+
+    form: ModalForm
+    trusted: np.ndarray
+    ok: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    coupled: CoupledModel | None
+
+
+def _valve_groups(model: CoupledModel | StateSpace) -> list[tuple[np.ndarray, CoupledModel | StateSpace]]:
+    """``(rows, model)`` per pattern of shorted valves (one state space each); a bare state
+    space or a distributed model is one group of all its designs."""
+    from hisopt.coupled.model import CoupledModel
+
+    if isinstance(model, CoupledModel) and model.pipe_model == "lumped" and model.his is not None:
+        return list(model.groups())
+    a = np.asarray(model.a if not isinstance(model, CoupledModel) else model.state_space().a)
+    return [(np.arange(int(np.prod(a.shape[:-2], dtype=int))), model)]
+
+
+def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams) -> _RollForm:
+    """:class:`_RollForm` of designs sharing one state space (one of :func:`_valve_groups`)."""
+    from hisopt.coupled.model import CoupledModel
+
+    coupled = model if isinstance(model, CoupledModel) else None
+    ss = coupled.state_space() if coupled is not None else model
+    a = np.asarray(ss.a, dtype=float)  # type: ignore[union-attr]
+    a = a.reshape((-1,) + a.shape[-2:])
+    n, size = a.shape[:2]
+    b = np.broadcast_to(roll_moment_input(vehicle, size), (n, size))
+    with np.errstate(all="ignore"):
+        static = _static_gain(a, b) if coupled is None else static_roll_gain(coupled)
+        form, trusted = modal_form(a, b, static)
+        ok = stable(form.lam) & np.isfinite(static) & (static != 0)
+        form = ModalForm(form.lam, form.res, np.where(ok, static, 1.0))  # placeholders: those rows stay NaN
+    return _RollForm(form, trusted, ok, a, b, coupled)
 
 
 def static_roll_gain(model: CoupledModel) -> np.ndarray:

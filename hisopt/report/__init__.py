@@ -9,11 +9,14 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from hisopt.report.decision_page import DecisionRoom, decision_room
     from hisopt.report.html import build_report
     from hisopt.report.layout_report import attainment_figure, curve_figure, fronts_figure, write_layout_report
     from hisopt.report.schematic import layout_schematic
 
 _LAZY = {
+    "DecisionRoom": "hisopt.report.decision_page",
+    "decision_room": "hisopt.report.decision_page",
     "build_report": "hisopt.report.html",
     "attainment_figure": "hisopt.report.layout_report",
     "curve_figure": "hisopt.report.layout_report",
@@ -23,9 +26,11 @@ _LAZY = {
 }
 
 __all__ = [
+    "DecisionRoom",
     "attainment_figure",
     "build_report",
     "curve_figure",
+    "decision_room",
     "fronts_figure",
     "layout_schematic",
     "write_layout_report",

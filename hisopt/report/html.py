@@ -225,6 +225,7 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     from hisopt.optim.decision import asf_index, knee_index
     from hisopt.plotting import figures
     from hisopt.report import schematic
+    from hisopt.report.decision_page import DECISION_FILE, run_decision_room
     from hisopt.studies.spectra import response_spectra
 
     run_dir = Path(run_dir)
@@ -348,8 +349,11 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
 <p class="meta">{html.escape(str(run_dir))}: {html.escape(front_note)}{refined_note};
 objectives {html.escape(", ".join(objectives))}; knee and ASF pick highlighted. Values in engineering units
 (SI in the CSV files).</p>
+<p class="meta">To narrow the front down to one design and hand it over: <a href="{DECISION_FILE}">the decision room</a>
+(linked views, reference-point and E-NAUTILUS navigation, export).</p>
 {"".join(parts)}
 </body></html>"""
     out = run_dir / "report.html"
     atomic_write_text(out, page)
+    run_decision_room(run_dir)
     return out

@@ -196,6 +196,7 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
 
     from hisopt.errors import ConfigError
     from hisopt.io import atomic_write_text
+    from hisopt.report.decision_page import DECISION_FILE, study_decision_room
 
     if path is None:
         if result.out is None:
@@ -235,7 +236,11 @@ objectives {html.escape(", ".join(result.normalisation.objectives))}. Equal hand
 &le; {html.escape(format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"]))}.
 gain_vs_roll_plane_pct &gt; 0: better comfort than the paper's roll-plane layout at that limit. Hypervolumes in
 the shared normalisation (docs/model.md §15). Values in engineering units (SI in the CSV files).</p>
+<p class="meta">To compare the layouts' designs one by one, navigate their fronts and hand one over:
+<a href="{DECISION_FILE}">the decision room</a>.</p>
 {notes}{"".join(parts)}
 </body></html>"""
     atomic_write_text(path, page)
+    if Path(path) == (None if result.out is None else result.out / "report.html"):
+        study_decision_room(result)
     return Path(path)

@@ -8,7 +8,7 @@ batch of designs (numpy) or of symbolic ones (CasADi). The evaluator sits on top
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Self
@@ -46,6 +46,28 @@ Inputs = Mapping[str, np.ndarray]
 
 VEHICLE_PREFIX = "vehicle."
 TEMPERATURE_OFFSET = "temperature_offset"
+
+
+def his_value_path(data: Mapping[str, Any], extra: Mapping[str, float], key: str) -> tuple[str, ...] | None:
+    """Where the value of ``[his]`` parameter ``key`` lives in a problem file's data ``data``:
+    ``("his", "parameters", key)`` for a layout's extra parameter (``extra``, its defaults),
+    ``("his", "pipes", "diameter")`` for ``pipe_diameter`` (with ``[his.pipes]``), else
+    ``("his", key)``; None for a name that is none of them."""
+    if key in extra:
+        return ("his", "parameters", key)
+    if key in PIPE_PARAMETERS and data["his"].get("pipes") is not None:
+        return ("his", "pipes", key.removeprefix("pipe_"))
+    if key not in data["his"] or key in ("parameters", "circuits"):
+        return None
+    return ("his", key)
+
+
+def nested(path: Sequence[str], value: Any) -> dict[str, Any]:
+    """``{"a": {"b": value}}`` of the path ``("a", "b")``."""
+    out: Any = value
+    for part in reversed(path):
+        out = {part: out}
+    return dict(out)
 
 
 @dataclass(frozen=True)
@@ -194,19 +216,15 @@ class DesignSpace:
         given: dict[str, dict[str, Any]] = {}
         for key, value in values.items():
             value = value.item() if isinstance(value, np.generic) else value
-            if key in extra:
-                data["his"]["parameters"][key] = value
-                given[key] = {"his": {"parameters": {key: value}}}
-                continue
-            if key in PIPE_PARAMETERS and data["his"].get("pipes") is not None:  # pipe_diameter: [his.pipes] diameter
-                data["his"]["pipes"][key.removeprefix("pipe_")] = value
-                given[key] = {"his": {"pipes": {key.removeprefix("pipe_"): value}}}
-                continue
-            if key not in data["his"] or key in ("parameters", "circuits"):
+            path = his_value_path(data, extra, key)
+            if path is None:
                 known = [k for k in data["his"] if k not in ("parameters", "circuits")] + list(extra)
                 raise ConfigError(f"unknown HIS parameter {key!r}; expected one of {', '.join(known)}", key=key)
-            data["his"][key] = value
-            given[key] = {"his": {key: value}}
+            place = data
+            for step in path[:-1]:
+                place = place[step]
+            place[path[-1]] = value
+            given[key] = nested(path, value)
         # the rest of the problem was checked when it was read: only the given values may warn
         spec = parse_problem(data, str(self.path or "<problem>"), warn_implausible=False)
         for key, part in given.items():

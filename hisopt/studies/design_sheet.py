@@ -58,14 +58,15 @@ class DesignSheet:
     def problem_data(self) -> dict[str, Any]:
         """The problem file of the design (its ``[his]`` values are the design's), as TOML data:
         the specification without empty values (TOML has no null)."""
-        return _without_none(self.problem.spec.model_dump(mode="json", by_alias=True))
+        return without_none(self.problem.spec.model_dump(mode="json", by_alias=True))
 
 
-def _without_none(data: Any) -> Any:
+def without_none(data: Any) -> Any:
+    """``data`` (nested dicts and lists) without its None values: what TOML can hold."""
     if isinstance(data, dict):
-        return {k: _without_none(v) for k, v in data.items() if v is not None}
+        return {k: without_none(v) for k, v in data.items() if v is not None}
     if isinstance(data, list):
-        return [_without_none(v) for v in data]
+        return [without_none(v) for v in data]
     return data
 
 
