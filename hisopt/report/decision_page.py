@@ -17,6 +17,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -234,6 +235,43 @@ class DecisionRoom:
     def table(self) -> pd.DataFrame:
         """[SI] One row per design: source, kind, row, every quantity, feasible, front."""
         return self.room.table
+
+    @property
+    def front(self) -> pd.DataFrame:
+        """[SI] The designs on the front (what the page navigates over without filters)."""
+        return self.room.table[self.room.table["front"].to_numpy(dtype=bool)]
+
+    def asf(self, reference: Sequence[float]) -> pd.Series:
+        """[SI] The front design closest to the aspiration ``reference`` (one value per
+        objective, SI), as the page's reference point picks it
+        (:func:`hisopt.optim.decision.asf_index`)."""
+        from hisopt.optim.decision import asf_index
+
+        front = self.front
+        return front.iloc[asf_index(front[self.room.objectives].to_numpy(dtype=float), np.asarray(reference, dtype=float))]
+
+    def enautilus(self, picks: Sequence[int], steps: int = 5, k: int = 4) -> list[pd.DataFrame]:
+        """The E-NAUTILUS steps of the page over the front (:mod:`hisopt.optim.navigation`)
+        taking option ``picks[i]`` at step ``i``: per step a table of its options, each with its
+        intermediate point and the best value still reachable per objective [SI], the designs
+        reachable and the representative design's row of :attr:`table`."""
+        from hisopt.optim.decision import log_objectives, normalised_log
+        from hisopt.optim.navigation import enautilus_walk
+
+        front = self.front
+        f = front[self.room.objectives].to_numpy(dtype=float)
+        z = log_objectives(f)
+        ideal, span = z.min(axis=0), np.where(z.max(axis=0) > z.min(axis=0), z.max(axis=0) - z.min(axis=0), 1.0)
+        out = []
+        for options in enautilus_walk(normalised_log(f)[0], list(picks), steps, k):
+            rows = {}
+            for name_j, (name, lo, sp) in enumerate(zip(self.room.objectives, ideal, span, strict=True)):
+                rows[name] = [10 ** (lo + o.point[name_j] * sp) for o in options]
+                rows[f"{name} best"] = [10 ** (lo + o.best[name_j] * sp) for o in options]
+            rows["reachable"] = [len(o.reachable) for o in options]
+            rows["design"] = [int(front.index[o.representative]) for o in options]
+            out.append(pd.DataFrame(rows))
+        return out
 
     def save(self, path: str | Path) -> Path:
         """Write the page to ``path``; its path."""

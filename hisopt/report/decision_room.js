@@ -152,7 +152,7 @@
     });
     ["pc-bg", "pc-fg", "pc-ax"].forEach((id) => sized($(id), width, PC.height));
   }
-  function polylines(ctx, rows) {
+  function polylines(ctx, rows) { // a few highlighted designs: anti-aliased paths
     ctx.beginPath();
     for (const i of rows) {
       let pen = false;
@@ -164,22 +164,42 @@
     }
     ctx.stroke();
   }
+  // Thousands of designs: each line's pixels written into one buffer (a column at a time,
+  // the gaps of steep segments filled), some ten times faster than the canvas's stroking.
+  function rasterLines(canvas, rows, colourOf) {
+    const r = window.devicePixelRatio || 1, W = canvas.width, H = canvas.height, ctx = canvas.getContext("2d");
+    const img = ctx.createImageData(W, H), px = new Uint32Array(img.data.buffer);
+    const xs = axes.map((a) => Math.round(a.x * r));
+    for (const i of rows) {
+      const c = colourOf(i);
+      for (let k = 0; k + 1 < axes.length; k++) {
+        const y0 = axes[k].y[i] * r, y1 = axes[k + 1].y[i] * r;
+        if (y0 !== y0 || y1 !== y1) continue;
+        const x0 = xs[k], x1 = xs[k + 1], slope = (y1 - y0) / (x1 - x0);
+        let prev = Math.round(y0);
+        for (let x = x0; x <= x1; x++) {
+          const y = Math.round(y0 + (x - x0) * slope);
+          const lo = Math.max(0, Math.min(prev, y)), hi = Math.min(H - 1, Math.max(prev, y));
+          for (let yy = lo; yy <= hi; yy++) px[yy * W + x] = c;
+          prev = y;
+        }
+      }
+    }
+    ctx.putImageData(img, 0, 0);
+  }
+  const abgr = (hex, alpha) => ((alpha << 24) | (parseInt(hex.slice(5, 7), 16) << 16) | (parseInt(hex.slice(3, 5), 16) << 8) | parseInt(hex.slice(1, 3), 16)) >>> 0;
   function drawPcBackground() {
-    const ctx = $("pc-bg").getContext("2d");
-    ctx.clearRect(0, 0, 1e5, 1e5);
-    ctx.strokeStyle = "rgba(160,168,180,0.18)"; ctx.lineWidth = 1;
     const rows = [];
     for (let i = 0; i < N; i++) if (base[i]) rows.push(i);
-    polylines(ctx, rows);
+    const grey = abgr("#a0a8b4", 70);
+    rasterLines($("pc-bg"), rows, () => grey);
   }
   function drawPcForeground() {
-    const ctx = $("pc-fg").getContext("2d");
-    ctx.clearRect(0, 0, 1e5, 1e5);
-    const colour = byName[S.colour], bins = VIRIDIS.map(() => []);
-    for (let i = 0; i < N; i++) if (selected[i]) bins[colourBin(unit(colour, colour.values[i]))].push(i);
-    ctx.lineWidth = 1; ctx.globalAlpha = 0.35;
-    bins.forEach((rows, b) => { if (rows.length) { ctx.strokeStyle = VIRIDIS[b]; polylines(ctx, rows); } });
-    ctx.globalAlpha = 1;
+    const canvas = $("pc-fg"), ctx = canvas.getContext("2d"), colour = byName[S.colour], rows = [];
+    for (let i = 0; i < N; i++) if (selected[i]) rows.push(i);
+    rows.sort((a, b) => colour.values[b] - colour.values[a] || a - b); // the best drawn last, on top
+    const palette = VIRIDIS.map((h) => abgr(h, 255));
+    rasterLines(canvas, rows, (i) => palette[colourBin(unit(colour, colour.values[i]))]);
     const shown = S.hovered >= 0 ? S.hovered : S.shown;
     if (shown >= 0) { ctx.strokeStyle = "#d1495b"; ctx.lineWidth = 2.5; polylines(ctx, [shown]); }
   }
@@ -240,8 +260,7 @@
     const canvas = $("sp-fg"), ctx = canvas.getContext("2d"), r = window.devicePixelRatio || 1;
     const img = ctx.createImageData(canvas.width, canvas.height), px = new Uint32Array(img.data.buffer), W = canvas.width, H = canvas.height;
     const colour = byName[S.colour];
-    const rgba = VIRIDIS.map((h) => (255 << 24) | (parseInt(h.slice(5, 7), 16) << 16) | (parseInt(h.slice(3, 5), 16) << 8) | parseInt(h.slice(1, 3), 16));
-    const grey = (255 << 24) | (0xd8 << 16) | (0xd4 << 8) | 0xd0;
+    const rgba = VIRIDIS.map((h) => abgr(h, 255)), grey = abgr("#d0d4d8", 255);
     const dot = (x, y, value) => {
       const X = Math.round(x * r), Y = Math.round(y * r);
       if (X < 0 || Y < 0 || X + 1 >= W || Y + 1 >= H) return;

@@ -35,7 +35,7 @@ SPECTRUM_OUTPUTS = ("acc_z", "roll")
 """The spectra drawn for a design: CG vertical acceleration (comfort) and roll angle (handling)."""
 SPECTRUM_SAMPLES = 48
 """[-] Log-spaced frequencies of each spectrum over the problem's [band]."""
-STEP_SAMPLES = 32
+STEP_SAMPLES = 64
 """[-] Times of the step response."""
 STEP_DURATION_S = 3.0
 """[s] The step response is drawn from the step to this time (the roll modes near 1 to 2 Hz
