@@ -134,14 +134,23 @@
   const flush = (canvas) => canvas.getContext("2d").getImageData(0, 0, 1, 1); // finish drawing before the clock stops
 
   // --- parallel coordinates ------------------------------------------------------------------
-  const PC = { top: 78, bottom: 28, left: 60, right: 60, height: 400 };
+  const PC = { top: 78, bottom: 28, left: 60, right: 60, height: 406, rows: 2 };
   let axes = [];
   function visibleColumns() {
     return cols.filter((c) => c.group !== "load case" || !S.loadCase || c.name.endsWith("@" + S.loadCase));
   }
   function layoutAxes() {
-    const list = visibleColumns(), width = Math.max($("room").clientWidth, 600);
+    const list = visibleColumns(), width = Math.max($("room").clientWidth, 600, PC.left + PC.right + 96 * (list.length - 1)); // wider: it scrolls
     const gap = (width - PC.left - PC.right) / Math.max(list.length - 1, 1);
+    // axis titles in as many staggered rows as it takes for neighbours not to touch
+    const probe = $("pc-ax").getContext("2d");
+    probe.font = "12px Helvetica, Arial, sans-serif";
+    const widest = Math.max.apply(null, list.map((c) => probe.measureText(label(c)).width));
+    PC.rows = Math.min(5, Math.max(2, Math.ceil((widest + 10) / gap)));
+    PC.top = 46 + 16 * PC.rows;
+    PC.height = PC.top + 300 + PC.bottom;
+    $("pc-ax").parentElement.style.height = PC.height + "px";
+    $("pc-ax").parentElement.style.width = width + "px";
     axes = list.map((c, k) => ({ c: c, x: PC.left + k * gap, y: new Float32Array(N) }));
     const h = PC.height - PC.top - PC.bottom;
     axes.forEach((a) => {
@@ -167,20 +176,21 @@
   // Thousands of designs: each line's pixels written into one buffer (a column at a time,
   // the gaps of steep segments filled), some ten times faster than the canvas's stroking.
   function rasterLines(canvas, rows, colourOf) {
-    const r = window.devicePixelRatio || 1, W = canvas.width, H = canvas.height, ctx = canvas.getContext("2d");
-    const img = ctx.createImageData(W, H), px = new Uint32Array(img.data.buffer);
-    const xs = axes.map((a) => Math.round(a.x * r));
+    const r = window.devicePixelRatio || 1, W = canvas.width, ctx = canvas.getContext("2d");
+    const img = ctx.createImageData(W, canvas.height), px = new Uint32Array(img.data.buffer);
+    const xs = axes.map((a) => Math.round(a.x * r)), last = axes.length - 1;
     for (const i of rows) {
       const c = colourOf(i);
-      for (let k = 0; k + 1 < axes.length; k++) {
+      for (let k = 0; k < last; k++) {
         const y0 = axes[k].y[i] * r, y1 = axes[k + 1].y[i] * r;
         if (y0 !== y0 || y1 !== y1) continue;
         const x0 = xs[k], x1 = xs[k + 1], slope = (y1 - y0) / (x1 - x0);
-        let prev = Math.round(y0);
-        for (let x = x0; x <= x1; x++) {
-          const y = Math.round(y0 + (x - x0) * slope);
-          const lo = Math.max(0, Math.min(prev, y)), hi = Math.min(H - 1, Math.max(prev, y));
-          for (let yy = lo; yy <= hi; yy++) px[yy * W + x] = c;
+        let yf = y0 + 0.5, prev = yf | 0; // y >= 0: truncation rounds
+        for (let x = x0; x <= x1; x++, yf += slope) {
+          const y = yf | 0;
+          if (y === prev) px[y * W + x] = c;
+          else if (y > prev) for (let yy = prev + 1; yy <= y; yy++) px[yy * W + x] = c;
+          else for (let yy = y; yy < prev; yy++) px[yy * W + x] = c;
           prev = y;
         }
       }
@@ -195,10 +205,9 @@
     rasterLines($("pc-bg"), rows, () => grey);
   }
   function drawPcForeground() {
-    const canvas = $("pc-fg"), ctx = canvas.getContext("2d"), colour = byName[S.colour], rows = [];
-    for (let i = 0; i < N; i++) if (selected[i]) rows.push(i);
-    rows.sort((a, b) => colour.values[b] - colour.values[a] || a - b); // the best drawn last, on top
-    const palette = VIRIDIS.map((h) => abgr(h, 255));
+    const canvas = $("pc-fg"), ctx = canvas.getContext("2d"), colour = byName[S.colour], bins = VIRIDIS.map(() => []);
+    for (let i = 0; i < N; i++) if (selected[i]) bins[colourBin(unit(colour, colour.values[i]))].push(i);
+    const rows = [].concat.apply([], bins.reverse()), palette = VIRIDIS.map((h) => abgr(h, 255)); // the best drawn last, on top
     rasterLines(canvas, rows, (i) => palette[colourBin(unit(colour, colour.values[i]))]);
     const shown = S.hovered >= 0 ? S.hovered : S.shown;
     if (shown >= 0) { ctx.strokeStyle = "#d1495b"; ctx.lineWidth = 2.5; polylines(ctx, [shown]); }
@@ -212,7 +221,7 @@
       ctx.strokeStyle = "#333"; ctx.lineWidth = 1;
       ctx.beginPath(); ctx.moveTo(a.x, PC.top); ctx.lineTo(a.x, PC.top + h); ctx.stroke();
       ctx.fillStyle = "#1d2330";
-      ctx.save(); ctx.translate(a.x, PC.top - 14 - (k % 2) * 16); ctx.fillText(label(a.c), 0, 0); ctx.restore();
+      ctx.save(); ctx.translate(a.x, PC.top - 14 - (k % PC.rows) * 16); ctx.fillText(label(a.c), 0, 0); ctx.restore();
       ctx.fillStyle = "#556"; ctx.textAlign = "right"; ctx.font = "10px Helvetica, Arial, sans-serif";
       ticks(a.c, 4).forEach((v) => {
         const y = PC.top + (1 - unit(a.c, v)) * h;

@@ -243,7 +243,8 @@ def decision_room_data(sources: Sequence[Source]) -> Room:
             raise ValueError(f"{source.name}: objectives {list(p.objective_names)} differ from {objectives}; a room compares designs in one set")
         q = p.evaluate(source.x, log=False)
         found = dict(q.attrs.get("units", {}))
-        parts = part_columns(p, source.x)
+        variables = {v: source.x[:, k] for k, v in enumerate(p.variable_names)}
+        parts = {name: v for name, v in part_columns(p, source.x).items() if not any(np.array_equal(v, x) for x in variables.values())}  # not a variable again
         kinds = [
             ("variable", list(p.variable_names)),
             ("objective", objectives),
