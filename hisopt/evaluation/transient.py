@@ -361,7 +361,7 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
         raise ValueError(f"unknown transient quantity {unknown[0]!r}; expected one of {', '.join(NAMES)}")
     groups = _valve_groups(model)
     if len(groups) > 1:
-        parts = [(rows, transient_quantities(sub, vehicle, names, step_g)) for rows, sub in groups]
+        parts = [(np.asarray(rows), transient_quantities(sub, vehicle, names, step_g)) for rows, sub in groups]  # rows of groups() are arrays
         total = sum(len(rows) for rows, _ in parts)
         merged = {name: np.full(total, np.nan) for name in names}
         for rows, part in parts:
@@ -400,15 +400,14 @@ def step_responses(model: CoupledModel, vehicle: VehicleParams, t_s: np.ndarray,
     the step quantities (module docstring); NaN where a design is unstable or its residues
     are not trusted (as its ``roll_step_peak``)."""
     t_s = np.asarray(t_s, dtype=float)
-    groups = _valve_groups(model)
-    out = np.full((sum(len(rows) for rows, _ in groups), t_s.size), np.nan)
-    for rows, sub in groups:
-        roll = _roll_form(sub, vehicle)
+    parts = [(rows, _roll_form(sub, vehicle)) for rows, sub in _valve_groups(model)]
+    out = np.full((sum(len(roll.a) for _, roll in parts), t_s.size), np.nan)
+    for rows, roll in parts:
         usable = roll.ok & roll.trusted
         if usable.any():
             with np.errstate(all="ignore"):
                 phi = _rows(roll.form, usable)(np.broadcast_to(t_s, (int(usable.sum()), t_s.size)), 0)
-            out[np.asarray(rows)[usable]] = step_g * G_MPS2 * phi
+            out[(np.arange(len(roll.a)) if rows is None else np.asarray(rows))[usable]] = step_g * G_MPS2 * phi
     return out
 
 
@@ -427,15 +426,14 @@ class _RollForm:
     coupled: CoupledModel | None
 
 
-def _valve_groups(model: CoupledModel | StateSpace) -> list[tuple[np.ndarray, CoupledModel | StateSpace]]:
+def _valve_groups(model: CoupledModel | StateSpace) -> list[tuple[np.ndarray | None, CoupledModel | StateSpace]]:
     """``(rows, model)`` per pattern of shorted valves (one state space each); a bare state
-    space or a distributed model is one group of all its designs."""
+    space or a distributed model is one group, ``rows`` None: all its designs."""
     from hisopt.coupled.model import CoupledModel
 
     if isinstance(model, CoupledModel) and model.pipe_model == "lumped" and model.his is not None:
         return list(model.groups())
-    a = np.asarray(model.a if not isinstance(model, CoupledModel) else model.state_space().a)
-    return [(np.arange(int(np.prod(a.shape[:-2], dtype=int))), model)]
+    return [(None, model)]
 
 
 def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams) -> _RollForm:
