@@ -160,6 +160,25 @@ def room(run_dir):
     return decision_room_data(run_sources(run_dir))
 
 
+def test_run_sources_keep_the_front_whole_and_the_latest_other_designs(run_dir):
+    import pandas as pd
+
+    names = ["p0", "dA", "lam", "Rv"]
+    front = hisopt.io.read_csv(run_dir / "front.csv")[names].to_numpy(dtype=float)
+    every = run_sources(run_dir)[0]
+    assert np.array_equal(every.x[: len(front)], front) and set(every.kind[: len(front)]) == {"front"}
+    assert len({tuple(v) for v in every.x}) == len(every.x)  # each design once
+    evaluated = pd.read_parquet(run_dir / "evaluations.parquet")
+    valid = evaluated[evaluated["valid"]]
+    others = {tuple(v) for v in valid[names].to_numpy(dtype=float)} - {tuple(v) for v in front}
+    assert len(every.x) == len(front) + len(others)  # below the cap: all of them
+    capped = run_sources(run_dir, max_rows=len(front) + 10)[0]
+    latest = capped.row[capped.kind == "evaluated"]
+    assert len(capped.x) == len(front) + 10 and np.all(np.diff(latest) > 0)
+    assert latest.min() >= np.sort(every.row[every.kind == "evaluated"])[-10]  # the ten latest
+    assert len(run_sources(run_dir, max_rows=5)[0].x) == len(front)  # the front always whole
+
+
 def _driver_or_skip(download: Path):
     if CHROMIUM is None or CHROMEDRIVER is None:
         if os.environ.get("CI"):

@@ -124,9 +124,15 @@ def run_sources(run_dir: str | Path, max_rows: int = MAX_ROWS) -> list[Source]:
     if room and path.is_file():
         evaluated = pd.read_parquet(path)
         evaluated = evaluated[evaluated["valid"].to_numpy(dtype=bool)].sort_values("evaluation", ascending=False)
-        seen = {tuple(v) for v in np.vstack(x)}
-        keep = [i for i, v in enumerate(evaluated[names].to_numpy(dtype=float)) if not (tuple(v) in seen or seen.add(tuple(v)))][:room]  # type: ignore[func-returns-value]
-        chosen = evaluated.iloc[sorted(keep, key=lambda i: int(evaluated["evaluation"].iloc[i]))]
+        seen = {tuple(v) for v in np.vstack(x)}  # a design once: the front's copy, else its latest evaluation
+        keep: list[int] = []
+        for i, v in enumerate(evaluated[names].to_numpy(dtype=float)):
+            if len(keep) == room:
+                break
+            if tuple(v) not in seen:
+                seen.add(tuple(v))
+                keep.append(i)
+        chosen = evaluated.iloc[keep].sort_values("evaluation")
         x.append(chosen[names].to_numpy(dtype=float))
         kind.append(np.full(len(chosen), "evaluated"))
         row.append(chosen["evaluation"].to_numpy(dtype=int))
