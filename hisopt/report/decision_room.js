@@ -6,6 +6,7 @@
   const D = JSON.parse(document.getElementById("room-data").textContent);
   const N = D.rows;
   const $ = (id) => document.getElementById(id);
+  const esc = (text) => String(text).replace(/[&<>"]/g, (ch) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[ch]);
 
   function decode(b64, Type) {
     const bin = atob(b64);
@@ -300,8 +301,8 @@
   function drawTable() {
     const rows = S.tableRows || [];
     const shownCols = cols.filter((c) => c.group === "variable" || c.group === "objective");
-    const head = "<thead><tr><th>export</th><th class=\"text\">design</th>" + shownCols.map((c) => "<th>" + c.name + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "</tr></thead>";
-    const body = rows.map((i) => "<tr data-row=\"" + i + "\"" + (i === S.shown ? " class=\"shown\"" : "") + "><td><input type=\"checkbox\" data-row=\"" + i + "\"" + (S.chosen.has(i) ? " checked" : "") + "></td><td class=\"text\">" + rowName(i) + "</td>" + shownCols.map((c) => "<td>" + number(c.values[i], c.display) + "</td>").join("") + "</tr>").join("");
+    const head = "<thead><tr><th>export</th><th class=\"text\">design</th>" + shownCols.map((c) => "<th>" + esc(c.name) + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "</tr></thead>";
+    const body = rows.map((i) => "<tr data-row=\"" + i + "\"" + (i === S.shown ? " class=\"shown\"" : "") + "><td><input type=\"checkbox\" data-row=\"" + i + "\"" + (S.chosen.has(i) ? " checked" : "") + "></td><td class=\"text\">" + esc(rowName(i)) + "</td>" + shownCols.map((c) => "<td>" + number(c.values[i], c.display) + "</td>").join("") + "</tr>").join("");
     $("designs").innerHTML = head + "<tbody>" + body + "</tbody>";
   }
 
@@ -316,10 +317,10 @@
     $("d-title").textContent = rowName(i) + (feasible[i] ? "" : " (not feasible)") + (onFront[i] ? ", on the front" : "");
     const src = D.sources[source[i]];
     const rows = cols.filter((c) => (c.group !== "variable" || src.variables.indexOf(c.name) >= 0) && (c.group !== "load case" || !S.loadCase || c.name.endsWith("@" + S.loadCase)));
-    $("d-table").innerHTML = "<thead><tr><th class=\"text\">quantity</th><th class=\"text\">kind</th><th>value</th></tr></thead><tbody>" + rows.map((c) => "<tr><td class=\"text\">" + c.name + "</td><td class=\"text\">" + c.group + "</td><td>" + withUnit(c.values[i], c.display) + (c.group === "variable" ? boundNote(i, c.name) : "") + "</td></tr>").join("") + "</tbody>";
+    $("d-table").innerHTML = "<thead><tr><th class=\"text\">quantity</th><th class=\"text\">kind</th><th>value</th></tr></thead><tbody>" + rows.map((c) => "<tr><td class=\"text\">" + esc(c.name) + "</td><td class=\"text\">" + c.group + "</td><td>" + withUnit(c.values[i], c.display) + (c.group === "variable" ? boundNote(i, esc(c.name)) : "") + "</td></tr>").join("") + "</tbody>";
     const sheet = D.kinds[kind[i]] === "front" && D.sources.length === 1 ? D.sheets[String(fileRow[i])] : undefined;
     const command = D.kinds[kind[i]] === "front" && src.location ? "hisopt sheet " + src.location + " --design " + fileRow[i] : "";
-    $("d-sheet").innerHTML = (sheet ? "<a href=\"" + sheet + "\">design sheet</a> · " : "") + (command ? "its design sheet: <code>" + command + "</code>" : "export its problem file to evaluate or sheet it");
+    $("d-sheet").innerHTML = (sheet ? "<a href=\"" + esc(sheet) + "\">design sheet</a> · " : "") + (command ? "its design sheet: <code>" + command + "</code>" : "export its problem file to evaluate or sheet it");
     drawCurves(i);
   }
   function drawCurves(i) {
@@ -427,7 +428,7 @@
     S.navFront = front;
     $("nav-count").textContent = String(front.rows.length);
     if (!S.reference || S.reference.length !== objectives.length) S.reference = objectives.map((_, j) => front.rows.length ? physical(front, j, 0) : 1);
-    $("ref-table").innerHTML = "<thead><tr><th class=\"text\">objective</th><th>aspiration</th><th></th><th>reachable<span class=\"unit\">from</span></th><th>reachable<span class=\"unit\">to</span></th></tr></thead><tbody>" + objectives.map((c, j) => "<tr><td class=\"text\">" + label(c) + "</td><td><input class=\"ref\" type=\"number\" step=\"any\" data-j=\"" + j + "\" value=\"" + number(S.reference[j], c.display).replace(/[^0-9eE.+-]/g, "") + "\"></td><td><input type=\"range\" min=\"0\" max=\"1000\" data-j=\"" + j + "\"></td><td id=\"reach-lo-" + j + "\"></td><td id=\"reach-hi-" + j + "\"></td></tr>").join("") + "</tbody>";
+    $("ref-table").innerHTML = "<thead><tr><th class=\"text\">objective</th><th>aspiration</th><th></th><th>reachable<span class=\"unit\">from</span></th><th>reachable<span class=\"unit\">to</span></th></tr></thead><tbody>" + objectives.map((c, j) => "<tr><td class=\"text\">" + esc(label(c)) + "</td><td><input class=\"ref\" type=\"number\" step=\"any\" data-j=\"" + j + "\" value=\"" + number(S.reference[j], c.display).replace(/[^0-9eE.+-]/g, "") + "\"></td><td><input type=\"range\" min=\"0\" max=\"1000\" data-j=\"" + j + "\"></td><td id=\"reach-lo-" + j + "\"></td><td id=\"reach-hi-" + j + "\"></td></tr>").join("") + "</tbody>";
     document.querySelectorAll("#ref-table input.ref").forEach((el) => el.addEventListener("change", () => {
       const j = +el.dataset.j, c = objectives[j], v = parseFloat(el.value) / c.display.scale;
       if (isFinite(v) && v > 0) { S.reference[j] = v; runReference(); showDetails(); redraw(); } else { $("ref-result").textContent = label(c) + ": expected a positive number in " + c.display.unit + ", got " + JSON.stringify(el.value); }
@@ -457,7 +458,7 @@
       $("reach-lo-" + j).textContent = vals.length ? withUnit(Math.min.apply(null, vals), c.display) : "-";
       $("reach-hi-" + j).textContent = vals.length ? withUnit(Math.max.apply(null, vals), c.display) : "-";
     });
-    $("ref-result").innerHTML = "Closest design: <a href=\"#\" id=\"asf-link\" data-row=\"" + S.asf + "\">" + rowName(S.asf) + "</a>. " + (reach.length ? reach.length + " designs are at least as good as the aspiration in every objective (their ranges above)." : "No design reaches every aspiration: the closest one is shown.");
+    $("ref-result").innerHTML = "Closest design: <a href=\"#\" id=\"asf-link\" data-row=\"" + S.asf + "\">" + esc(rowName(S.asf)) + "</a>. " + (reach.length ? reach.length + " designs are at least as good as the aspiration in every objective (their ranges above)." : "No design reaches every aspiration: the closest one is shown.");
     $("asf-link").addEventListener("click", (e) => { e.preventDefault(); show(S.asf, true); });
     S.shown = S.asf; S.hovered = -1;
   }
@@ -481,7 +482,7 @@
     const N_ = S.nautilus, top = N_.history[N_.history.length - 1], front = N_.front;
     $("en-back").disabled = N_.history.length < 2;
     $("en-status").textContent = "Step " + (N_.steps - top.stepsLeft + 1) + " of " + N_.steps + ": " + top.reachable.length + " designs reachable. " + (top.stepsLeft === 1 ? "These points are designs of the front." : "Each point with the best value each objective can still reach from it.");
-    $("en-table").innerHTML = "<thead><tr><th></th>" + objectives.map((c) => "<th>" + c.name + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "<th>designs</th></tr></thead><tbody>" + top.options.map((o, n) => "<tr data-option=\"" + n + "\" data-representative=\"" + o.representative + "\"><td><button type=\"button\" data-option=\"" + n + "\">choose</button></td>" + objectives.map((c, j) => "<td>" + number(physical(front, j, o.point[j]), c.display) + (top.stepsLeft > 1 ? "<br><small>best " + number(physical(front, j, o.best[j]), c.display) + "</small>" : "") + "</td>").join("") + "<td>" + o.reachable.length + "</td></tr>").join("") + "</tbody>";
+    $("en-table").innerHTML = "<thead><tr><th></th>" + objectives.map((c) => "<th>" + esc(c.name) + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "<th>designs</th></tr></thead><tbody>" + top.options.map((o, n) => "<tr data-option=\"" + n + "\" data-representative=\"" + o.representative + "\"><td><button type=\"button\" data-option=\"" + n + "\">choose</button></td>" + objectives.map((c, j) => "<td>" + number(physical(front, j, o.point[j]), c.display) + (top.stepsLeft > 1 ? "<br><small>best " + number(physical(front, j, o.best[j]), c.display) + "</small>" : "") + "</td>").join("") + "<td>" + o.reachable.length + "</td></tr>").join("") + "</tbody>";
     document.querySelectorAll("#en-table button").forEach((b) => b.addEventListener("click", () => nautilusChoose(+b.dataset.option)));
     redraw();
   }
@@ -590,11 +591,11 @@
   // --- start -------------------------------------------------------------------------------------
   $("total").textContent = String(N);
   const cases = Array.from(new Set(cols.filter((c) => c.group === "load case").map((c) => c.name.split("@")[1])));
-  if (cases.length) cases.forEach((c) => $("f-case").insertAdjacentHTML("beforeend", "<option>" + c + "</option>")); else $("f-case-label").style.display = "none";
+  if (cases.length) cases.forEach((c) => $("f-case").insertAdjacentHTML("beforeend", "<option>" + esc(c) + "</option>")); else $("f-case-label").style.display = "none";
   const names = Array.from(new Set(D.sources.map((s) => s.name)));
-  if (names.length > 1) names.forEach((s) => $("f-source").insertAdjacentHTML("beforeend", "<option>" + s + "</option>")); else $("f-source-label").style.display = "none";
-  Array.from(new Set(D.sources.flatMap((s) => s.variables))).forEach((v) => $("f-bound").insertAdjacentHTML("beforeend", "<option value=\"" + v + "\">" + v + " at a bound</option>"));
-  cols.filter((c) => c.group !== "variable").forEach((c) => $("f-colour").insertAdjacentHTML("beforeend", "<option>" + c.name + "</option>"));
+  if (names.length > 1) names.forEach((s) => $("f-source").insertAdjacentHTML("beforeend", "<option>" + esc(s) + "</option>")); else $("f-source-label").style.display = "none";
+  Array.from(new Set(D.sources.flatMap((s) => s.variables))).forEach((v) => $("f-bound").insertAdjacentHTML("beforeend", "<option value=\"" + esc(v) + "\">" + esc(v) + " at a bound</option>"));
+  cols.filter((c) => c.group !== "variable").forEach((c) => $("f-colour").insertAdjacentHTML("beforeend", "<option>" + esc(c.name) + "</option>"));
   update(true);
 
   // Read-only view for notebooks and the page's test: the state, never a second code path.
