@@ -201,10 +201,10 @@ def report(
         str, typer.Option(help="design for spectra and modes: knee, asf or a row index of front.csv (front_thinned.csv with --epsilon)")
     ] = "knee",
 ) -> None:
-    """Write RUN_DIR/report.html and RUN_DIR/decision.html, the run's offline pages.
+    """Offline report and decision room of a run.
 
-    report.html: front, parallel coordinates, convergence, spectra and modes of one design
-    (plotly.js embedded, so the file opens offline). decision.html, the decision room:
+    RUN_DIR/report.html: front, parallel coordinates, convergence, spectra and modes of one design
+    (plotly.js embedded, so the file opens offline). RUN_DIR/decision.html, the decision room:
     brush, filter and navigate the designs (reference point, E-NAUTILUS) and export the
     chosen ones as CSV or problem files (docs/model.md §19). On a finished
     `hisopt compare-layouts` study, its study report from its files.
