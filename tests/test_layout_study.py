@@ -362,6 +362,7 @@ def test_the_decision_room_holds_every_layouts_fronts(serial, tmp_path):
     """Issue 27: the layout study's decision room navigates its layouts' fronts: each seed's
     front of each layout, every quantity the layout's own problem gives (NaN for a variable
     another layout has), exports in the layout's problem file."""
+    import base64
     import json
     import re
     import tomllib
@@ -384,6 +385,9 @@ def test_the_decision_room_holds_every_layouts_fronts(serial, tmp_path):
     assert page == serial.out / "decision.html"
     data = json.loads(re.search(r'<script type="application/json" id="room-data">(.*?)</script>', page.read_text(), re.S).group(1))
     assert [s["label"] for s in data["sources"]] == [f"{n} (seed-{k})" for n in ("roll_plane", "axle_roll") for k in (1, 2)]
+    # each row names its own seed's source (a layout's seeds share a name)
+    index = np.frombuffer(base64.b64decode(data["source"]), dtype=np.uint8)
+    assert index.tolist() == [k for k, s in enumerate(sources) for _ in range(len(s.x))]
     # each layout's template, with its baseline put in, is that layout's problem
     for s, entry in zip(sources, data["sources"], strict=True):
         text = entry["template"]

@@ -28,6 +28,7 @@ import pandas as pd
 
 from hisopt.plausibility import BOUND_TOLERANCE
 from hisopt.report.tables import REPORT_CSS
+from hisopt.studies.decision_room import KINDS
 from hisopt.units import display_for, is_psd
 
 if TYPE_CHECKING:
@@ -128,15 +129,14 @@ def room_payload(room: Room, sheets: dict[int, str] | None = None) -> dict[str, 
         }
         for s in room.sources
     ]
-    source_index = {s.name: i for i, s in enumerate(room.sources)}
-    kind_names = ["front", "refined", "evaluated"]
+    kind_names = list(KINDS)
     return {
         "rows": len(table),
         "objectives": room.objectives,
         "columns": columns,
         "sources": sources,
         "kinds": kind_names,
-        "source": _b64(table["source"].map(source_index).to_numpy(dtype=np.uint8)),
+        "source": _b64(table["source_index"].to_numpy(dtype=np.uint8)),
         "kind": _b64(table["kind"].map(kind_names.index).to_numpy(dtype=np.uint8)),
         "row": _b64(table["row"].to_numpy(dtype=np.int32)),
         "feasible": _b64(table["feasible"].to_numpy(dtype=np.uint8)),

@@ -82,7 +82,8 @@ class Curves:
 class Room:
     """The designs of the room, one row each.
 
-    ``table`` columns: ``source``, ``kind``, ``row``, the variables, objectives, constraints,
+    ``table`` columns: ``source`` (its name), ``source_index`` (its place in ``sources``: a
+    layout's seeds share a name), ``kind``, ``row``, the variables, objectives, constraints,
     load-case quantities and parts, ``feasible`` and ``front`` (non-dominated among the
     feasible rows); ``groups`` says which of those each quantity column is (``variable``,
     ``objective``, ``constraint``, ``load case``, ``part``) and ``units`` its SI unit.
@@ -237,6 +238,8 @@ def problem_template(problem: Problem) -> str:
 # --- the room ------------------------------------------------------------------------------------
 def decision_room_data(sources: Sequence[Source]) -> Room:
     """Every quantity, part and curve of the designs of ``sources`` (:class:`Room`)."""
+    if len(sources) > 255:
+        raise ValueError(f"a room holds at most 255 sources (layouts times seeds), got {len(sources)}")
     frames, curves, baseline, templates, bounds = [], [], {}, {}, {}
     band = sources[0].problem.spec.band
     f_hz = np.geomspace(band.f_min_hz, band.f_max_hz, SPECTRUM_SAMPLES)  # one grid for all: the first source's band
@@ -258,7 +261,7 @@ def decision_room_data(sources: Sequence[Source]) -> Room:
             ("load case", [c for c in p.scenario_columns if c not in objectives]),
             ("part", list(parts)),
         ]
-        frame = pd.DataFrame({"source": source.name, "kind": source.kind, "row": source.row})
+        frame = pd.DataFrame({"source": source.name, "source_index": len(frames), "kind": source.kind, "row": source.row})
         for group, columns in kinds:
             for c in columns:
                 groups.setdefault(c, group)
