@@ -240,7 +240,11 @@ def decision_room_data(sources: Sequence[Source]) -> Room:
     """Every quantity, part and curve of the designs of ``sources`` (:class:`Room`)."""
     if len(sources) > 255:
         raise ValueError(f"a room holds at most 255 sources (layouts times seeds), got {len(sources)}")
-    frames, curves, baseline, templates, bounds = [], [], {}, {}, {}
+    frames: list[pd.DataFrame] = []
+    curves: list[Curves] = []
+    baseline: dict[str, Curves] = {}
+    templates: dict[str, str] = {}
+    bounds: dict[str, dict[str, tuple[float, float]]] = {}
     band = sources[0].problem.spec.band
     f_hz = np.geomspace(band.f_min_hz, band.f_max_hz, SPECTRUM_SAMPLES)  # one grid for all: the first source's band
     groups: dict[str, str] = {}
