@@ -210,10 +210,18 @@ def normalised_log(f: np.ndarray, reference: np.ndarray | None = None) -> tuple[
     spread map to 0).
     """
     z = log_objectives(f)
-    ideal, nadir = z.min(axis=0), z.max(axis=0)
-    span = np.where(nadir > ideal, nadir - ideal, 1.0)
+    ideal, span = log_scale(f)
     ref = None if reference is None else (log_objectives(np.asarray(reference, dtype=float)[None])[0] - ideal) / span
     return (z - ideal) / span, ref
+
+
+def log_scale(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """[decades] ``(ideal, span)`` (k,) of the normalised log space of front ``f`` (n, k):
+    a point ``t`` there is ``10 ** (ideal + t span)`` in objective units (an objective with
+    no spread has span 1)."""
+    z = log_objectives(f)
+    ideal, nadir = z.min(axis=0), z.max(axis=0)
+    return ideal, np.where(nadir > ideal, nadir - ideal, 1.0)
 
 
 def knee_index(f: np.ndarray) -> int:

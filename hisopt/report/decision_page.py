@@ -66,7 +66,7 @@ def _log_bytes(values: np.ndarray, top: float) -> tuple[np.ndarray, float]:
 
 def curve_payload(curves: Curves, baseline: dict[str, Curves]) -> dict[str, Any]:
     """The curves of every row as bytes (``n x (F x outputs + P)``) and how to read them."""
-    n, f, k = curves.spectra.shape
+    n = len(curves.spectra)
     parts, scales = [], []
     for j, name in enumerate(curves.outputs):
         finite = curves.spectra[..., j][np.isfinite(curves.spectra[..., j]) & (curves.spectra[..., j] > 0)]
@@ -255,13 +255,12 @@ class DecisionRoom:
         taking option ``picks[i]`` at step ``i``: per step a table of its options, each with its
         intermediate point and the best value still reachable per objective [SI], the designs
         reachable and the representative design's row of :attr:`table`."""
-        from hisopt.optim.decision import log_objectives, normalised_log
+        from hisopt.optim.decision import log_scale, normalised_log
         from hisopt.optim.navigation import enautilus_walk
 
         front = self.front
         f = front[self.room.objectives].to_numpy(dtype=float)
-        z = log_objectives(f)
-        ideal, span = z.min(axis=0), np.where(z.max(axis=0) > z.min(axis=0), z.max(axis=0) - z.min(axis=0), 1.0)
+        ideal, span = log_scale(f)
         out = []
         for options in enautilus_walk(normalised_log(f)[0], list(picks), steps, k):
             rows = {}
