@@ -65,15 +65,26 @@ def layout_system(his: RollPlaneHIS) -> HydraulicSystem:
 def pattern_properties(system: HydraulicSystem) -> dict[str, float]:
     """Static stiffness [N/m], low-frequency damping [N s/m] per unit stroke pattern and the
     largest static coupling between patterns [-] of a one-design HIS (module docstring)."""
+    k = np.asarray(system.static_stiffness(), dtype=float).reshape(1, 4, 4)
+    c = np.asarray(system.low_frequency_damping(), dtype=float).reshape(1, 4, 4)
+    return {name: float(values[0]) for name, values in pattern_table(k, c).items()}
+
+
+def pattern_table(k_his: np.ndarray, c_lf: np.ndarray) -> dict[str, np.ndarray]:
+    """The screening columns of a batch: ``k_his`` [N/m] and ``c_lf`` [N s/m] of shape
+    ``(B, 4, 4)`` (stroke stiffness and low-frequency damping) -> ``k_bounce`` .. ``c_warp``
+    and ``stiffness_coupling``, each of shape ``(B,)`` (module docstring)."""
     u = pattern_matrix()
-    k = u @ np.asarray(system.static_stiffness(), dtype=float).reshape(4, 4) @ u.T
-    c = u @ np.asarray(system.low_frequency_damping(), dtype=float).reshape(4, 4) @ u.T
-    scale = np.sqrt(np.outer(np.abs(np.diag(k)), np.abs(np.diag(k))))
+    k = u @ k_his @ u.T
+    c = u @ c_lf @ u.T
+    diag = np.abs(np.diagonal(k, axis1=-2, axis2=-1))
+    scale = np.sqrt(diag[:, :, None] * diag[:, None, :])
     ratio = np.divide(np.abs(k), scale, out=np.zeros_like(k), where=scale > 0)
     ratio[ratio < 1e-12] = 0.0  # round-off of patterns that are exactly uncoupled
-    out = {f"k_{name}": float(k[i, i]) for i, name in enumerate(STROKE_PATTERNS)}
-    out |= {f"c_{name}": float(c[i, i]) for i, name in enumerate(STROKE_PATTERNS)}
-    out["stiffness_coupling"] = float(np.max(ratio[np.triu_indices(4, 1)]))
+    upper = np.triu_indices(4, 1)
+    out = {f"k_{name}": k[:, i, i] for i, name in enumerate(STROKE_PATTERNS)}
+    out |= {f"c_{name}": c[:, i, i] for i, name in enumerate(STROKE_PATTERNS)}
+    out["stiffness_coupling"] = np.max(ratio[:, upper[0], upper[1]], axis=-1)
     return out
 
 
