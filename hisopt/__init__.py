@@ -12,6 +12,7 @@ and may move. ::
     spread = hisopt.tolerance(problem, design, n_samples=100_000)
     run = hisopt.optimize(problem, ...)
     table = hisopt.compare_layouts(problem, layouts="axle_roll,pitch_plane", seeds="1-3", out="runs/layouts")
+    found = hisopt.run_synthesis(problem, max_elements=8, chambers="front", out="runs/synthesis")
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ if TYPE_CHECKING:
     from hisopt.studies.screening import STROKE_PATTERNS, mode_stiffness
     from hisopt.studies.spectra import response_spectra
     from hisopt.studies.sweeps import regions, sweep
+    from hisopt.studies.synthesis import run_synthesis
     from hisopt.studies.uncertainty import SensitivityResult, ToleranceResult, sensitivity, tolerance, uncertain_inputs
     from hisopt.units import display_frame, format_quantity
 
@@ -86,6 +88,7 @@ _LAZY = {
     "mode_stiffness": "hisopt.studies.screening",
     "compare_layouts": "hisopt.studies.layout_study",
     "run_layout_study": "hisopt.studies.layout_study",
+    "run_synthesis": "hisopt.studies.synthesis",
     "sensitivity": "hisopt.studies.uncertainty",
     "tolerance": "hisopt.studies.uncertainty",
     "uncertain_inputs": "hisopt.studies.uncertainty",
@@ -136,6 +139,7 @@ __all__ = [
     "roll_gradient",
     "run_drop_tests",
     "run_layout_study",
+    "run_synthesis",
     "sensitivity",
     "simulate",
     "simulate_drop",

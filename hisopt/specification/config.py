@@ -230,6 +230,47 @@ class Optimizer(_Strict):
     )
 
 
+SCREEN_UNITS: dict[str, str] = {
+    **{f"k_{m}": "N/m" for m in ("bounce", "roll", "pitch", "warp")},
+    **{f"c_{m}": "N s/m" for m in ("bounce", "roll", "pitch", "warp")},
+    "stiffness_coupling": "-",
+}
+"""The quantities a synthesis screen may bound (the columns of ``hisopt layouts``) and their
+SI units (docs/model.md §20)."""
+
+
+class Synthesis(_Strict):
+    """``[synthesis]``: the screen of ``hisopt synthesize`` (docs/model.md §20), e.g.
+    ``screen = { k_roll = { min = "40 kN/m" }, k_warp = { max = "20 kN/m" } }``: a bare
+    number is SI."""
+
+    screen: dict[str, dict[str, float]] = Field(default_factory=dict, description="bounds (min, max) on the mode-stiffness table of a candidate")
+
+    @field_validator("screen", mode="before")
+    @classmethod
+    def _known_bounds(cls, v: Any) -> Any:
+        from hisopt.errors import ConfigError
+        from hisopt.quantities import to_si
+
+        if not isinstance(v, dict):
+            return v
+        out: dict[str, dict[str, float]] = {}
+        for name, bounds in v.items():
+            if name not in SCREEN_UNITS:
+                raise ValueError(f"unknown quantity {name!r}; expected one of {', '.join(SCREEN_UNITS)}")
+            if not isinstance(bounds, dict) or not bounds or set(bounds) - {"min", "max"}:
+                raise ValueError(f"{name}: expected a table with min and/or max, e.g. {name} = {{ min = 1 }}")
+            out[name] = {}
+            for key, value in bounds.items():
+                try:
+                    out[name][key] = to_si(value, SCREEN_UNITS[name])
+                except ConfigError as exc:
+                    raise ValueError(f"{name}.{key}: {exc.detail}") from None
+            if "min" in out[name] and "max" in out[name] and not out[name]["min"] <= out[name]["max"]:
+                raise ValueError(f"{name}: expected min <= max, got {out[name]['min']:g} > {out[name]['max']:g} [{SCREEN_UNITS[name]}]")
+        return out
+
+
 class ProblemSpec(_Strict):
     """The whole problem file."""
 
@@ -252,6 +293,7 @@ class ProblemSpec(_Strict):
     scenarios: list[Scenario] = Field(default_factory=list)
     robust: Robust = Field(default_factory=Robust)
     uncertain: list[UncertainInput] = Field(default_factory=list)
+    synthesis: Synthesis | None = None
 
     @field_validator("objectives")
     @classmethod

@@ -1,0 +1,135 @@
+"""``hisopt synthesize``: registered on :mod:`hisopt.cli.application`'s app by :func:`register`."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
+
+
+def synthesize_cmd(
+    problem: ProblemArg,
+    max_elements: Annotated[int, typer.Option("--max-elements", parser=integer, metavar="K", help="accumulators plus valves per layout, at most")],
+    out: Annotated[Path, typer.Option("--out", help="directory: candidates.csv, layouts/, study/, layouts.csv, report.html")],
+    chambers: Annotated[str, typer.Option(metavar="SET", help="chambers to interconnect: all, front (single-axle layouts) or rear")] = "all",
+    asymmetric: Annotated[bool, typer.Option("--asymmetric", help="also layouts that are not their own left-right mirror image")] = False,
+    seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds per optimised layout, e.g. 1-3")] = "1-3",
+    pop: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")] = None,
+    gens: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
+    optimise: Annotated[int, typer.Option("--optimise", parser=integer, metavar="N", help="optimise at most N screened-in candidates (0: screen only)")] = 10,
+    max_candidates: Annotated[int, typer.Option("--max-candidates", parser=integer, metavar="N", help="refuse a search with more candidates")] = 100_000,
+    handling: Annotated[str | None, typer.Option(metavar="QUANTITY", help="quantity held equal (default as compare-layouts)")] = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+) -> None:
+    """Search every HIS interconnection of up to K elements.
+
+    Enumerates the layouts (accumulators on nodes, directly or behind a valve; damper valves
+    on chamber lines and between nodes), screens them by the problem's [synthesis] screen on
+    their mode-stiffness tables, optimises the survivors as compare-layouts does and ranks
+    them by comfort gain over roll_plane at equal handling (docs/model.md §20). The same
+    command resumes an interrupted synthesis.
+    """
+    code = synthesize_command(problem, max_elements, out, chambers, asymmetric, seeds, pop, gens, optimise, max_candidates, handling, workers, scheduler)
+    if code:
+        raise SystemExit(code)
+
+
+def synthesize_command(
+    problem_path: Path,
+    max_elements: int,
+    out: Path,
+    chambers: str,
+    asymmetric: bool,
+    seeds: str,
+    pop: int | None,
+    gens: int | None,
+    optimise: int,
+    max_candidates: int,
+    handling: str | None,
+    workers: int | None,
+    scheduler: str | None,
+) -> int:
+    """Run the synthesis, write its files and report, print the ranking; the exit code."""
+    from rich.console import Console
+
+    import hisopt.interrupt as interrupt
+    from hisopt.evaluation.parallel import open_backend
+    from hisopt.problem import load_problem
+    from hisopt.report.synthesis_report import write_synthesis_report
+    from hisopt.studies.synthesis import run_synthesis
+
+    problem = load_problem(problem_path)
+    if max_candidates < 1:
+        from hisopt.errors import ConfigError
+
+        raise ConfigError(f"expected a count >= 1, got {max_candidates}", key="--max-candidates")
+    try:
+        with interrupt.signals_as_interrupts(), open_backend(workers, scheduler) as backend:
+            result = run_synthesis(
+                problem,
+                max_elements,
+                chambers=chambers,
+                symmetric=not asymmetric,
+                seeds=seeds,
+                out=out,
+                pop_size=pop,
+                generations=gens,
+                optimise=optimise,
+                max_candidates=max_candidates,
+                handling=handling,
+                backend=backend,
+                progress=lambda line: typer.echo(f"{problem.name}: {line}", err=True),
+            )
+    except KeyboardInterrupt as exc:
+        print(
+            f"interrupted by {interrupt.signal_name(exc)}; finished runs are kept and the others saved their checkpoints. "
+            f"Resume with the same command (--out {out})",
+            file=sys.stderr,
+        )
+        return interrupt.exit_code(exc)
+    report = write_synthesis_report(result)
+    console = Console(width=200)
+    console.print(_counts(result))
+    if len(result.layouts):
+        console.print(_ranking(result))
+    typer.echo(f"wrote {out / 'candidates.csv'}, {out / 'layouts.csv'}, {report} and each optimised layout's problem file in {out / 'layouts'}")
+    return 0
+
+
+def _counts(result: Any) -> Any:
+    from rich.table import Table
+
+    table = Table(title="Candidates per element count (accumulators plus valves)")
+    for col in ("elements", "candidates", "screened in"):
+        table.add_column(col, justify="right")
+    for row in result.counts.itertuples(index=False):
+        table.add_row(str(row.elements), f"{row.candidates:,}", f"{row.screened_in:,}")
+    return table
+
+
+def _ranking(result: Any) -> Any:
+    from rich.table import Table
+    from rich.text import Text
+
+    from hisopt.units import display_frame
+
+    columns = ["layout", "elements", "catalogue", "sigma_aw_at_limit", "gain_vs_roll_plane_pct", "hv_mean", "hv_std", "k_bounce", "k_roll", "k_warp", "file"]
+    shown = display_frame(result.layouts[columns]).replace("nan", "–")
+    study = result.study
+    title = f"Optimised layouts at equal handling ({study.handling} at most the roll-plane baseline's), best comfort gain over roll_plane first"
+    table = Table(title=Text(title))
+    for col in shown.columns:
+        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith(("layout", "catalogue", "file")) else "right")
+    for row in shown.itertuples(index=False):
+        table.add_row(*[Text(str(v)) for v in row])
+    return table
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``synthesize`` to ``app``."""
+    app.command("synthesize")(synthesize_cmd)

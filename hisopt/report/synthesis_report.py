@@ -1,0 +1,120 @@
+"""``DIR/report.html`` of a topology synthesis (:mod:`hisopt.studies.synthesis`): one offline page.
+
+The candidates per element count and what the screen kept, the ranking of the optimised
+layouts at equal handling, the schematics of the best ten and their trade-off curves (best
+comfort against the handling limit); engineering units throughout. The layout study of the
+survivors keeps its own fuller report in ``DIR/study/report.html``.
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.units import display_frame, format_quantity
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+    from hisopt.studies.synthesis import SynthesisResult
+
+BEST_SHOWN = 10
+_GRID_CSS = ".schematics{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}"
+
+
+def best_schematics(result: SynthesisResult, count: int = BEST_SHOWN) -> list[go.Figure]:
+    """Plan-view schematics of the ``count`` best-ranked layouts, at their best design's
+    values where they have one (else the baseline's)."""
+    from hisopt.hydraulics.catalogue import his_parameter_values
+    from hisopt.report.schematic import layout_schematic
+
+    if result.study is None:
+        return []
+    cases = {c.name: c for c in result.study.cases}
+    figs = []
+    for row in result.layouts.head(count).itertuples(index=False):
+        case = cases[row.layout]
+        gain = row.gain_vs_roll_plane_pct
+        title = f"{row.layout} ({row.elements} elements{', ' + row.catalogue if row.catalogue and row.catalogue != row.layout else ''}): " + (
+            f"gain {gain:+.1f} %" if gain == gain else "no design at the limit"
+        )
+        fig = layout_schematic(case.problem.layout(), his_parameter_values(case.problem.spec.his), title=title)
+        fig.update_layout(height=380, margin={"l": 10, "r": 10, "t": 50, "b": 10}, showlegend=False, title_font_size=13)
+        figs.append(fig)
+    return figs
+
+
+def _ranking_html(result: SynthesisResult) -> str:
+    columns = [
+        "layout",
+        "elements",
+        "catalogue",
+        "description",
+        "sigma_aw_at_limit",
+        "handling_at_best",
+        "gain_vs_roll_plane_pct",
+        "hv_mean",
+        "hv_std",
+        "k_bounce",
+        "k_roll",
+        "k_pitch",
+        "k_warp",
+    ]
+    shown = display_frame(result.layouts[[c for c in columns if c in result.layouts]]).replace("nan", "–")
+    return html_table(
+        shown,
+        "Optimised layouts, best gain in comfort over roll_plane at equal handling first",
+        text_columns=("layout [-]", "catalogue [-]", "description [-]"),
+    )
+
+
+def write_synthesis_report(result: SynthesisResult, path: str | Path | None = None) -> Path:
+    """Write the report (default ``DIR/report.html``) and the study's own; return its path."""
+    import plotly.offline
+
+    from hisopt.errors import ConfigError
+    from hisopt.io import atomic_write_text
+    from hisopt.report.layout_report import curve_figure, write_layout_report
+
+    if path is None:
+        if result.out is None:
+            raise ConfigError("the synthesis has no directory; give the report a path")
+        path = result.out / "report.html"
+    counts = display_frame(result.counts)
+    parts = ["<h2>Candidates</h2>", html_table(counts, "Candidates per element count and those the screen kept")]
+    if result.study is not None:
+        if result.study.out is not None:
+            write_layout_report(result.study)
+        cells = "".join(
+            f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}', config={'displayModeBar': False})}</div>"
+            for i, f in enumerate(best_schematics(result))
+        )
+        limit = format_quantity(result.study.handling_limit, result.study.table.attrs["units"]["handling_limit"])
+        parts += [
+            "<h2>Ranking</h2>",
+            f'<p class="meta">Equal handling: {html.escape(result.study.handling)} &le; {html.escape(limit)}; gain_vs_roll_plane_pct &gt; 0 is better comfort '
+            "than the paper's roll-plane layout there. Each layout's problem file is in layouts/; the study of the survivors, with its fronts, "
+            'attainment and decision room, is <a href="study/report.html">study/report.html</a>.</p>',
+            '<div style="overflow-x:auto">' + _ranking_html(result) + "</div>",
+            f"<h2>The best {min(BEST_SHOWN, len(result.layouts))}</h2>",
+            f'<div class="schematics">{cells}</div>',
+            "<h2>Trade-off: best comfort against the handling limit</h2>",
+            '<div class="figure">' + curve_figure(result.study).to_html(full_html=False, include_plotlyjs=False, div_id="curve") + "</div>",
+        ]
+    else:
+        parts.append('<p class="meta">No candidate was optimised (none screened in, or --optimise 0).</p>')
+    total = int(result.counts["candidates"].sum())
+    kept = int(result.counts["screened_in"].sum())
+    page = f"""<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>hisopt synthesis</title>
+<style>{REPORT_CSS}{_GRID_CSS}</style>
+<script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
+<body><h1>hisopt topology synthesis</h1>
+<p class="meta">{total:,} candidate layouts enumerated, {kept:,} kept by the screen; every candidate with its stiffness table is in
+candidates.csv (docs/model.md §20). Values in engineering units (SI in the CSV files).</p>
+{"".join(parts)}
+</body></html>"""
+    atomic_write_text(path, page)
+    return Path(path)
