@@ -51,6 +51,7 @@ BUDGETS = {
     "optimize": {"--pop": "8", "--gens": "2"},
     "study": {"--pop": "8", "--gens": "2", "--seeds": "1-2"},
     "compare-layouts": {"--pop": "8", "--gens": "2", "--seeds": "1"},
+    "synthesize": {"--pop": "8", "--gens": "2", "--seeds": "1", "--max-elements": "4", "--optimise": "1"},
     "refine": {"--max-points": "2"},
     "sweep": {"--points": "3"},
     "regions": {"--points": "3"},
