@@ -505,7 +505,8 @@ def layout_graphs(layout: Layout) -> list[nx.Graph]:
 
 
 def describe(enumeration: Enumeration, candidate: Candidate) -> str:
-    """A one-line description: per circuit its nodes (chambers, ``acc``) and valves."""
+    """A one-line description: per circuit its nodes (chambers, ``acc``; ``junction``: valves
+    only) and its valves with their resistance parameters."""
     parts = []
     for k, i in enumerate(candidate.circuits):
         circuit = circuit_of_graph(enumeration.circuits[i], chr(ord("A") + k))
@@ -513,7 +514,7 @@ def describe(enumeration: Enumeration, candidate: Candidate) -> str:
         for e in circuit.elements:
             if isinstance(e, Accumulator):
                 nodes[e.node].append("acc")
-        text = " ".join(f"({' '.join(v)})" for v in nodes.values())
+        text = " ".join(f"({' '.join(v) or 'junction'})" for v in nodes.values())
         valves = " ".join(f"{e.a.split('.', 1)[1]}~{e.b.split('.', 1)[1]}:{e.resistance}" for e in circuit.elements if isinstance(e, Valve))
         parts.append(f"{circuit.name}: {text}" + (f" valves {valves}" if valves else ""))
     return "; ".join(parts)
