@@ -97,7 +97,8 @@ def synthesize_command(
     console.print(_counts(result))
     if len(result.layouts):
         console.print(_ranking(result))
-    typer.echo(f"wrote {out / 'candidates.csv'}, {out / 'layouts.csv'}, {report} and each optimised layout's problem file in {out / 'layouts'}")
+    files = f" and each optimised layout's problem file in {out / 'layouts'}" if result.study is not None else " (no candidate optimised)"
+    typer.echo(f"wrote {out / 'candidates.csv'}, {out / 'layouts.csv'}, {report}{files}")
     return 0
 
 
