@@ -138,7 +138,7 @@ def screen_status(table: pd.DataFrame, screen: dict[str, dict[str, float]]) -> l
     from hisopt.units import format_quantity
 
     status = np.full(len(table), STATUS_SCREENED_IN, dtype=object)
-    nothing = np.all(np.isclose(table[list(SCREEN_UNITS)[:8]].to_numpy(), 0.0, rtol=0.0, atol=0.0), axis=1)
+    nothing = np.all(table[list(SCREEN_UNITS)[:8]].to_numpy() == 0.0, axis=1)  # exactly: no stiffness, no damping
     status[nothing] = "screened out: does nothing"
     for name, bounds in screen.items():
         values = table[name].to_numpy()
@@ -158,11 +158,7 @@ def catalogue_names(enumeration: topology.Enumeration) -> dict[int, str]:
     index = {cand.circuits: i for i, cand in enumerate(enumeration.candidates)}
     out = {}
     for name, entry in catalogue().items():
-        try:
-            graphs = topology.layout_graphs(entry.layout(False, False))
-        except ValueError:
-            continue
-        found = [enumeration.classes.find(g) for g in graphs]
+        found = [enumeration.classes.find(g) for g in topology.layout_graphs(entry.layout(False, False))]
         if all(f is not None for f in found):
             key = tuple(sorted(int(f) for f in found if f is not None))
             if key in index:
