@@ -260,6 +260,14 @@ def test_a_bad_screen_is_one_line_exit_2(tmp_path):
         assert needle in outcome.stderr and "synthesis.screen" in outcome.stderr
 
 
+def test_run_commands_given_a_synthesis_say_what_it_is(tmp_path):
+    (tmp_path / rundir.SYNTHESIS_JSON).write_text("{}")
+    for command in ("report", "status"):
+        outcome = run_cli(command, str(tmp_path))
+        assert outcome.code == 2 and len(outcome.error_lines) == 1, outcome.stderr
+        assert "a topology synthesis" in outcome.stderr and "/study" in outcome.stderr
+
+
 # --- the run: resume after SIGKILL ---------------------------------------------------------------
 CLI_ARGS = ("--max-elements", "4", "--chambers", "front", "--optimise", "2", "--seeds", "1-2", "--pop", "12", "--gens", "12")
 FILES = ("candidates.csv", "layouts.csv", "synthesis.json", "layouts/c000006.toml")

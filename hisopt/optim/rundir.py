@@ -91,6 +91,8 @@ REFINE_JSON = "refine.json"
 LAYOUT_STUDY_JSON = "study.json"
 """The record of a layout study directory (:mod:`hisopt.studies.layout_study`, whose runs are
 run directories one level down): named here so that a run command given such a folder says so."""
+SYNTHESIS_JSON = "synthesis.json"
+"""The record of a topology synthesis (:mod:`hisopt.studies.synthesis`), named here for the same reason."""
 CHECKPOINT_FORMAT = 2
 READABLE_FORMATS = (1, 2)
 HISTORY_DIR = "history"
@@ -266,6 +268,11 @@ def read_run_json(run_dir: Path) -> dict[str, Any]:
         raise RunError(
             f"{run_dir}: a layout study (`hisopt compare-layouts`), not a run; `hisopt status {run_dir}` summarises "
             f"it, `hisopt report {run_dir}` writes its report, and its runs are {run_dir}/<layout>/seed-<n>"
+        )
+    if not path.is_file() and (run_dir / SYNTHESIS_JSON).is_file():
+        raise RunError(
+            f"{run_dir}: a topology synthesis (`hisopt synthesize`), not a run; the same command resumes it, its report is "
+            f"{run_dir}/report.html and its layout study {run_dir}/study (`hisopt status` and `hisopt report` take that)"
         )
     if not path.is_file():
         if any((run_dir / name).is_file() for name in (PROBLEM_TOML, PROBLEM_JSON)):

@@ -43,6 +43,7 @@ import pandas as pd
 
 from hisopt.errors import ConfigError, RunError
 from hisopt.hydraulics import topology
+from hisopt.optim.rundir import SYNTHESIS_JSON
 from hisopt.specification.config import SCREEN_UNITS
 from hisopt.units import NO_UNIT, with_units
 
@@ -51,7 +52,7 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
     from hisopt.studies.layout_study import LayoutStudyResult
 
-SYNTHESIS_JSON, CANDIDATES_CSV, LAYOUTS_CSV, STUDY_DIR, LAYOUT_DIR = "synthesis.json", "candidates.csv", "layouts.csv", "study", "layouts"
+CANDIDATES_CSV, LAYOUTS_CSV, STUDY_DIR, LAYOUT_DIR = "candidates.csv", "layouts.csv", "study", "layouts"
 SYNTHESIS_FORMAT = "hisopt-synthesis/1"
 DEFAULT_OPTIMISE = 10
 MAX_CANDIDATES = 100_000
