@@ -388,7 +388,8 @@ def run_synthesis(
     seeds, pop_size, generations, handling, backend
         as :func:`hisopt.studies.layout_study.run_layout_study`
     out : str | Path | None, optional
-        directory (module docstring); None keeps everything in memory
+        directory (module docstring); None writes nothing but the optimised layouts'
+        problem files, in a temporary folder (``layouts.csv``'s ``file`` column)
     optimise : int, optional
         [-] at most this many survivors are optimised (0: screening only)
     max_candidates : int, optional
