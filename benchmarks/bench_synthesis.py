@@ -52,13 +52,8 @@ def main() -> None:
     problem = load_problem(PROBLEM)
     print(f"{'search':<22}{'K':>3}{'candidates':>12}{'structures':>12}{'enumerate':>11}{'screen':>9}{'per cand.':>11}{'baseline':>11}{'ratio':>8}")
     for chambers, symmetric, top in (("all", True, args.max_elements), ("front", True, args.max_elements), ("front", False, min(args.max_elements, 8))):
-        labels = topology.CHAMBER_SETS[chambers]
         for k in range(1, top + 1):
-            structures = (
-                topology.structure_count(labels, k, True) + topology.structure_count(labels, k // 2, False, one_side=True)
-                if symmetric
-                else topology.structure_count(labels, k, False)
-            )
+            structures = topology.search_structure_count(k, chambers, symmetric)
             start = time.process_time()
             enumeration = topology.enumerate_layouts(k, chambers, symmetric)
             enumerate_s = time.process_time() - start

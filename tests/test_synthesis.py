@@ -183,7 +183,7 @@ def test_no_two_candidates_are_isomorphic_and_each_is_a_valid_layout_file(chambe
 
     enumeration = topology.enumerate_layouts(max_elements, chambers, symmetric)
     buckets: dict[tuple, list[nx.Graph]] = defaultdict(list)
-    match = topology._node_match  # noqa: SLF001 - the same node comparison, stated once
+    match = topology.node_match
     for candidate in enumeration.candidates:
         graph = enumeration.graph(candidate)
         assert not topology.redundant(graph)

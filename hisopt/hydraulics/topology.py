@@ -73,7 +73,8 @@ def element_count(graph: nx.Graph) -> int:
     return graph.number_of_edges() + sum(1 for _, acc in graph.nodes(data="acc") if acc)
 
 
-def _node_match(a: dict, b: dict) -> bool:
+def node_match(a: dict, b: dict) -> bool:
+    """Whether two nodes are alike: the same chambers, both or neither with an accumulator."""
     return bool(a["chambers"] == b["chambers"] and a["acc"] == b["acc"])
 
 
@@ -113,7 +114,7 @@ class IsomorphismClasses:
     def find(self, graph: nx.Graph) -> int | None:
         """Index of the class of ``graph`` (None: a new one)."""
         for i in self._buckets.get(bucket_key(graph), ()):
-            if nx.is_isomorphic(graph, self.graphs[i], node_match=_node_match):
+            if nx.is_isomorphic(graph, self.graphs[i], node_match=node_match):
                 return i
         return None
 
@@ -351,6 +352,14 @@ def _compose(units: list[tuple[tuple[int, ...], int, int]], max_elements: int) -
             yield from walk(i + 1, mask | units[i][2], cost + units[i][1], picked)
 
     yield from walk(0, 0, 0, ())
+
+
+def search_structure_count(max_elements: int, chambers: str | Sequence[str] = "all", symmetric: bool = True) -> int:
+    """[-] The circuit structures :func:`enumerate_layouts` examines: its work, known up front."""
+    labels = chamber_labels(chambers, symmetric)
+    if symmetric:
+        return structure_count(labels, max_elements, True) + structure_count(labels, max_elements // 2, False, one_side=True)
+    return structure_count(labels, max_elements, False)
 
 
 def composition_count(units: list[tuple[tuple[int, ...], int, int]], max_elements: int) -> int:

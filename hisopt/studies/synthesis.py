@@ -272,7 +272,7 @@ class SynthesisResult:
     out: Path | None
 
 
-def check_search(problem: Problem, max_elements: int, chambers: str, symmetric: bool, max_candidates: int) -> int:
+def check_search(max_elements: int, chambers: str, symmetric: bool, max_candidates: int) -> int:
     """The number of candidates of a search, refused up front when too large.
 
     Raises
@@ -286,12 +286,7 @@ def check_search(problem: Problem, max_elements: int, chambers: str, symmetric: 
         raise ConfigError(f"expected at least 1 element, got {max_elements}", key="--max-elements")
     if chambers not in topology.CHAMBER_SETS:
         raise ConfigError(f"unknown chamber set {chambers!r}; expected one of {', '.join(topology.CHAMBER_SETS)}", key="--chambers")
-    labels = topology.CHAMBER_SETS[chambers]
-    structures = (
-        topology.structure_count(labels, max_elements, symmetric=False)
-        if not symmetric
-        else (topology.structure_count(labels, max_elements, True) + topology.structure_count(labels, max_elements // 2, False, one_side=True))
-    )
+    structures = topology.search_structure_count(max_elements, chambers, symmetric)
     if structures > MAX_STRUCTURES:
         raise ConfigError(
             f"K = {max_elements} would examine {structures:,} circuit structures (about {_duration(structures / STRUCTURE_RATE)} on one core); "
@@ -412,7 +407,7 @@ def run_synthesis(
         raise ConfigError(f"expected a count >= 0, got {optimise}", key="--optimise")
     parse_seed_list(seeds)
     budget = study_budget(problem, pop_size, generations)
-    count = check_search(problem, max_elements, chambers, symmetric, max_candidates)
+    count = check_search(max_elements, chambers, symmetric, max_candidates)
     out_dir = None if out is None else Path(out)
     record = _record(problem, max_elements, chambers, symmetric, optimise)
     if out_dir is not None:
