@@ -17,11 +17,20 @@ one process with one BLAS thread:
   extrapolated (labelled so) to the studies' evaluations; its values are checked against the
   batched evaluator's on those samples (largest relative difference, expected 0 or rounding).
 
+- **the default ``hisopt sensitivity PROBLEM``** (no ``--design``: over the whole box of the
+  design variables and the uncertain inputs), before and after it converged by itself:
+  *before*, the fixed default it had (``n_base`` 1024, the quantities as they are); *after*,
+  today's default (base samples doubled from 1024 until every S1 and ST half-width is at most
+  0.05, a quantity spanning more than a decade taken as log10). Each: base samples,
+  evaluations, wall seconds, the widest half-width and where.
+
 Prints the search, then a table: evaluations, wall seconds, evaluations per second, and the
-loop's (extrapolated) time for as many evaluations over the method's time.
+loop's (extrapolated) time for as many evaluations over the method's time; then the default
+sensitivity before and after.
 
     python benchmarks/bench_uncertainty.py [--target 0.02] [--samples 100000] [--loop-samples 300]
-    python benchmarks/bench_uncertainty.py --quick   # a smoke run: seconds
+    python benchmarks/bench_uncertainty.py --quick          # a smoke run: seconds (the default sensitivity too: minutes)
+    python benchmarks/bench_uncertainty.py --default-only   # the default sensitivity before and after only
 """
 
 from __future__ import annotations
@@ -35,6 +44,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 
 import hisopt  # noqa: E402
 from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates  # noqa: E402
@@ -79,6 +89,38 @@ def timed(fn):
     return time.perf_counter() - started, out
 
 
+def widest(indices) -> tuple[float, str]:  # noqa: ANN001 - a SensitivityResult's indices
+    """[-] The widest S1 or ST half-width and where (index, input, quantity)."""
+    parts = [indices.assign(index=k, w=indices[f"{k}_conf"]) for k in ("S1", "ST")]
+    table = pd.concat(parts, ignore_index=True)
+    row = table.loc[table["w"].idxmax()]
+    return float(row["w"]), f"{row['index']} of {row['input']} on {row['quantity']}"
+
+
+def default_sensitivity(problem: Problem) -> None:
+    """The default ``hisopt sensitivity`` (over the whole box) before and after it converged by
+    itself, and the log10 alone at the old count (which of the two narrows the intervals)."""
+    print("\ndefault sensitivity (no --design: over the whole box), before and after it converged by itself")
+    print("(wall and CPU seconds of this process: on a loaded machine the CPU time is the steadier figure)")
+    runs = [
+        ("before: fixed 1024, linear", lambda: sensitivity(problem, None, n_base=1024, log=False)),
+        ("log10 alone: fixed 1024", lambda: sensitivity(problem, None, n_base=1024)),
+        ("after: doubled to <= 0.05, log10", lambda: sensitivity(problem, None)),
+    ]
+    print(f"{'':34s} | {'n_base':>6s} | {'evaluations':>11s} | {'wall [s]':>8s} | {'CPU [s]':>8s} | {'widest half-width':>17s} | at")
+    measured = []
+    for label, run in runs:
+        cpu = time.process_time()
+        wall, result = timed(run)
+        cpu = time.process_time() - cpu
+        w, where = widest(result.indices)
+        measured.append((wall, cpu, w, result))
+        print(f"{label:34s} | {result.n_base:6d} | {result.evaluations:11d} | {wall:8.1f} | {cpu:8.1f} | {w:17.3f} | {where}", flush=True)
+    (before_wall, before_cpu, before_w, _), (after_wall, after_cpu, after_w, after) = measured[0], measured[-1]
+    print(f"after: stop {after.stop!r}; log10 of {', '.join(after.logged) or 'none'}; widest half-width before / after {before_w / after_w:.1f}")
+    print(f"after / before: wall {after_wall / before_wall:.1f}, CPU {after_cpu / before_cpu:.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--target", type=float, default=0.02, help="[-] largest total-index half-width to reach")
@@ -87,6 +129,7 @@ def main() -> None:
     parser.add_argument("--loop-samples", type=int, default=300, help="samples the per-design loop is timed on")
     parser.add_argument("--resamples", type=int, default=250, help="SALib's bootstrap resamples (hisopt's default)")
     parser.add_argument("--quick", action="store_true", help="a smoke run: target 0.1, 5000 samples, a 30-sample loop")
+    parser.add_argument("--default-only", action="store_true", help="only the default sensitivity before and after")
     args = parser.parse_args()
     if args.quick:
         args.target, args.samples, args.loop_samples = 0.1, 5000, 30
@@ -98,6 +141,12 @@ def main() -> None:
     load = os.getloadavg()
     print(f"{problem.name}: {k} uncertain inputs ({', '.join(u.name for u in ev.inputs)}), baseline design, one BLAS thread")
     print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} cores")
+    if args.default_only:
+        sensitivity(problem, design, n_base=8, seed=0, resamples=10)  # untimed: compiled kernels, SALib's imports
+        default_sensitivity(problem)
+        load = os.getloadavg()
+        print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} after")
+        return
 
     # untimed first calls: compiled kernels, SALib's imports, the models' caches
     u_all = monte_carlo_variates(args.samples, k, 0)  # the tolerance study's sample set
@@ -109,7 +158,7 @@ def main() -> None:
     print(f"{'n_base':>7s} {'evaluations':>12s} {'wall [s]':>9s} {'max ST_conf':>12s}  at (quantity, input)")
     n = args.start
     while True:
-        t_sens, result = timed(lambda n=n: sensitivity(problem, design, n_base=n, seed=0, resamples=args.resamples))
+        t_sens, result = timed(lambda n=n: sensitivity(problem, design, n_base=n, seed=0, resamples=args.resamples, log=False))
         ix = result.indices
         worst = ix.loc[ix["ST_conf"].idxmax()]
         print(f"{n:7d} {result.evaluations:12d} {t_sens:9.2f} {worst['ST_conf']:12.4f}  ({worst['quantity']}, {worst['input']})", flush=True)
@@ -149,6 +198,7 @@ def main() -> None:
     for task, method, evaluations, wall in rows:
         print(f"{task:28s} | {method:42s} | {evaluations:11d} | {wall:9.2f} | {evaluations / wall:13.0f} | {per_sample * evaluations / wall:11.1f}")
     print(f"(sensitivity: max ST_conf {ix['ST_conf'].max():.4f} at n_base {n}; extrapolated rows: {1e3 * per_sample:.2f} ms per sample x evaluations)")
+    default_sensitivity(problem)
     load = os.getloadavg()
     print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} after")
 

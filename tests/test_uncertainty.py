@@ -7,6 +7,7 @@ from __future__ import annotations
 import tomllib
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats
 
@@ -14,9 +15,11 @@ from hisopt.errors import ConfigError
 from hisopt.evaluation.parallel import open_backend
 from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates, with_inputs
 from hisopt.problem import Problem, problem_from_dict
+from hisopt.report.uncertainty import sensitivity_notes
 from hisopt.specification.uncertain import resolve_uncertain
 from hisopt.standards.iso_8608_2016 import class_gd_n0
-from hisopt.studies.uncertainty import sensitivity, sobol_indices, tolerance
+from hisopt.studies.sobol import decade_span
+from hisopt.studies.uncertainty import SensitivityResult, sensitivity, sobol_indices, tolerance
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
@@ -160,23 +163,101 @@ def test_an_impossible_draw_is_flagged_not_evaluated():
 
 
 # --- Sobol indices -----------------------------------------------------------------------------
+A_ISHIGAMI, B_ISHIGAMI = 7.0, 0.1
+
+
+def ishigami(u):
+    """Ishigami's function (a = 7, b = 0.1) of three factors uniform on (-pi, pi)."""
+    x = -np.pi + 2 * np.pi * u
+    return {"f": np.sin(x[:, 0]) + A_ISHIGAMI * np.sin(x[:, 1]) ** 2 + B_ISHIGAMI * x[:, 2] ** 4 * np.sin(x[:, 0])}
+
+
 def test_sobol_indices_of_the_ishigami_function_match_the_closed_form():
     """Ishigami (a = 7, b = 0.1) through the same SALib path as the model: every index within its
     bootstrap 95 % interval of the closed form (Saltelli et al. 2008, section 4.5)."""
-    a, b = 7.0, 0.1
-
-    def ishigami(u):
-        x = -np.pi + 2 * np.pi * u
-        return {"f": np.sin(x[:, 0]) + a * np.sin(x[:, 1]) ** 2 + b * x[:, 2] ** 4 * np.sin(x[:, 0])}
-
+    a, b = A_ISHIGAMI, B_ISHIGAMI
     variance = a**2 / 8 + b * np.pi**4 / 5 + b**2 * np.pi**8 / 18 + 0.5
     v1, v2, v13 = 0.5 * (1 + b * np.pi**4 / 5) ** 2, a**2 / 8, b**2 * np.pi**8 * (1 / 18 - 1 / 50)
     first = np.array([v1, v2, 0.0]) / variance
     total = np.array([v1 + v13, v2, v13]) / variance
-    indices, dropped = sobol_indices(["x1", "x2", "x3"], ishigami, n_base=4096, seed=3)
-    assert dropped == 0
+    run = sobol_indices(["x1", "x2", "x3"], ishigami, n_base=4096, seed=3)
+    indices = run.indices
+    assert run.dropped == 0 and run.stop == "fixed" and not run.logged  # Ishigami takes both signs: never log10
     assert np.all(np.abs(indices["S1"] - first) <= indices["S1_conf"]), indices
     assert np.all(np.abs(indices["ST"] - total) <= indices["ST_conf"]), indices
+
+
+def widest(indices) -> float:
+    return float(np.max(indices[["S1_conf", "ST_conf"]].to_numpy()))
+
+
+def test_the_doubling_stops_at_the_target_and_equals_a_direct_run():
+    """Ishigami from 256 base samples, the target the widest half-width of a direct run at 1024
+    (wider at 256 and 512): two doublings, every half-width within the target, every number
+    equal to the direct run's, and each row evaluated once (the doubling reuses the rows)."""
+    names = ["x1", "x2", "x3"]
+    direct = {n: sobol_indices(names, ishigami, n_base=n, seed=2).indices for n in (256, 512, 1024)}
+    target = widest(direct[1024])
+    assert widest(direct[256]) > target and widest(direct[512]) > target  # so it takes two doublings
+    rows = []
+
+    def counted(u):
+        rows.append(len(u))
+        return ishigami(u)
+
+    run = sobol_indices(names, counted, seed=2, target=target, start=256)
+    assert (run.stop, run.n_base, run.evaluations) == ("converged", 1024, 1024 * 5)
+    assert rows == [256 * 5, 256 * 5, 512 * 5]  # the first sample, then only the new rows
+    assert widest(run.indices) <= target and run.unconverged.empty
+    pd.testing.assert_frame_equal(run.indices, direct[1024])  # the same numbers, not close ones
+
+
+def test_a_cap_names_every_interval_still_too_wide():
+    """Stopped by the evaluation cap (or a time cap): the result and its printed notes name
+    each interval wider than the target, with its quantity, input and half-width."""
+    names = ["x1", "x2", "x3"]
+    run = sobol_indices(names, ishigami, seed=2, target=1e-3, start=256, max_evaluations=512 * 5)
+    assert (run.stop, run.n_base) == ("evaluations", 512)
+    ix = run.indices
+    expected = {(q, i, k, w) for k in ("S1", "ST") for q, i, w in zip(ix["quantity"], ix["input"], ix[f"{k}_conf"], strict=True) if w > 1e-3}
+    assert set(run.unconverged.itertuples(index=False, name=None)) == expected and len(expected) == 6
+    result = SensitivityResult(ix, None, run.evaluations, 0, run.n_base, run.stop, run.target, run.unconverged, {}, None, run.seconds)
+    notes = sensitivity_notes(result)
+    assert "NOT converged" in notes[0] and "--max-evaluations" in notes[0]
+    for q, i, k, w in expected:
+        assert f"  {k} of {i} on {q}: ± {w:.3f}" in notes
+    timed = sobol_indices(names, ishigami, seed=2, target=1e-3, start=256, max_seconds=1e-9)
+    assert (timed.stop, timed.n_base) == ("time", 256) and len(timed.unconverged) == 6
+
+
+def test_a_quantity_spanning_more_than_a_decade_is_taken_as_log10_by_default():
+    """exp(5 u) spans 2.2 decades and is taken as log10 (its indices are those of 5 u log10(e),
+    a model given as such); 2 + u spans less than one and is not; log=True/False force it."""
+
+    def model(u):
+        return {"wide": np.exp(5 * u[:, 0]) * (1 + u[:, 1]), "narrow": 2 + u[:, 0] + u[:, 1]}
+
+    def already_logged(u):
+        return {"wide": np.log10(model(u)["wide"])}
+
+    run = sobol_indices(["a", "b"], model, n_base=64)
+    assert list(run.logged) == ["wide"]
+    wide = run.indices[run.indices["quantity"] == "wide"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(wide, sobol_indices(["a", "b"], already_logged, n_base=64, log=False).indices)
+    assert not sobol_indices(["a", "b"], model, n_base=64, log=False).logged
+    assert set(sobol_indices(["a", "b"], model, n_base=64, log=True).logged) == {"wide", "narrow"}
+    assert decade_span(np.array([1.0, 10.0])) is None and decade_span(np.array([1.0, 10.5])) == (1.0, 10.5)
+    assert decade_span(np.array([-1.0, 100.0])) is None  # no log10 of a value <= 0
+
+
+@pytest.mark.parametrize("n_base", [30, 0, 1, 3.0])
+def test_a_base_count_not_a_power_of_two_is_refused_naming_n_base(n_base):
+    p = with_uncertain([{"input": "V0", "tolerance": "±5 %"}])
+    with pytest.raises(ConfigError) as err:
+        sensitivity(p, p.baseline[None, :], n_base=n_base)
+    assert err.value.key == "n_base" and "power of 2" in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(ConfigError, match="n_base: expected a power of 2"):
+        sobol_indices(["a"], lambda u: {"y": u[:, 0]}, n_base=n_base)
 
 
 def test_an_input_the_model_does_not_read_has_no_total_index():
@@ -241,14 +322,17 @@ def test_cli_tolerance_and_sensitivity_write_their_files(tmp_path):
     assert out.code == 0, out.stderr
     assert all((tmp_path / "t" / f).exists() for f in ("tolerance.csv", "violations.csv", "samples.parquet", "tolerance.html"))
     assert "roll_gradient" in out.stdout and "deg/g" in out.stdout
-    out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--design", "baseline", "--samples", "32", "--out", str(tmp_path / "s"))
+    out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--design", "baseline", "--max-evaluations", "100", "--out", str(tmp_path / "s"))
     assert out.code == 0, out.stderr
+    assert "1,024 base samples, 10,240 model evaluations" in out.stdout and "NOT converged" in out.stdout and "  S1 of " in out.stdout
     assert (tmp_path / "s" / "sensitivity.csv").exists() and (tmp_path / "s" / "sensitivity.html").exists()
     out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--samples", "32", "--log", "--out", str(tmp_path / "b"))
     assert out.code == 0 and "log10 of each quantity" in out.stdout, out.stderr
     assert "decades" in (tmp_path / "b" / "sensitivity.csv").read_text()
-    out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--samples", "30", "--out", str(tmp_path / "s"))
-    assert out.code == 2 and "power of 2" in out.stderr
+    for bad in (["--samples", "30"], ["--samples", "32", "--target", "0.1"], ["--max-time", "0 s"]):
+        out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), *bad, "--out", str(tmp_path / "refused"))
+        assert out.code == 2 and len(out.error_lines) == 1 and bad[0] in out.stderr and not (tmp_path / "refused").exists(), out.stderr
+    assert "power of 2" in run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--samples", "30").stderr
 
 
 def test_payload_cg_height_and_a_laden_car_route_through_a_problem_per_sample():

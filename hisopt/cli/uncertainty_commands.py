@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from hisopt.cli.options import SetOpt, load
-from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer
+from hisopt.cli.usage import ProblemArg, SchedulerOpt, WorkersOpt, integer, quantity
 
 DesignOpt = Annotated[
     str | None,
@@ -56,12 +56,40 @@ def sensitivity_cmd(
     problem: ProblemArg,
     design: DesignOpt = None,
     samples: Annotated[
-        int, typer.Option("--samples", parser=integer, metavar="N", help="base samples N of Saltelli's design (N (D + 2) evaluations; a power of 2)")
-    ] = 1024,
+        int | None,
+        typer.Option(
+            "--samples",
+            parser=integer,
+            metavar="N",
+            help="a fixed count of base samples N (a power of 2; N (D + 2) evaluations) instead of doubling until the intervals converge",
+        ),
+    ] = None,
+    target: Annotated[
+        float | None,
+        typer.Option(
+            "--target", parser=quantity("-"), metavar="HALF_WIDTH", help="double until every S1 and ST 95 % half-width is at most this [default: 0.05]"
+        ),
+    ] = None,
+    max_evaluations: Annotated[
+        int | None, typer.Option("--max-evaluations", parser=integer, metavar="N", help="do not double past this many model evaluations [default: 500000]")
+    ] = None,
+    max_time: Annotated[
+        float | None,
+        typer.Option(
+            "--max-time",
+            parser=quantity("s"),
+            metavar="TIME",
+            help="do not start a doubling that would end past this time, e.g. '10 min' (where it stops then depends on the machine)",
+        ),
+    ] = None,
     seed: SeedOpt = 0,
     log: Annotated[
-        bool, typer.Option("--log", help="indices of log10 of each quantity (its relative changes; steadier over a box where it spans decades)")
-    ] = False,
+        bool | None,
+        typer.Option(
+            "--log/--no-log",
+            help="indices of log10 of every quantity (its relative changes), or of none [default: log10 of each quantity spanning more than a decade]",
+        ),
+    ] = None,
     out: Annotated[Path, typer.Option("--out", help="output directory for sensitivity.csv and sensitivity.html")] = Path("."),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
@@ -72,27 +100,41 @@ def sensitivity_cmd(
     First- and total-order Sobol indices with bootstrap 95 % intervals (SALib) of every
     objective and constraint: with --design, with respect to the [[uncertain]] inputs around
     that design; without, over the whole box, with respect to the design variables and the
-    uncertain inputs. Writes OUT/sensitivity.csv and OUT/sensitivity.html.
+    uncertain inputs. The base samples double (every evaluation reused) until every interval's
+    half-width is at most --target, or a cap stops them (the output names the intervals still
+    wider); --samples fixes the count. A quantity spanning more than a decade is taken as
+    log10 (said in the output). Writes OUT/sensitivity.csv and OUT/sensitivity.html.
     """
     from hisopt.errors import ConfigError
     from hisopt.evaluation.parallel import open_backend
     from hisopt.io import ensure_writable_dir
-    from hisopt.report.uncertainty import total_indices_shown, write_sensitivity
+    from hisopt.report.uncertainty import sensitivity_notes, total_indices_shown, write_sensitivity
+    from hisopt.studies.sobol import MAX_EVALUATIONS, TARGET_HALF_WIDTH, check_convergence_settings, check_n_base
     from hisopt.studies.uncertainty import sensitivity
 
-    if samples < 2 or samples & (samples - 1):
-        raise ConfigError(f"expected a power of 2 of at least 2 (Sobol sequences balance at powers of 2); got {samples}", key="--samples")
+    if samples is not None:
+        check_n_base(samples, key="--samples")
+        given = [name for name, value in (("--target", target), ("--max-evaluations", max_evaluations), ("--max-time", max_time)) if value is not None]
+        if given:
+            raise ConfigError(
+                f"fixes the count; {' and '.join(given)} {'stops' if len(given) == 1 else 'stop'} the doubling: give one or the other", key="--samples"
+            )
+    half_width = TARGET_HALF_WIDTH if target is None else target
+    cap = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
+    check_convergence_settings(half_width, cap, max_time, keys=("--target", "--max-evaluations", "--max-time"))
     p = load(problem, set_)
     if not p.spec.uncertain and design is not None:
         raise ConfigError("the problem has no [[uncertain]] inputs, so nothing varies around a design; add them (docs/model.md §18)", file=str(problem))
     x, where = (None, "over the whole box of the design variables") if design is None else _design(p, design)
     ensure_writable_dir(out)
     with open_backend(workers, scheduler) as backend:
-        result = sensitivity(p, x, n_base=samples, seed=seed, backend=backend, log=log)
+        result = sensitivity(p, x, samples, seed, backend=backend, log=log, target=half_width, max_evaluations=cap, max_seconds=max_time)
     of = "log10 of each quantity, " if log else ""
     place = f"{of}around {where}" if x is not None else f"{of}{where}"
     files = write_sensitivity(result, out, f"{p.name}: which inputs matter", place)
     _print(total_indices_shown(result.indices), f"{p.name}: total Sobol indices ST, {place} (± 95 % half-widths; S1 in the files)")
+    for line in sensitivity_notes(result):
+        typer.echo(line)
     if result.dropped:
         typer.echo(f"{result.dropped} sample blocks dropped where the model failed")
     typer.echo(f"wrote {' and '.join(map(str, files))}")

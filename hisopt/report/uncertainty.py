@@ -56,14 +56,62 @@ def total_indices_shown(indices: pd.DataFrame) -> pd.DataFrame:
     return table.loc[order, list(dict.fromkeys(indices["quantity"]))].reset_index()
 
 
+UNCONVERGED_SHOWN = 12  # intervals listed by name when a cap stopped the doubling (all are in the CSV)
+
+
+def _widest(result: SensitivityResult) -> str:
+    """The widest interval, ``0.410 (ST of lam on max_tire_load_psd)``."""
+    ix = result.indices
+    parts = [pd.DataFrame({"index": i, "input": ix["input"], "quantity": ix["quantity"], "w": ix[f"{i}_conf"]}) for i in ("S1", "ST")]
+    table = pd.concat(parts, ignore_index=True).dropna(subset=["w"])
+    if table.empty:
+        return "none (no quantity varies)"
+    w = table.loc[table["w"].idxmax()]
+    return f"{w['w']:.3f} ({w['index']} of {w['input']} on {w['quantity']})"
+
+
+def sensitivity_notes(result: SensitivityResult) -> list[str]:
+    """What the indices rest on, one line each: the samples, evaluations and time and whether
+    every interval converged (else which did not: index, input, quantity, half-width), and
+    which quantities were taken as ``log10`` and why."""
+    runs = f"{result.n_base:,} base samples, {result.evaluations:,} model evaluations, {result.seconds:.1f} s"
+    if result.stop == "fixed":
+        lines = [f"{runs} (a fixed count, --samples); widest 95 % half-width {_widest(result)}"]
+    elif result.stop == "converged":
+        lines = [f"{runs}: converged, every S1 and ST 95 % half-width <= {result.target:g} (widest {_widest(result)})"]
+    else:
+        cap = (
+            f"the next doubling ({2 * result.evaluations:,} evaluations) would pass the evaluation cap (--max-evaluations)"
+            if result.stop == "evaluations"
+            else f"the next doubling would take about another {result.seconds:.0f} s, past the time cap (--max-time)"
+        )
+        wide = result.unconverged
+        lines = [f"{runs}: NOT converged, {cap}; {len(wide)} of the 95 % half-widths are above {result.target:g}:"]
+        lines += [f"  {r.index} of {r.input} on {r.quantity}: ± {r.half_width:.3f}" for r in wide.head(UNCONVERGED_SHOWN).itertuples()]
+        if len(wide) > UNCONVERGED_SHOWN:
+            lines.append(f"  and {len(wide) - UNCONVERGED_SHOWN} more (the S1_conf and ST_conf columns of sensitivity.csv)")
+    if result.logged:
+        from hisopt.studies.uncertainty import quantity_unit
+
+        spans = ", ".join(f"{q} ({format_quantity(lo, quantity_unit(q))} to {format_quantity(hi, quantity_unit(q))})" for q, (lo, hi) in result.logged.items())
+        if result.log:
+            lines.append(f"indices of log10 of each quantity (--log): {spans}")
+        else:
+            lines.append(
+                f"indices of log10 of {spans}: each spans more than a decade over the samples, so its indices are of its relative changes, "
+                "which a few extreme samples do not dominate (--no-log keeps every quantity linear)"
+            )
+    return lines
+
+
 def write_sensitivity(result: SensitivityResult, out: Path, title: str, where: str) -> list[Path]:
     """``sensitivity.csv`` (SI, units row) and ``sensitivity.html`` (bars and the table) in ``out``."""
     frame = result.indices
     units = {"S1": "-", "S1_conf": "-", "ST": "-", "ST_conf": "-", "quantity": "", "unit": "", "input": "", "input_unit": "", "distribution": ""}
     csv = write_csv(frame, out / SENSITIVITY_FILES[0], units)
-    meta = html.escape(f"{where}; {result.evaluations} model evaluations (SALib Saltelli sample, bootstrap 95 % half-widths)")
-    if result.dropped:
-        meta += html.escape(f"; {result.dropped} sample blocks dropped where the model failed")
+    meta = html.escape(f"{where} (SALib Saltelli sample, bootstrap 95 % half-widths)")
+    notes = sensitivity_notes(result) + ([f"{result.dropped} sample blocks dropped where the model failed"] if result.dropped else [])
+    meta += "".join(f"<br>{html.escape(line)}" for line in notes)
     body = _figure(sensitivity_figure(frame, "Sobol indices: total (ST) and first order (S1)"))
     body += html_table(total_indices_shown(frame), "Total Sobol index ST of each input on each quantity (± 95 % half-width)", text_columns=("input",))
     body += html_table(sensitivity_shown(frame), "Every index, with the input's distribution", text_columns=("quantity", "input", "distribution"))

@@ -4,8 +4,9 @@ studies over the ``[[uncertain]]`` inputs (docs/model.md §18).
 - :func:`sensitivity`: first- and total-order Sobol indices of every quantity with respect
   to the uncertain inputs around one design, or to the design variables and the uncertain
   inputs over the whole box. Saltelli's sample and the estimators with their bootstrap
-  intervals are SALib's (:func:`sobol_indices`, which takes any function, so an analytical
-  one checks the same path).
+  intervals are SALib's (:func:`hisopt.studies.sobol.sobol_indices`, which takes any
+  function, so an analytical one checks the same path); the base samples double until every
+  interval is narrow, and a quantity spanning decades is taken as ``log10``.
 - :func:`tolerance`: one design at ``N`` Monte Carlo samples: each quantity's mean, standard
   deviation and percentiles, and each constraint's probability of violation with its Wilson
   interval.
@@ -16,7 +17,7 @@ numbers on one process or on Dask (within rounding, 1e-12).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -28,13 +29,13 @@ from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates
 from hisopt.metrics import METRICS
 from hisopt.robust import quantity_of
 from hisopt.specification.uncertain import resolve_uncertain
+from hisopt.studies.sobol import CONFIDENCE, MAX_EVALUATIONS, TARGET_HALF_WIDTH, check_convergence_settings, check_n_base, sobol_indices
 
 if TYPE_CHECKING:
     from hisopt.evaluation.parallel import Backend
     from hisopt.specification.design_space import DesignSpace
 
 PERCENTILES = (1.0, 5.0, 50.0, 95.0, 99.0)
-CONFIDENCE = 0.95
 
 
 def quantity_unit(name: str) -> str:
@@ -132,90 +133,76 @@ def violations(space: DesignSpace, frame: pd.DataFrame) -> pd.DataFrame:
 
 
 # --- sensitivity: Sobol indices ------------------------------------------------------------------
-def sobol_indices(
-    names: Sequence[str],
-    model: Callable[[np.ndarray], Mapping[str, np.ndarray]],
-    n_base: int = 1024,
-    seed: int = 0,
-    resamples: int = 250,
-) -> tuple[pd.DataFrame, int]:
-    """First- and total-order Sobol indices of every output of ``model`` with respect to
-    factors ``names``, each standard uniform on (0, 1) (``model`` maps them to its inputs).
-
-    SALib's Saltelli sample (Sobol sequence, ``n_base (D + 2)`` rows, no second order) and its
-    estimators (Saltelli 2010, Jansen) with bootstrap intervals at :data:`CONFIDENCE` from
-    ``resamples`` resamples (250: a half-width to a few per cent; the bootstrap, not the
-    model, is most of the time at large ``n_base`` with 1000). A
-    block of ``D + 2`` rows with a NaN output is dropped for that output (SALib would read
-    NaN as zero variance); how many were dropped is returned as the second value.
-
-    Returns
-    -------
-    indices : pd.DataFrame
-        [-] one row per (output, factor): ``S1``, ``S1_conf``, ``ST``, ``ST_conf`` (half-widths)
-    dropped : int
-        [-] blocks dropped for any output
-    """
-    from SALib.analyze import sobol as sobol_analyze
-    from SALib.sample import sobol as sobol_sample
-
-    d = len(names)
-    problem = {"num_vars": d, "names": list(names), "bounds": [[0.0, 1.0]] * d}
-    u = sobol_sample.sample(problem, n_base, calc_second_order=False, scramble=True, seed=seed)
-    outputs = model(np.asarray(u))
-    rows, dropped = [], 0
-    for out_name, y in outputs.items():
-        blocks = np.asarray(y, dtype=float).reshape(-1, d + 2)
-        keep = np.all(np.isfinite(blocks), axis=1)
-        dropped = max(dropped, int(np.sum(~keep)))
-        if keep.sum() < 2:
-            rows += [{"quantity": out_name, "input": n, "S1": np.nan, "S1_conf": np.nan, "ST": np.nan, "ST_conf": np.nan} for n in names]
-            continue
-        # SALib seeds its bootstrap only for a truthy seed (SALib 1.6, analyze/sobol.py): seed 0
-        # would draw fresh resamples each call, so the intervals get seed + 1, never 0
-        si = sobol_analyze.analyze(problem, blocks[keep].ravel(), calc_second_order=False, num_resamples=resamples, conf_level=CONFIDENCE, seed=seed + 1)
-        for j, n in enumerate(names):
-            rows.append({"quantity": out_name, "input": n, "S1": si["S1"][j], "S1_conf": si["S1_conf"][j], "ST": si["ST"][j], "ST_conf": si["ST_conf"][j]})
-    return pd.DataFrame(rows), dropped
-
-
 @dataclass(frozen=True)
 class SensitivityResult:
-    """Sobol indices of a problem's quantities.
+    """Sobol indices of a problem's quantities and how far they converged.
 
     Attributes
     ----------
     indices : pd.DataFrame
-        [-] per (quantity, input): S1, S1_conf, ST, ST_conf, with the units and what each input is
+        [-] per (quantity, input): S1, S1_conf, ST, ST_conf, with the units (``decades`` for a
+        quantity taken as ``log10``) and what each input is
     design : np.ndarray | None
         [SI] the design the study is around (None: over the whole box)
     evaluations, dropped : int
         [-] model evaluations, blocks dropped (a failed model)
+    n_base : int
+        [-] base samples used
+    stop : str
+        [-] ``"fixed"``, ``"converged"``, ``"evaluations"`` or ``"time"`` (:class:`SobolIndices`)
+    target : float
+        [-] the half-width every interval was to reach
+    unconverged : pd.DataFrame
+        [-] the intervals wider than ``target``: quantity, input, index, half_width
+    logged : dict[str, tuple[float, float]]
+        [SI] the quantities taken as ``log10``, with their smallest and largest value
+    log : bool | None
+        [-] the ``log`` asked for (None: each quantity spanning more than a decade)
+    seconds : float
+        [s] wall time of the indices
     """
 
     indices: pd.DataFrame
     design: np.ndarray | None
     evaluations: int
     dropped: int
+    n_base: int
+    stop: str
+    target: float
+    unconverged: pd.DataFrame
+    logged: dict[str, tuple[float, float]]
+    log: bool | None
+    seconds: float
 
 
 def sensitivity(
     space: DesignSpace,
     design: np.ndarray | None = None,
-    n_base: int = 1024,
+    n_base: int | None = None,
     seed: int = 0,
     resamples: int = 250,
     backend: Backend | None = None,
-    log: bool = False,
+    log: bool | None = None,
+    target: float = TARGET_HALF_WIDTH,
+    max_evaluations: int = MAX_EVALUATIONS,
+    max_seconds: float | None = None,
 ) -> SensitivityResult:
     """Sobol indices of every objective and constraint of ``space``.
 
     With ``design`` (one row): with respect to the uncertain inputs around it. Without: over
     the whole box, with respect to the design variables (uniform between their bounds; a
-    choice variable uniform over its list) and the uncertain inputs. With ``log``: of
-    ``log10`` of each quantity (its relative changes, as the optimiser ranks them), whose
-    variance a few extreme designs do not dominate when a quantity spans decades over the box.
+    choice variable uniform over its list) and the uncertain inputs.
+
+    Without ``n_base`` the base samples double from :data:`FIRST_N_BASE` until every S1 and ST
+    half-width is at most ``target`` or a cap stops it (:func:`sobol_indices`); with it, a
+    power of 2, exactly that many. ``log`` None (default) takes ``log10`` of each quantity
+    that spans more than a decade over the samples (its relative changes, as the optimiser
+    ranks them, whose variance a few extreme designs do not dominate); True of every
+    quantity, False of none.
     """
+    if n_base is not None:
+        check_n_base(n_base)
+    check_convergence_settings(target, max_evaluations, max_seconds)
     evaluator = UncertainEvaluator(space)
     uncertain = list(evaluator.inputs)
     variables = [] if design is not None else list(space.variable_names)
@@ -233,18 +220,16 @@ def sensitivity(
             got = case_evaluator_for(space)(x)
         else:
             got = evaluator.paired(x, u[:, len(variables) :], backend)
-        if log:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                return {k: np.where(got[k] > 0, np.log10(np.where(got[k] > 0, got[k], 1.0)), np.nan) for k in evaluator.names}
         return {k: got[k] for k in evaluator.names}
 
-    indices, dropped = sobol_indices(factors, model, n_base, seed, resamples)
+    run = sobol_indices(factors, model, n_base, seed, resamples, log, target, max_evaluations=max_evaluations, max_seconds=max_seconds)
+    indices = run.indices
     described = {f: ("uniform over its bounds", units.get(f, "")) for f in variables}
     described |= {factor: (u.text, u.unit) for factor, u in zip(factors[len(variables) :], uncertain, strict=True)}
-    indices.insert(1, "unit", ["decades" if log else quantity_unit(q) for q in indices["quantity"]])
+    indices.insert(1, "unit", ["decades" if q in run.logged else quantity_unit(q) for q in indices["quantity"]])
     indices["input_unit"] = [described[f][1] for f in indices["input"]]
     indices["distribution"] = [described[f][0] for f in indices["input"]]
-    return SensitivityResult(indices, fixed, n_base * (len(factors) + 2), dropped)
+    return SensitivityResult(indices, fixed, run.evaluations, run.dropped, run.n_base, run.stop, run.target, run.unconverged, run.logged, log, run.seconds)
 
 
 def box_designs(space: DesignSpace, u: np.ndarray) -> np.ndarray:
