@@ -244,11 +244,14 @@ def _dry_text() -> str:
     return at_top(text, 'temperature = "0 degC"')
 
 
-def test_optimize_on_a_box_with_no_evaluable_design_says_why_and_writes_nothing(tmp_path):
+@pytest.mark.parametrize("command", [("optimize",), ("study", "--seeds", "1-2")])
+def test_optimize_on_a_box_with_no_evaluable_design_says_why_and_writes_nothing(tmp_path, command):
     path = written(tmp_path, _dry_text())
     before = folder_digest(tmp_path)
-    out = run_cli("optimize", path, "--out", tmp_path / "run", "--pop", "8", "--gens", "2")
-    line = assert_one_line(out, "no design of a 961-design grid over the box of roll_plane_his_parts can be evaluated: ")
+    out = run_cli(*command, path, "--out", tmp_path / "run", "--pop", "8", "--gens", "2")
+    assert out.code == 2 and "Traceback" not in out.stderr, out
+    (line,) = [line for line in out.error_lines if line.startswith("error: ")]  # after the study's "running 2 seeds" line
+    assert line.startswith("error: no design of a 961-design grid over the box of roll_plane_his_parts can be evaluated: "), line
     assert line.endswith("the model is unstable or singular here, or an accumulator holds no oil at rest (NaN results) (961 designs)"), line
     assert folder_digest(tmp_path) == before and not (tmp_path / "run").exists()
 

@@ -332,9 +332,9 @@ class ProblemSpec(_Strict):
             problem = None if sc.payload is None else laden_problem(self.vehicle, sc.payload)
             if problem:
                 raise ValueError(f"scenario {sc.name!r}: {problem}")
-        written = (info.context or {}).get(WRITTEN) if isinstance(info.context, Mapping) else None
+        written = info.context.get(WRITTEN) if isinstance(info.context, Mapping) else None  # the data as written: no kelvin hint for a unit
         charge = self.his.charge
-        charged = [("his.charge.temperature", charge.temperature)] if charge is not None and "temperature" in charge.model_fields_set else []
+        charged = [("his.charge.temperature", charge.temperature)] if charge is not None else []  # its default too: a dump re-read names it
         for key, temperature in self.temperatures() + charged:
             as_written = written_value(written, key)
             problem = self.his.oil.temperature_problem(temperature, written=" ".join(as_written.split()) if has_unit(as_written) else None)
