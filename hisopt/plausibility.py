@@ -14,7 +14,10 @@ problem file (:mod:`hisopt.specification.config`), the seed parser and the outpu
 - a polytropic exponent outside :data:`GAMMA_RANGE` (the field's rule, with its reason in
   :data:`RULE_REASONS`);
 - a road speed above :data:`SPEED_MAX`;
-- more seeds than :data:`MAX_SEEDS` in one study.
+- more seeds than :data:`MAX_SEEDS` in one study;
+- a design box in which no cylinder can be built: on an axle, every rod of the rod box (a
+  ``[variables]`` range or its choices, or the fixed ``[his]`` size) at least as wide as
+  every bore of the bore box (:func:`cylinder_box_problem`).
 
 **Warned** (:class:`~hisopt.errors.PlausibilityWarning`, one line each; the work goes on), for
 values the user gave (a default never warns; :func:`given_warnings`):
@@ -23,7 +26,9 @@ values the user gave (a default never warns; :func:`given_warnings`):
 - a handling step ``step_g`` over :data:`STEP_G_MAX`;
 - an accumulator precharge under :data:`P0_MIN` (``[his] p0``, a ``[his.parameters]`` value
   the layout reads as a precharge, or ``--set``; never the ``[variables]`` box);
-- a roll limit written as a bare number (read in rad) above :data:`ROLL_LIMIT_WARN`.
+- a roll limit written as a bare number (read in rad) above :data:`ROLL_LIMIT_WARN`;
+- a rod box reaching the largest bore of its axle (:func:`cylinder_box_warnings`): the
+  designs whose rod is not thinner than their bore are invalid and never evaluated.
 
 **Marked**: a design picked, refined or exported within :data:`BOUND_TOLERANCE` of the box
 width of a variable's bound (:func:`bound_sides`, :func:`bound_labels`, :func:`with_bound_column`).
@@ -34,6 +39,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Collection, Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -170,6 +176,92 @@ def seed_count_problem(count: int) -> str | None:
     return None
 
 
+@dataclass(frozen=True)
+class SizeBox:
+    """The sizes a cylinder's bore or rod takes over the design box: a variable's range (its
+    choices' if it has them) or a fixed ``[his]`` value.
+
+    Attributes
+    ----------
+    key : str
+        [-] where the file gives it: ``variables.rod`` or ``his.bore``
+    lower, upper : float
+        [m] the smallest and the largest size (equal for a fixed value)
+    """
+
+    key: str
+    lower: float
+    upper: float
+
+    @property
+    def text(self) -> str:
+        """``variables.rod (12 to 56 mm)`` or ``his.bore (50 mm)``."""
+        span = f"{self.lower * 1e3:.4g} mm" if self.lower == self.upper else f"{self.lower * 1e3:.4g} to {self.upper * 1e3:.4g} mm"
+        return f"{self.key} ({span})"
+
+
+def cylinder_boxes(spec: Any) -> list[tuple[SizeBox, SizeBox]]:
+    """``(bore, rod)`` of each axle sized by bore and rod with at least one of them a design
+    variable (the rear only with a size of its own, else it follows the front; the sources
+    as :func:`hisopt.specification.validation.cylinder_breaks` reads them per design)."""
+    variables, his = spec.variables, spec.his
+    given = lambda n: n in variables or getattr(his, n, None) is not None  # noqa: E731
+    out = []
+    for axle in ("", "_rear"):
+        if axle and not (given("bore_rear") or given("rod_rear")):
+            continue
+        found = [next((n for n in (f"{part}{axle}", part) if given(n)), None) for part in ("bore", "rod")]
+        sources = [n for n in found if n is not None]
+        if len(sources) < 2 or not any(n in variables for n in sources):
+            continue  # a size missing (refused on its own) or a fixed pair: checked on [his] itself
+        boxes = []
+        for name in sources:
+            var = variables.get(name)
+            if var is None:
+                value = float(getattr(his, name))
+                boxes.append(SizeBox(f"his.{name}", value, value))
+            else:
+                sizes = var.choices or [var.lower, var.upper]
+                boxes.append(SizeBox(f"variables.{name}", float(min(sizes)), float(max(sizes))))
+        out.append((boxes[0], boxes[1]))
+    return out
+
+
+def _varied(bore: SizeBox, rod: SizeBox) -> SizeBox:
+    """The box a message names first: the rod's if it is a design variable, else the bore's."""
+    return rod if rod.key.startswith("variables.") else bore
+
+
+def cylinder_box_problem(spec: Any) -> str | None:
+    """Why no design of ``spec``'s box is a buildable cylinder (every rod of the rod box at
+    least as wide as every bore of the bore box, on an axle), naming both boxes; or None."""
+    for bore, rod in cylinder_boxes(spec):
+        if rod.lower >= bore.upper:
+            return (
+                f"{_varied(bore, rod).key}: no rod of {rod.text} is thinner than any bore of {bore.text}, so no design of the box "
+                f"is a cylinder that can be built; expected the smallest rod below the largest bore"
+            )
+    return None
+
+
+def cylinder_box_warnings(spec: Any, given: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """``(key, message)`` for each axle whose rod box reaches the largest bore (some designs
+    of the box cannot be built; those are invalid and not evaluated), where ``given`` holds
+    the bore or the rod."""
+    out = []
+    for bore, rod in cylinder_boxes(spec):
+        names = [box.key.split(".", 1) for box in (bore, rod)]
+        if rod.upper >= bore.upper and any(_given(given, table, name) is not None for table, name in names):
+            out.append(
+                (
+                    _varied(bore, rod).key,
+                    f"the rods of {rod.text} reach the largest bore of {bore.text}: a design whose rod is not thinner than its "
+                    f"bore cannot be built and is invalid (not evaluated); expected the largest rod below {bore.upper * 1e3:.4g} mm",
+                )
+            )
+    return out
+
+
 def rule_reason(name: str) -> str:
     """``" (<reason>)"`` for a parameter whose rule has a physical reason to state, else ``""``."""
     reason = RULE_REASONS.get(name)
@@ -269,7 +361,7 @@ def given_warnings(spec: Any, given: Mapping[str, Any], precharges: Collection[s
                         f'{top:.3g} {shown} a road car\'s body rolls; if you meant degrees write limit = "{c.limit:g} {shown}"',
                     )
                 )
-    return out
+    return out + cylinder_box_warnings(spec, given)
 
 
 def warn(items: list[tuple[str, str]], file: str | None = None) -> None:

@@ -162,7 +162,12 @@ def to_si(value: Any, unit: str, *, file: str | None = None, key: str | None = N
     number, given = parts
     if _is_scale(given):  # "20 degC": a point on a temperature scale, not a multiple of a unit
         return _scale_point(number, given, unit, file=file, key=key, text=text.strip())
-    return scaled(number, unit_factor(given, unit, file=file, key=key, text=text.strip()))
+    value = scaled(number, unit_factor(given, unit, file=file, key=key, text=text.strip()))
+    if unit == "K" and given:  # "-5 K", "-5 mK": named as written, never with a Celsius hint
+        problem = absolute_zero_problem(value, f"{number} {' '.join(given.split())}")
+        if problem:
+            raise ConfigError(problem, file=file, key=key)
+    return value
 
 
 _SCALES = {
@@ -183,7 +188,27 @@ def _scale_point(number: str, given: str, unit: str, *, file: str | None, key: s
         raise ConfigError(f"{json.dumps(text, ensure_ascii=False)} is a temperature; expected {_kind(unit)} (e.g. {_example(unit)})", file=file, key=key)
     scale = _SCALES[" ".join(given.split()).lower()]
     value = float(_registry().Quantity(float(number), scale).to("K").magnitude)
+    problem = absolute_zero_problem(float(number), f"{number} {' '.join(given.split())}", scale)  # compared as written: -459.67 degF is 0 K exactly
+    if problem:
+        raise ConfigError(problem, file=file, key=key)
     return float(f"{value:.15g}")  # 20 degC is 293.15 K exactly as written, not 293.15000000000003
+
+
+ABSOLUTE_ZERO = {"K": 0.0, "degC": -273.15, "degF": -459.67}
+"""Absolute zero on each temperature scale hisopt reads, in that scale's own degrees."""
+
+
+def absolute_zero_problem(value: float, shown: str, scale: str = "K") -> str | None:
+    """Why the temperature ``value`` on ``scale`` (a key of :data:`ABSOLUTE_ZERO`), written
+    ``shown``, cannot be: ``-300 degC is below absolute zero (-273.15 degC)``; None above
+    absolute zero. The message names the value as the person wrote it, in their scale."""
+    zero_value = ABSOLUTE_ZERO[scale]
+    if value > zero_value:
+        return None
+    zero = f"{zero_value:g} {scale}"
+    if value < zero_value:
+        return f"{shown} is below absolute zero ({zero})"
+    return f"{shown} is absolute zero ({zero}), which no oil or gas reaches; expected a temperature above it"
 
 
 def unit_factor(given: str, unit: str, *, file: str | None = None, key: str | None = None, text: str | None = None) -> float:

@@ -146,7 +146,7 @@ def test_serial_and_dask_give_the_same_study(problem, serial):
         (("--seeds", "a-b"), "expected seeds like"),
         (("--handling", "bogus"), "unknown quantity 'bogus'"),
         (("--handling", "sigma_aw"), "must differ from the comfort one"),
-        (("--handling-limit", "-1"), "expected a finite limit > 0"),
+        (("--handling-limit", "-1 deg/g"), "expected a finite limit > 0"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(tmp_path, args, needle):
@@ -288,7 +288,7 @@ def test_cli_study_of_a_scenario_problem_including_a_limit_no_design_meets(tmp_p
 
     # a limit below every feasible design of both layouts: the study says so, it does not crash
     limit = 0.5 * min(least.values())
-    second = run_cli(*args, "--handling-limit", repr(limit))
+    second = run_cli(*args, "--handling-limit", f"{limit!r} rad/g")
     assert second.code == 0, second.stderr
     table = read_csv(out / "layouts.csv").set_index("layout")
     assert table["handling_limit"].tolist() == [limit, limit]
@@ -304,7 +304,7 @@ def test_cli_study_of_a_scenario_problem_including_a_limit_no_design_meets(tmp_p
     # between the two layouts' least values: one layout compared, the other said to have no design
     low, high = sorted(least.values())
     if low < high:
-        third = run_cli(*args, "--handling-limit", repr(0.5 * (low + high)))
+        third = run_cli(*args, "--handling-limit", f"{0.5 * (low + high)!r} rad/g")
         assert third.code == 0, third.stderr
         table = read_csv(out / "layouts.csv").set_index("layout")
         assert sorted(table["at_limit"] == "met") == [False, True]

@@ -177,7 +177,7 @@ def test_cooling_empties_a_full_accumulator_and_the_design_is_refused_not_misrea
 @pytest.mark.parametrize(
     ("extra", "key", "expect"),
     [
-        ('temperature = "-300 degC"', "temperature", "at or below absolute zero"),
+        ('temperature = "-300 degC"', "temperature", "-300 degC is below absolute zero (-273.15 degC)"),
         ("temperature = 20.0", "temperature", 'a bare number is kelvin; for Celsius write "20 degC"'),
         ('temperature = "150 degC"', "temperature", "outside the range the oil is used in"),
         ("[his.charge]\ngas_fraction = 1.0", "his.charge.gas_fraction", "less than 1"),

@@ -33,8 +33,8 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--handling-limit",
                 metavar="VALUE",
-                help="its limit, a bare number in SI (rad/g for roll_gradient) or with a unit, "
-                'e.g. "1.8 deg/g" (default: the roll-plane baseline design\'s value)',
+                help='its limit with its unit, e.g. "1.8 deg/g" (a bare number only where hisopt prints the quantity in SI; '
+                "default: the roll-plane baseline design's value)",
             ),
         ] = None,
         workers: WorkersOpt = None,
@@ -106,15 +106,31 @@ def compare_layouts_command(
 
 
 def _handling_limit(problem: Any, handling: str | None, text: str | float | None) -> float | None:
-    """``--handling-limit`` in the SI unit of the handling quantity (``"1.8 deg/g"`` -> rad/g)."""
+    """``--handling-limit`` in the SI unit of the handling quantity (``"1.8 deg/g"`` -> rad/g).
+
+    A bare number is refused where hisopt prints the quantity in another unit than its SI
+    one (a roll gradient in deg/g, not rad/g): the limit a study prints, pasted back without
+    its unit, would be read 57 times too large. Where the two agree, a bare number is SI.
+    """
     if text is None:
         return None
-    from hisopt.quantities import to_si
+    from hisopt.errors import ConfigError
+    from hisopt.quantities import split_quantity, to_si
     from hisopt.studies.layout_metrics import check_handling, default_handling_quantity
-    from hisopt.units import column_unit
+    from hisopt.units import column_unit, display_for
 
     name = check_handling(problem, handling or default_handling_quantity(problem))  # an unknown name first
-    return to_si(text, column_unit(name) or "-", key="--handling-limit")
+    unit = column_unit(name) or "-"
+    parts = split_quantity(str(text))
+    if parts is not None and not parts[1]:
+        shown = display_for(unit, float(parts[0])).unit
+        if shown != unit:
+            raise ConfigError(
+                f"{str(text).strip()!r} has no unit, and hisopt prints {name} in {shown} while a bare number would be read in {unit} (SI); "
+                f'expected the number with its unit: "{parts[0]} {shown}" or "{parts[0]} {unit}"',
+                key="--handling-limit",
+            )
+    return to_si(text, unit, key="--handling-limit")
 
 
 def study_report(out: Path, color_by: str | None, design: str) -> Path:

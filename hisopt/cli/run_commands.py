@@ -71,6 +71,9 @@ def optimize_cmd(
     from hisopt.optim.runstate import refuse_occupied
 
     refuse_occupied(out)  # says what state a run already there is in
+    from hisopt.optim.decision import reference_point
+
+    reference_point(p)  # a box with no evaluable design says why before --out is made (cached: the run reuses it)
     prepare_run_directory(out, fresh=True)  # fail before any work
     from hisopt.optim.catalogue_cost import wants_catalogue_cost
 

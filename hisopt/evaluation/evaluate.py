@@ -604,6 +604,14 @@ def roll_gradient(model: CoupledModel) -> np.ndarray:
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 
+def failure_reason(problem: DesignSpace) -> str:
+    """Why a design the rules admit has NaN results: the model is unstable or singular there,
+    or, on a charged HIS, an accumulator holds no oil at rest (its static solve gives NaN,
+    :func:`hisopt.coupled.operating_point.charged_static_pressure`)."""
+    dry = ", or an accumulator holds no oil at rest" if problem.spec.his.charge is not None else ""
+    return f"the model is unstable or singular here{dry} (NaN results)"
+
+
 def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
     """Designs and their quantities as a DataFrame.
 
@@ -627,7 +635,7 @@ def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.n
     failed = check.evaluable & ~valid
     status[failed & (status == STATUS_OK)] = STATUS_FAILED
     for i in np.flatnonzero(failed):
-        reason[i] = "; ".join(r for r in (reason[i], "the model is unstable or singular here (NaN results)") if r)
+        reason[i] = "; ".join(r for r in (reason[i], failure_reason(problem)) if r)
     df["status"] = status.astype(str)
     df["reason"] = reason.astype(str)
     return attach_units(df, problem, {"reason": NO_UNIT})

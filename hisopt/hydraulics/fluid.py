@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from hisopt.quantities import si
+from hisopt.quantities import absolute_zero_problem, si
 
 WALTHER_OFFSET = 0.7
 """[mm^2/s] The constant of ASTM D341's Walther equation; the equation holds down to about
@@ -102,20 +102,25 @@ class Oil(BaseModel):
         """[kg/m^3] Density at ``temperature`` [K] (:func:`expanded_density`)."""
         return expanded_density(temperature, self.density, self.density_temperature, self.expansion)
 
-    def temperature_problem(self, temperature: float) -> str | None:
+    def temperature_problem(self, temperature: float, *, written: str | None = None) -> str | None:
         """Why the oil cannot be used at ``temperature`` [K] (at or below absolute zero,
         outside ``lowest`` to ``highest``, or thinner than the Walther equation holds), or
-        None."""
-        hint = f' (a bare number is kelvin; for Celsius write "{temperature:g} degC")' if temperature < 150.0 else ""
-        if not temperature > 0.0:
-            return f"{temperature:g} K is at or below absolute zero{hint}"
+        None. ``written``: the value as the person wrote it with its unit (``"-100 degF"``),
+        named as such; None for a bare number (kelvin), which under 150 K gets the hint that
+        Celsius may have been meant (a value with a unit never does; one below absolute zero
+        is refused where it is read: :func:`hisopt.quantities.absolute_zero_problem`)."""
+        hint = f' (a bare number is kelvin; for Celsius write "{temperature:g} degC")' if written is None and temperature < 150.0 else ""
+        below = absolute_zero_problem(temperature, f"{temperature:g} K")
+        if below:
+            return below + hint
+        shown = written if written is not None else f"{temperature - 273.15:.4g} degC"
         if not self.lowest <= temperature <= self.highest:
             return (
-                f"{temperature - 273.15:.4g} degC is outside the range the oil is used in "
+                f"{shown} is outside the range the oil is used in "
                 f"({self.lowest - 273.15:.4g} to {self.highest - 273.15:.4g} degC: his.oil.lowest, his.oil.highest){hint}"
             )
         if self.kinematic_viscosity(temperature) < WALTHER_MIN_VISCOSITY:
-            return f"{temperature - 273.15:.4g} degC thins the oil below {WALTHER_MIN_VISCOSITY * 1e6:g} mm^2/s, outside the Walther equation (ASTM D341)"
+            return f"{shown} thins the oil below {WALTHER_MIN_VISCOSITY * 1e6:g} mm^2/s, outside the Walther equation (ASTM D341)"
         return None
 
     def extrapolated(self, temperature: float) -> bool:

@@ -27,6 +27,7 @@ values below 1e-300 are clipped to it):
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -103,17 +104,18 @@ def _reference_point(problem: Problem) -> np.ndarray:
     x = grid_designs(problem.lower, problem.upper)
     q = problem.evaluator()(x)
     f = np.column_stack([q[name] for name in problem.objective_names])
-    return reference_from_sample(f[grid_sample_rows(problem, q)])
+    return reference_from_sample(f[grid_sample_rows(problem, q, x)])
 
 
-def grid_sample_rows(problem: Problem, q: Mapping[str, np.ndarray]) -> np.ndarray:
-    """[-] The designs of a grid over the box (:func:`grid_designs`, quantities ``q``) that
-    place a reference: the feasible ones, or the valid ones if none is feasible.
+def grid_sample_rows(problem: Problem, q: Mapping[str, np.ndarray], x: np.ndarray) -> np.ndarray:
+    """[-] The designs ``x`` of a grid over the box (:func:`grid_designs`, quantities ``q``)
+    that place a reference: the feasible ones, or the valid ones if none is feasible.
 
     Raises
     ------
     RunError
-        No design of the grid can be evaluated.
+        No design of the grid can be evaluated: one line with the commonest reasons
+        (:func:`unevaluable_reasons`).
     """
     valid = np.asarray(q["valid"], dtype=bool)
     feasible = valid.copy()
@@ -121,8 +123,26 @@ def grid_sample_rows(problem: Problem, q: Mapping[str, np.ndarray]) -> np.ndarra
         feasible &= q[c.name] <= c.limit
     chosen = feasible if feasible.any() else valid
     if not chosen.any():
-        raise RunError(f"no design of {with_article(f'{len(valid)}-design')} grid over the box of {problem.name} can be evaluated")
+        grid = with_article(f"{len(valid)}-design")
+        raise RunError(f"no design of {grid} grid over the box of {problem.name} can be evaluated: {unevaluable_reasons(problem, x, valid)}")
     return chosen
+
+
+def unevaluable_reasons(problem: Problem, x: np.ndarray, valid: np.ndarray, shown: int = 3) -> str:
+    """The ``shown`` commonest reasons why designs ``x`` are not ``valid``, each with its
+    count: a rule a design breaks (:func:`hisopt.specification.validation.check_designs`,
+    e.g. a rod not thinner than its bore) or the model's NaN results there
+    (:func:`hisopt.evaluation.evaluate.failure_reason`)."""
+    from hisopt.evaluation.evaluate import failure_reason
+    from hisopt.specification.validation import check_designs
+
+    check = check_designs(problem, x)
+    failed = failure_reason(problem)
+    reasons = Counter(str(check.detail[i]) if not check.evaluable[i] else failed for i in np.flatnonzero(~np.asarray(valid, dtype=bool)))
+    top = reasons.most_common(shown)
+    more = len(reasons) - len(top)
+    tail = f"; and {more} more reason{'s' if more > 1 else ''}" if more else ""
+    return "; ".join(f"{reason} ({count} design{'s' if count > 1 else ''})" for reason, count in top) + tail
 
 
 def hypervolume(f: np.ndarray, reference_log: np.ndarray) -> float:

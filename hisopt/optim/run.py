@@ -212,15 +212,15 @@ def optimize(
     checkpoint_interval()  # a bad override fails before any work
     if out is not None:
         runstate.refuse_occupied(out)
-    run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
     started = time.perf_counter()
+    reference = reference_point(problem)  # a box with no evaluable design is refused before anything is written
+    run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
     run: rundir.RunDirectory | None = None  # None: the run stays in memory
     if run_dir is not None:
         name, raw, record = rundir.problem_copy(problem)
         rundir.atomic_write_bytes(run_dir / name, raw)
         # written by the first session, as running
         run = rundir.RunDirectory(run_dir, {"format": "hisopt-run/1", "status": runstate.STARTING, "created": rundir.now(), "problem": record})
-    reference = reference_point(problem)
     engine = Engine(problem, settings, reference)
     engine.session_start = started
     engine.epsilon = tolerances

@@ -122,6 +122,7 @@ def study(
     if too_many:
         raise ConfigError(too_many, key="--seeds")
     backend = backend or Backend()
+    reference_point(problem)  # a box with no evaluable design says why before OUT is made (cached for the runs here)
     if out is not None:
         ensure_writable_dir(out)
 

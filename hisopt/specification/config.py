@@ -31,8 +31,8 @@ from hisopt.hydraulics.catalogue import PIPE_PARAMETERS, his_layout, layout_defa
 from hisopt.hydraulics.layout import Accumulator, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
-from hisopt.plausibility import given_warnings, rule_reason, speed_problem, warn
-from hisopt.quantities import si
+from hisopt.plausibility import cylinder_box_problem, given_warnings, rule_reason, speed_problem, warn
+from hisopt.quantities import has_unit, si
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.tolerances import parse_tolerances
 from hisopt.specification.uncertain import UncertainInput, resolve_uncertain
@@ -321,7 +321,7 @@ class ProblemSpec(_Strict):
         return v
 
     @model_validator(mode="after")
-    def _scenarios_consistent(self) -> ProblemSpec:
+    def _scenarios_consistent(self, info: ValidationInfo) -> ProblemSpec:
         names = [sc.name for sc in self.scenarios]
         twice = [n for i, n in enumerate(names) if n in names[:i]]
         if twice:
@@ -332,8 +332,12 @@ class ProblemSpec(_Strict):
             problem = None if sc.payload is None else laden_problem(self.vehicle, sc.payload)
             if problem:
                 raise ValueError(f"scenario {sc.name!r}: {problem}")
-        for key, temperature in self.temperatures():
-            problem = self.his.oil.temperature_problem(temperature)
+        written = info.context.get(WRITTEN) if isinstance(info.context, Mapping) else None  # the data as written: no kelvin hint for a unit
+        charge = self.his.charge
+        charged = [("his.charge.temperature", charge.temperature)] if charge is not None else []  # its default too: a dump re-read names it
+        for key, temperature in self.temperatures() + charged:
+            as_written = written_value(written, key)
+            problem = self.his.oil.temperature_problem(temperature, written=" ".join(as_written.split()) if has_unit(as_written) else None)
             if problem:
                 raise ValueError(f"{key}: {problem}")
         for c in self.constraints:
@@ -440,6 +444,9 @@ class ProblemSpec(_Strict):
                     raise ValueError(f"variables.{name}: the cylinder is sized by bore and rod, which set dA and lam; expected one or the other")
                 if name in self.his.model_fields_set and getattr(self.his, name) is not None:
                     raise ValueError(f"his.{name}: the cylinder is sized by bore and rod, which set dA and lam; expected one or the other")
+        problem = cylinder_box_problem(self)
+        if problem:
+            raise ValueError(problem)
         return self
 
     @model_validator(mode="after")
@@ -459,6 +466,25 @@ class ProblemSpec(_Strict):
         if problem:
             raise ValueError(problem)
         return self
+
+
+WRITTEN = "written"
+"""Key of the validation context holding the problem data as written (before the units were
+converted): a temperature written with its unit gets no hint that a bare number is kelvin."""
+
+
+def written_value(data: Any, key: str) -> Any:
+    """The value at the dotted ``key`` (``scenarios.0.temperature``) of ``data`` as written,
+    or None."""
+    node = data
+    for part in key.split("."):
+        if isinstance(node, Mapping):
+            node = node.get(part)
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return None
+    return node
 
 
 def _key_part(part: Any) -> str:
@@ -539,7 +565,7 @@ def parse_problem(data: dict[str, Any], source: str = "<problem>", *, warn_impla
     written = data  # as the user wrote it: a roll limit warns only when written as a bare number
     data = convert_problem_units(data, source, ProblemSpec)  # "2.5 MPa" -> 2.5e6: SI before the strict validation
     try:
-        spec = ProblemSpec.model_validate(data, strict=True)
+        spec = ProblemSpec.model_validate(data, strict=True, context={WRITTEN: written})
     except ValidationError as exc:
         key, msg = _format_error(exc.errors()[0])
         raise ConfigError(msg, file=source, key=key or None) from None

@@ -284,7 +284,8 @@ def resolve_uncertain(spec: ProblemParts, source: str = "<problem>") -> tuple[Un
     ------
     ConfigError
         One line naming ``source`` and ``uncertain.<i>.<key>``: an input that names nothing in
-        the model (or twice), a spread not above 0, ends in the wrong order, a distribution
+        the model (or twice), a spread not above 0, ends in the wrong order, a log-uniform
+        lower end not above 0, a distribution
         missing what defines it, or one that puts more than :data:`IMPOSSIBLE_MASS` where the
         input is physically impossible (a negative mass, a temperature outside the oil's range)
         without truncation.
@@ -364,6 +365,12 @@ def _resolve(entry: UncertainInput, spec: ProblemParts, source: str, key: str) -
     if spread is None:
         if lower is None or upper is None:
             raise ConfigError(f"a {kind} distribution needs lower and upper, or a half_width or tolerance", file=source, key=f"{key}.lower")
+        if kind == "loguniform" and not lower > 0:  # its logarithm is uniform: log(0) is -inf, log(-1) no number
+            raise ConfigError(
+                f"a log-uniform distribution spreads over orders of magnitude and needs lower above 0; got {entry.lower!r}",
+                file=source,
+                key=f"{key}.lower",
+            )
         if not lower < upper:
             raise ConfigError(f"lower {lower:g} {unit} is not below upper {upper:g} {unit}", file=source, key=f"{key}.upper")
         mode = point("mode") if kind == "triangular" else None
@@ -403,7 +410,7 @@ def _check_possible(item: Uncertain, spec: ProblemParts, source: str, key: str) 
     nominals = [variable.lower, variable.upper] if variable is not None else [nominal_value(item.name, spec)]
     if item.name == TEMPERATURE and item.kind != "normal":  # the oil's own words, in degC
         for end in item.ends(nominals[0]):
-            problem = spec.his.oil.temperature_problem(float(end))
+            problem = spec.his.oil.temperature_problem(float(end), written=f"{float(end) - 273.15:.4g} degC")  # as item.text shows it
             if problem:
                 raise ConfigError(f"{item.text} reaches {problem}; narrow it", file=source, key=key)
     for nominal in nominals:

@@ -170,7 +170,7 @@ def shared_normalisation(reference_problem: Problem, handling: str) -> Normalisa
     x = grid_designs(reference_problem.lower, reference_problem.upper)
     objectives = reference_problem.objective_names
     q = evaluate_quantities(reference_problem, x, (*objectives, *reference_problem.constraint_names, COMFORT, handling))
-    chosen = grid_sample_rows(reference_problem, q)
+    chosen = grid_sample_rows(reference_problem, q, x)
     ideal, reference = _ideal_and_reference(np.column_stack([q[n][chosen] for n in objectives]))
     plane_ideal, plane_reference = _ideal_and_reference(np.column_stack([q[COMFORT][chosen], q[handling][chosen]]))
     return Normalisation(tuple(objectives), ideal, reference, handling, plane_ideal, plane_reference)
