@@ -49,6 +49,12 @@ class _View:
     colour: str
     refined_colour: str
     group: str | None = None  # legend group; None: traces ungrouped and highlights shown once each
+    formats: tuple[str, ...] = ()  # d3 format of each axis's values on hover
+
+
+def _format(shown: Display) -> str:
+    """d3 format of a value on hover, 4 significant digits as the tables show them."""
+    return ".3~e" if shown.scientific else ".4~g"
 
 
 def _scatter_matrix(
@@ -71,7 +77,7 @@ def _scatter_matrix(
     def many(view: _View, df: pd.DataFrame, name: str, **trace) -> go.Splom:
         if design_hover:
             return splom(view, df, name=name, **trace)
-        rows = f"{name}: row %{{pointNumber}}<br>%{{xaxis.title.text}} = %{{x:.4~g}}<br>%{{yaxis.title.text}} = %{{y:.4~g}}<extra></extra>"
+        rows = f"{name}: row %{{pointNumber}}<br>%{{xaxis.title.text}} = %{{x}}<br>%{{yaxis.title.text}} = %{{y}}<extra></extra>"
         return go.Splom(dimensions=view.dims(df), hovertemplate=rows, diagonal_visible=False, showupperhalf=False, name=name, **trace)
 
     fig = go.Figure()
@@ -90,6 +96,8 @@ def _scatter_matrix(
     fig.update_layout(template=template(), title=title, height=170 + 230 * n, dragmode="select", margin={"t": 60, "b": 110})
     # Side by side the columns' x ticks meet at the seams; three at most keeps them apart.
     fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, n_axes + 1)})
+    for i, form in enumerate(views[0].formats, start=1):  # dimension i is drawn on x and y axes i
+        fig.update_layout({f"{axis}{i if i > 1 else ''}": {"hoverformat": form} for axis in ("xaxis", "yaxis")})
     return fig
 
 
@@ -118,6 +126,7 @@ def _objective_view(shown: Mapping[str, Display], objectives: Sequence[str], nam
         refined_name=names[1],
         colour=COLORS[0],
         refined_colour=second_colour,
+        formats=tuple(_format(shown[o]) for o in objectives),
     )
 
 
@@ -173,7 +182,8 @@ def scenario_scatter_matrix(
             return [f"load case {s}<br>{text}" for text in _hover(df, both)]
 
         colour = COLORS[k % len(COLORS)]
-        return _View(dims, hover, name=s, refined_name=f"{s}: refined", colour=colour, refined_colour=colour, group=s)
+        formats = tuple(_format(shown[q]) for q in quantities)
+        return _View(dims, hover, name=s, refined_name=f"{s}: refined", colour=colour, refined_colour=colour, group=s, formats=formats)
 
     views = [view(k, s) for k, s in enumerate(scenarios)]
     title = "Pareto front in each load case (colour; hover for the " + ("design)" if design_hover else "front row)")

@@ -52,7 +52,8 @@ PAGE_SCRIPT = r"""
   }
   async function draw() {
     if (typeof DecompressionStream === 'undefined') {
-      fail('This browser cannot unpack the figures (it lacks DecompressionStream: Chrome 80, Firefox 113, Safari 16.4 or later can). The tables below and decision.html do not need it.');
+      fail('This browser cannot unpack the figures (it lacks DecompressionStream: Chrome 80, Firefox 113, ' +
+           'Safari 16.4 or later can). The tables below and decision.html do not need it.');
       return;
     }
     var bytes = Uint8Array.from(atob(packed), function (c) { return c.charCodeAt(0); });
@@ -152,10 +153,7 @@ class PageFigures:
         height = f"{int(fig.layout.height)}px" if fig.layout.height else "100%"
         width = f"{int(fig.layout.width)}px" if fig.layout.width else "100%"
         call = f'window.hisoptFigures.push(["{div_id}", {data}, {layout}, {{"responsive": true}}]);'.replace("</", "<\\/")
-        return (
-            f'<div id="{div_id}" class="plotly-graph-div" style="height:{height}; width:{width};"></div>'
-            f"\n<script>{call}</script>"
-        )
+        return f'<div id="{div_id}" class="plotly-graph-div" style="height:{height}; width:{width};"></div>\n<script>{call}</script>'
 
     def head_html(self) -> str:
         """The script, for the page's head, that the figures' scripts fill."""
