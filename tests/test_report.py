@@ -387,3 +387,31 @@ def test_report_of_a_per_scenario_run(tmp_path):
 
     result = render(page, tmp_path / "chromium", width=900)[0]
     assert_clean_layout(result, figures=5)
+
+
+def test_page_figures_store_each_array_once_as_float32():
+    """A figure's long numeric arrays go to the page's store once each, as float32 (6e-8
+    relative: half a unit in the 24th bit); short ones, the layout's and values float32 cannot
+    hold stay exact; the page draws what plotly drew (the store put back)."""
+    import plotly.graph_objects as go
+
+    from hisopt.report.embed import SHARED_MIN_LENGTH, PageFigures
+
+    f = np.geomspace(0.5, 80.0, 300)
+    fig = go.Figure([go.Scatter(x=f, y=1.0 / f, name="a"), go.Scatter(x=f, y=2.0 / f, name="b"), go.Scatter(x=[1.0, 2.0], y=[3.0, 4.0])])
+    fig.add_scatter(x=f[: SHARED_MIN_LENGTH - 1], y=f[: SHARED_MIN_LENGTH - 1] * 1e-40)  # short: inline; too small for float32
+    fig.add_scatter(x=f, y=f * 1e-40)
+    fig.update_layout(xaxis={"tickvals": list(f[::10])})
+    page = PageFigures()
+    div = page.div(fig, "fig0")
+    html = f"<head>{page.head_html()}</head><body>{div}{page.scripts_html()}</body>"
+    traces = _figure_data(html, "fig0")
+    assert len(page.arrays) == 4  # f once (three traces), 1/f, 2/f and f * 1e-40 (as float64)
+    for trace, ratio in zip(traces[:2], (1.0, 2.0), strict=True):
+        np.testing.assert_allclose(trace["x"], f, rtol=6e-8, atol=0)
+        np.testing.assert_allclose(trace["y"], ratio / f, rtol=6e-8, atol=0)
+    assert traces[2]["x"] == [1.0, 2.0]
+    np.testing.assert_array_equal(traces[3]["y"], f[: SHARED_MIN_LENGTH - 1] * 1e-40)  # plotly's own float64 array
+    np.testing.assert_array_equal(traces[4]["y"], f * 1e-40)  # float64 kept
+    layout = json.loads(re.search(r'window\.hisoptFigures\.push\(\["fig0", \[.*?\], (\{.*\}), \{"responsive"', html).group(1))
+    assert layout["xaxis"]["tickvals"] == list(f[::10])

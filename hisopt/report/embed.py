@@ -79,7 +79,7 @@ def packed_plotlyjs() -> str:
     """plotly.js, gzip-compressed (no timestamp: the same bytes every time) and base64-encoded."""
     import plotly.offline
 
-    return base64.b64encode(gzip.compress(plotly.offline.get_plotlyjs().encode("utf-8"), compresslevel=9, mtime=0)).decode("ascii")
+    return base64.b64encode(gzip.compress(plotly.offline.get_plotlyjs().encode("utf-8"), compresslevel=6, mtime=0)).decode("ascii")
 
 
 def _numeric(value: Any) -> np.ndarray | None:
@@ -131,14 +131,16 @@ class PageFigures:
             self.arrays.append(data)
         return {"dtype": dtype, "ref": self._index[key]}
 
-    def _compact(self, obj: Any) -> Any:
-        array = _numeric(obj)
+    def _compact(self, obj: Any, attribute: bool = True) -> Any:
+        """``obj`` with its attributes' numeric arrays stored (an array nested in an array,
+        a heatmap's row, stays: plotly.js reads a typed array only as an attribute's value)."""
+        array = _numeric(obj) if attribute else None
         if array is not None:
             return self._store(array)
         if isinstance(obj, dict):
             return {k: self._compact(v) for k, v in obj.items()}
         if isinstance(obj, (list, tuple)):
-            return [self._compact(v) for v in obj]
+            return [self._compact(v, attribute=False) for v in obj]
         if isinstance(obj, np.ndarray):
             return obj.tolist()
         return obj
