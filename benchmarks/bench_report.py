@@ -16,9 +16,11 @@ one BLAS thread, on a copy of the run (the run itself is not touched):
   ``hisopt report`` writes next: every design of the run (front and other evaluations), their
   parts and curves re-evaluated.
 
-Prints one table: run, page, file size, the seconds to build and write the page (best of
-``--repeats``) and the whole process's (imports included: what ``hisopt report`` adds), and the
-ratio of ``light`` to ``before``.
+Prints one table: run, page, file size, the seconds to build and write the page in a warm
+process (best of ``--repeats``) and a fresh process's CPU and wall seconds writing it once
+(imports included: what ``hisopt report`` spends on it; CPU seconds are what an idle core would
+take, wall seconds also count the waits of a shared machine), and the ratio of ``light`` to
+``before``.
 
     python benchmarks/bench_report.py [--default DIR] [--parts DIR] [--repeats 3]
     python benchmarks/bench_report.py --quick   # a smoke run: small runs, seconds
@@ -29,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -95,17 +98,19 @@ def child(page: str, run_dir: Path, repeats: int) -> None:
 def measure(page: str, run_dir: Path, repeats: int) -> dict[str, float]:
     """The page's size and best time, and the first process's wall time (imports included)."""
     env = {**os.environ, **ONE_THREAD, "PYTHONPATH": str(ROOT)}
-    start = time.perf_counter()
-    proc = subprocess.run(
-        [sys.executable, __file__, "--child", page, str(run_dir), "--repeats", str(repeats)], capture_output=True, text=True, env=env, timeout=3600, check=True
-    )
-    wall = time.perf_counter() - start
-    found = json.loads(proc.stdout.strip().splitlines()[-1])
-    if page != "decision" and repeats > 1:  # the process's time is that of one page: measure once more alone
-        start = time.perf_counter()
-        subprocess.run([sys.executable, __file__, "--child", page, str(run_dir), "--repeats", "1"], capture_output=True, env=env, timeout=3600, check=True)
-        wall = time.perf_counter() - start
-    return {"mb": found["bytes"] / 1e6, "seconds": found["seconds"], "process": wall}
+
+    def run(count: int) -> tuple[dict, float, float]:
+        before, start = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+        command = [sys.executable, __file__, "--child", page, str(run_dir), "--repeats", str(count)]
+        proc = subprocess.run(command, capture_output=True, text=True, env=env, timeout=3600, check=True)
+        wall, after = time.perf_counter() - start, resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+        return json.loads(proc.stdout.strip().splitlines()[-1]), cpu, wall
+
+    found, cpu, wall = run(repeats)
+    if page != "decision" and repeats > 1:  # the process of one page: once more alone
+        _, cpu, wall = run(1)
+    return {"mb": found["bytes"] / 1e6, "seconds": found["seconds"], "cpu": cpu, "process": wall}
 
 
 def make_run(name: str, out: Path, quick: bool) -> Path:
@@ -138,9 +143,13 @@ def main() -> None:
             for page in ("light", "before", "decision"):
                 print(f"measuring {name} {page} ...", flush=True)
                 rows.append((name, page, measure(page, run_dir, repeats)))
-        print(f"\n{'run':8} {'page':9} {'size MB':>8} {'write s':>8} {'process s':>10}  (one core, one BLAS thread; write: best of {repeats})")
+        print(f"\n{'run':8} {'page':9} {'size MB':>8} {'write s':>8} {'process CPU s':>14} {'process wall s':>15}")
         for name, page, m in rows:
-            print(f"{name:8} {page:9} {m['mb']:8.2f} {m['seconds']:8.2f} {m['process']:10.2f}")
+            print(f"{name:8} {page:9} {m['mb']:8.2f} {m['seconds']:8.2f} {m['cpu']:14.2f} {m['process']:15.2f}")
+        print(
+            f"one core, one BLAS thread; write: the page built and written in a warm process, best of {repeats}; process: "
+            f"a fresh process writing it once, imports included (what `hisopt report` spends on it); load average {os.getloadavg()[0]:.1f}"
+        )
         for name in ("default", "parts"):
             light, before = (next(m for n, p, m in rows if n == name and p == page) for page in ("light", "before"))
             print(f"{name}: light / before: size {light['mb'] / before['mb']:.2f}, write {light['seconds'] / before['seconds']:.2f}")
