@@ -40,8 +40,8 @@ def _report(run_dir, *args):
 def test_report_is_self_contained(run_dir):
     html = _report(run_dir, "--color-by", "max_roll_psd")
     assert 'src="http' not in html  # no CDN or remote script: works offline
-    assert len(html) > 2_000_000  # plotly.js embedded once
-    assert html.count("Plotly.newPlot") >= 4
+    assert html.count('id="hisopt-plotly"') == 1 and len(html) > 1_500_000  # plotly.js embedded once (gzip, base64)
+    assert html.count("window.hisoptFigures.push(") >= 4
     for title in ("Pareto front", "Designs and objectives", "Convergence", "Response spectra", "Modes of the knee design", "Run settings"):
         assert title in html
     # Tables are HTML tables with units in their headers; names keep their underscores.
@@ -53,6 +53,47 @@ def test_report_is_self_contained(run_dir):
         assert row in html
     for row in (r"p0 \[(k|M)Pa\]", r"dA \[(cm|mm)\^2\]", r"Rv \[(k|M)?Pa s/m\^3\]"):  # prefixes follow the values
         assert re.search(row, html), row
+
+
+def test_report_holds_the_front_and_links_the_decision_room_for_the_rest(run_dir, default_report):
+    """Issue 38: the run's other evaluations are in decision.html, not embedded again in
+    report.html. Every number the figures draw, against the run's evaluations: each front
+    design's sigma_aw is drawn, no sigma_aw of a design off the front is (the values as
+    float32: the figures' precision; a design off the front that shares its value with a
+    front design, to that precision, is not counted)."""
+    import pandas as pd
+
+    from hisopt.io import read_csv
+
+    page = default_report
+    assert '<a href="decision.html">' in page and (run_dir / "decision.html").is_file()
+    front = read_csv(run_dir / "front.csv")
+    evaluated = pd.read_parquet(run_dir / "evaluations.parquet")
+    f32 = lambda v: set(np.asarray(v, dtype=np.float32).tolist())  # noqa: E731
+    on_front = f32(front["sigma_aw"])
+    off_front = f32(evaluated["sigma_aw"]) - on_front
+    assert len(on_front) > 3 and len(off_front) > 3  # designs on and off the front: the check can fail
+
+    drawn: set[float] = set()
+
+    def collect(obj):
+        if isinstance(obj, np.ndarray):
+            drawn.update(f32(obj))
+        elif isinstance(obj, dict):
+            for v in obj.values():
+                collect(v)
+        elif isinstance(obj, list):
+            numbers = [v for v in obj if isinstance(v, float)]
+            drawn.update(f32(numbers))
+            for v in obj:
+                collect(v)
+
+    ids = re.findall(r'window\.hisoptFigures\.push\(\["(\w+)"', page)
+    assert {"fig0", "fig1"} <= set(ids)  # the scatter matrix and the parallel coordinates
+    for div_id in ids:
+        collect(_figure_data(page, div_id))
+    assert on_front <= drawn
+    assert not off_front & drawn
 
 
 def test_report_bad_options_are_user_errors(run_dir):
@@ -137,7 +178,8 @@ LAYOUT_CHECK_JS = r"""
     pre.textContent = JSON.stringify(out);
     document.body.appendChild(pre);
   }
-  window.addEventListener('load', function () { setTimeout(run, 1000); });
+  // report.html draws its figures once plotly.js is unpacked (window.hisoptReady)
+  window.addEventListener('load', function () { Promise.resolve(window.hisoptReady).then(function () { setTimeout(run, 1000); }); });
 })();
 """
 
@@ -199,7 +241,7 @@ def test_report_renders_in_headless_chromium(default_report, rendered_report):
     errors = [line for line in console if re.search(r"Uncaught|Error:|TypeError|ReferenceError", line)]
     assert not errors, errors
     # Every figure was drawn: plotly replaced each placeholder div by a rendered plot.
-    n_figures = default_report.count("Plotly.newPlot")
+    n_figures = default_report.count("window.hisoptFigures.push(")
     assert dom.count('class="plot-container plotly"') == n_figures
     assert dom.count('class="main-svg"') >= n_figures
 
@@ -269,13 +311,18 @@ def test_log_axes_tick_decades_or_round_values_labelled_in_full(small_figures, n
 
 # --- a run whose objectives are per scenario ------------------------------------------------------
 def _figure_data(page: str, div_id: str) -> list[dict]:
-    """The traces plotly draws in ``div_id`` (typed arrays decoded)."""
+    """The traces plotly draws in ``div_id`` (typed arrays decoded, arrays of the page's store
+    put back as the page's script does)."""
     import base64
 
-    start = re.search(r'Plotly\.newPlot\(\s*"' + re.escape(div_id) + '"', page).end()
-    data, _ = json.JSONDecoder().raw_decode(page, page.index("[", start))
+    start = page.index(f'window.hisoptFigures.push(["{div_id}",')
+    data, _ = json.JSONDecoder().raw_decode(page, page.index("[", page.index(",", start)))
+    store_at = page.index('id="hisopt-arrays">') + len('id="hisopt-arrays">')
+    store, _ = json.JSONDecoder().raw_decode(page, store_at)
 
     def decode(obj):
+        if isinstance(obj, dict) and set(obj) == {"dtype", "ref"}:
+            return np.frombuffer(base64.b64decode(store[obj["ref"]]), dtype=np.dtype(obj["dtype"])).astype(float)
         if isinstance(obj, dict) and set(obj) == {"dtype", "bdata"}:
             return np.frombuffer(base64.b64decode(obj["bdata"]), dtype=np.dtype(obj["dtype"])).astype(float)
         if isinstance(obj, dict):
@@ -320,7 +367,8 @@ def test_report_of_a_per_scenario_run(tmp_path):
         dims = by_name[s]["dimensions"]
         assert [d["label"] for d in dims] == ["sigma_aw [m/s^2]", "max_roll_psd [rad^2/Hz]", "max_tire_load_psd [N^2/Hz]"]
         for d, q in zip(dims, ("sigma_aw", "max_roll_psd", "max_tire_load_psd"), strict=True):
-            np.testing.assert_array_equal(d["values"], front[f"{q}@{s}"].to_numpy())  # m/s^2 and PSDs shown in SI
+            # m/s^2 and PSDs shown in SI, as float32 (half a unit in the 24th bit: 6e-8 relative)
+            np.testing.assert_allclose(d["values"], front[f"{q}@{s}"].to_numpy(), rtol=6e-8, atol=0)
     assert {t["name"] for t in traces} == {*problem.scenario_names, "knee", "ASF pick"}
     assert "Response spectra of the knee design against the car without HIS ([road]: class C at 10 m/s)" in page
     assert "every objective minimised in each scenario (per_scenario)" in page
@@ -339,3 +387,31 @@ def test_report_of_a_per_scenario_run(tmp_path):
 
     result = render(page, tmp_path / "chromium", width=900)[0]
     assert_clean_layout(result, figures=5)
+
+
+def test_page_figures_store_each_array_once_as_float32():
+    """A figure's long numeric arrays go to the page's store once each, as float32 (6e-8
+    relative: half a unit in the 24th bit); short ones, the layout's and values float32 cannot
+    hold stay exact; the page draws what plotly drew (the store put back)."""
+    import plotly.graph_objects as go
+
+    from hisopt.report.embed import SHARED_MIN_LENGTH, PageFigures
+
+    f = np.geomspace(0.5, 80.0, 300)
+    fig = go.Figure([go.Scatter(x=f, y=1.0 / f, name="a"), go.Scatter(x=f, y=2.0 / f, name="b"), go.Scatter(x=[1.0, 2.0], y=[3.0, 4.0])])
+    fig.add_scatter(x=f[: SHARED_MIN_LENGTH - 1], y=f[: SHARED_MIN_LENGTH - 1] * 1e-40)  # short: inline; too small for float32
+    fig.add_scatter(x=f, y=f * 1e-40)
+    fig.update_layout(xaxis={"tickvals": list(f[::10])})
+    page = PageFigures()
+    div = page.div(fig, "fig0")
+    html = f"<head>{page.head_html()}</head><body>{div}{page.scripts_html()}</body>"
+    traces = _figure_data(html, "fig0")
+    assert len(page.arrays) == 4  # f once (three traces), 1/f, 2/f and f * 1e-40 (as float64)
+    for trace, ratio in zip(traces[:2], (1.0, 2.0), strict=True):
+        np.testing.assert_allclose(trace["x"], f, rtol=6e-8, atol=0)
+        np.testing.assert_allclose(trace["y"], ratio / f, rtol=6e-8, atol=0)
+    assert traces[2]["x"] == [1.0, 2.0]
+    np.testing.assert_array_equal(traces[3]["y"], f[: SHARED_MIN_LENGTH - 1] * 1e-40)  # plotly's own float64 array
+    np.testing.assert_array_equal(traces[4]["y"], f * 1e-40)  # float64 kept
+    layout = json.loads(re.search(r'window\.hisoptFigures\.push\(\["fig0", \[.*?\], (\{.*\}), \{"responsive"', html).group(1))
+    assert layout["xaxis"]["tickvals"] == list(f[::10])

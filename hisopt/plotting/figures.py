@@ -49,6 +49,12 @@ class _View:
     colour: str
     refined_colour: str
     group: str | None = None  # legend group; None: traces ungrouped and highlights shown once each
+    formats: tuple[str, ...] = ()  # d3 format of each axis's values on hover
+
+
+def _format(shown: Display) -> str:
+    """d3 format of a value on hover, 4 significant digits as the tables show them."""
+    return ".3~e" if shown.scientific else ".4~g"
 
 
 def _scatter_matrix(
@@ -58,19 +64,28 @@ def _scatter_matrix(
     highlights: Mapping[str, pd.Series] | None,
     n_axes: int,
     title: str,
+    design_hover: bool = True,
 ) -> go.Figure:
-    """Scatter matrix (lower half) of the front, the refined front and highlighted designs, in every view."""
+    """Scatter matrix (lower half) of the front, the refined front and highlighted designs, in
+    every view; ``design_hover=False``: a front's point shows its row and the panel's two
+    values on hover, not its whole design (no text per point: a light page)."""
     import plotly.graph_objects as go
 
     def splom(view: _View, df: pd.DataFrame, **trace) -> go.Splom:
         return go.Splom(dimensions=view.dims(df), text=view.hover(df), hoverinfo="text", diagonal_visible=False, showupperhalf=False, **trace)
 
+    def many(view: _View, df: pd.DataFrame, name: str, **trace) -> go.Splom:
+        if design_hover:
+            return splom(view, df, name=name, **trace)
+        rows = f"{name}: row %{{pointNumber}}<br>%{{xaxis.title.text}} = %{{x}}<br>%{{yaxis.title.text}} = %{{y}}<extra></extra>"
+        return go.Splom(dimensions=view.dims(df), hovertemplate=rows, diagonal_visible=False, showupperhalf=False, name=name, **trace)
+
     fig = go.Figure()
     for view in views:
         group = {} if view.group is None else {"legendgroup": view.group}
-        fig.add_trace(splom(view, front, name=view.name, marker={"size": 5, "color": view.colour, "opacity": 0.6}, **group))
+        fig.add_trace(many(view, front, view.name, marker={"size": 5, "color": view.colour, "opacity": 0.6}, **group))
         if refined is not None and len(refined):
-            fig.add_trace(splom(view, refined, name=view.refined_name, marker={"size": 6, "color": view.refined_colour, "symbol": "triangle-up"}, **group))
+            fig.add_trace(many(view, refined, view.refined_name, marker={"size": 6, "color": view.refined_colour, "symbol": "triangle-up"}, **group))
     for label, row in (highlights or {}).items():
         one = row.to_frame().T
         style = HIGHLIGHT_STYLE.get(label, HIGHLIGHT_STYLE["selected"])
@@ -81,6 +96,8 @@ def _scatter_matrix(
     fig.update_layout(template=template(), title=title, height=170 + 230 * n, dragmode="select", margin={"t": 60, "b": 110})
     # Side by side the columns' x ticks meet at the seams; three at most keeps them apart.
     fig.update_layout({f"xaxis{i if i > 1 else ''}": {"nticks": 3} for i in range(1, n_axes + 1)})
+    for i, form in enumerate(views[0].formats, start=1):  # dimension i is drawn on x and y axes i
+        fig.update_layout({f"{axis}{i if i > 1 else ''}": {"hoverformat": form} for axis in ("xaxis", "yaxis")})
     return fig
 
 
@@ -91,10 +108,13 @@ def front_scatter_matrix(
     highlights: Mapping[str, pd.Series] | None = None,
     refined: pd.DataFrame | None = None,
     units: Mapping[str, str] | None = None,
+    design_hover: bool = True,
 ) -> go.Figure:
-    """Scatter matrix of the objectives; hovering a point shows its whole design."""
+    """Scatter matrix of the objectives; hovering a point shows its whole design
+    (``design_hover=False``: its front row and the two values, for a light page)."""
     view = _objective_view(displays(front, list(variables) + list(objectives), units), objectives, ("front", "refined front"), "#66a182")
-    return _scatter_matrix([view], front, refined, highlights, len(objectives), "Pareto front: objectives (hover for the design)")
+    title = "Pareto front: objectives (hover for the design)" if design_hover else "Pareto front: objectives (hover for the front row)"
+    return _scatter_matrix([view], front, refined, highlights, len(objectives), title, design_hover)
 
 
 def _objective_view(shown: Mapping[str, Display], objectives: Sequence[str], names: tuple[str, str], second_colour: str) -> _View:
@@ -106,18 +126,26 @@ def _objective_view(shown: Mapping[str, Display], objectives: Sequence[str], nam
         refined_name=names[1],
         colour=COLORS[0],
         refined_colour=second_colour,
+        formats=tuple(_format(shown[o]) for o in objectives),
     )
 
 
 def catalogue_scatter_matrix(
-    front: pd.DataFrame, continuous: pd.DataFrame, objectives: Sequence[str], variables: Sequence[str], units: Mapping[str, str] | None = None
+    front: pd.DataFrame,
+    continuous: pd.DataFrame,
+    objectives: Sequence[str],
+    variables: Sequence[str],
+    units: Mapping[str, str] | None = None,
+    design_hover: bool = True,
 ) -> go.Figure:
     """Scatter matrix of a catalogue run's front over its continuous relaxation's
-    (docs/model.md §17.5): where the standard parts give up performance."""
+    (docs/model.md §17.5): where the standard parts give up performance (``design_hover``:
+    as :func:`front_scatter_matrix`)."""
     units = dict(front.attrs.get("units", {}) if units is None else units)
     shown = displays(pd.concat([front, continuous], ignore_index=True), list(variables) + list(objectives), units)
     view = _objective_view(shown, objectives, ("catalogue front", "continuous relaxation's front"), "#d1495b")
-    return _scatter_matrix([view], front, continuous, None, len(objectives), "Catalogue front and its continuous relaxation's (hover for the design)")
+    title = "Catalogue front and its continuous relaxation's " + ("(hover for the design)" if design_hover else "(hover for the row)")
+    return _scatter_matrix([view], front, continuous, None, len(objectives), title, design_hover)
 
 
 def scenario_scatter_matrix(
@@ -128,6 +156,7 @@ def scenario_scatter_matrix(
     highlights: Mapping[str, pd.Series] | None = None,
     refined: pd.DataFrame | None = None,
     units: Mapping[str, str] | None = None,
+    design_hover: bool = True,
 ) -> go.Figure:
     """The front of a ``per_scenario`` problem (objectives ``"<quantity>@<scenario>"``): one
     scatter matrix of the quantities, a colour per load case, each design once per scenario.
@@ -135,7 +164,8 @@ def scenario_scatter_matrix(
     The matrix of every column would be ``(Q S)^2 / 2`` panels (120 for four quantities in four
     scenarios); this one is ``Q^2 / 2`` and shows how each load case trades the quantities
     off. Each quantity's axis has one unit across its scenarios; hovering a point shows its
-    design and that scenario's values.
+    design and that scenario's values (``design_hover=False``: its front row and the two
+    values, for a light page).
     """
     units = dict(front.attrs.get("units", {}) if units is None else units)
     columns = {q: [scenario_column(q, s) for s in scenarios] for q in quantities}
@@ -152,11 +182,12 @@ def scenario_scatter_matrix(
             return [f"load case {s}<br>{text}" for text in _hover(df, both)]
 
         colour = COLORS[k % len(COLORS)]
-        return _View(dims, hover, name=s, refined_name=f"{s}: refined", colour=colour, refined_colour=colour, group=s)
+        formats = tuple(_format(shown[q]) for q in quantities)
+        return _View(dims, hover, name=s, refined_name=f"{s}: refined", colour=colour, refined_colour=colour, group=s, formats=formats)
 
     views = [view(k, s) for k, s in enumerate(scenarios)]
-    title = "Pareto front in each load case (colour; hover for the design)"
-    return _scatter_matrix(views, front, refined, highlights, len(quantities), title)
+    title = "Pareto front in each load case (colour; hover for the " + ("design)" if design_hover else "front row)")
+    return _scatter_matrix(views, front, refined, highlights, len(quantities), title, design_hover)
 
 
 def parallel_coordinates(

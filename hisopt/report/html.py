@@ -1,6 +1,8 @@
 """``hisopt report RUN_DIR``: one self-contained, offline HTML file of a run.
 
-Figures are plotly (their JavaScript embedded once); tables are plain HTML tables, so that
+Figures are plotly, embedded lightly (:mod:`hisopt.report.embed`: plotly.js once, compressed;
+the front's numbers as float32, each array once); the other evaluations of the run are in
+``decision.html``, not here. Tables are plain HTML tables, so that
 they size to their content, wrap instead of clipping and copy into a spreadsheet. Every
 number is shown in engineering units (:mod:`hisopt.units`).
 """
@@ -19,6 +21,7 @@ import pandas as pd
 from hisopt.errors import RunError
 from hisopt.io import read_csv
 from hisopt.plausibility import BOUND_TOLERANCE, bound_note, without_bound_column
+from hisopt.report.embed import PageFigures
 from hisopt.report.tables import REPORT_CSS, html_table
 from hisopt.units import (
     column_units,
@@ -183,9 +186,9 @@ def parts_section(problem: Problem, x: np.ndarray, label: str) -> str:
     return html_table(parts_shown(parts_table(design)), caption, text_columns=("item", "note"))
 
 
-def catalogue_section(run: Mapping[str, Any], objectives: list[str], variables: list[str], units: Mapping[str, str]) -> str | None:
+def catalogue_section(run: Mapping[str, Any], objectives: list[str], variables: list[str], units: Mapping[str, str], page: PageFigures) -> str | None:
     """A catalogue run's hypervolume against its continuous relaxation's, over both fronts
-    (docs/model.md §17.5); None for a run without the relaxation."""
+    (docs/model.md §17.5), its figure on ``page``; None for a run without the relaxation."""
     from hisopt.optim.results import CatalogueCost
     from hisopt.plotting.figures import catalogue_scatter_matrix
 
@@ -194,17 +197,40 @@ def catalogue_section(run: Mapping[str, Any], objectives: list[str], variables: 
         return None
     cost = CatalogueCost.from_record(record)
     line = cost.line(hypervolume_unit(len(objectives)))
-    figure = catalogue_scatter_matrix(run["front"], run["continuous"], objectives, variables, units)
+    figure = catalogue_scatter_matrix(run["front"], run["continuous"], objectives, variables, units, design_hover=False)
     note = (
         f"<p>Hypervolume of the catalogue front (log10 objectives): {html.escape(line)}. The relaxation lets every choice "
         "variable take any value between its first and last listed one, with the run's settings and reference point; "
         "below 100 % is the performance the standard parts give up.</p>"
     )
-    return note + '<div class="figure">' + figure.to_html(full_html=False, include_plotlyjs=False, div_id="catalogue") + "</div>"
+    return note + '<div class="figure">' + page.div(figure, "catalogue") + "</div>"
 
 
 def build_report(run_dir: str | Path, color_by: str | None = None, design: str = "knee") -> Path:
-    """Write ``RUN_DIR/report.html`` and return its path.
+    """Write ``RUN_DIR/report.html`` (:func:`report_page`) and ``RUN_DIR/decision.html``
+    (:func:`hisopt.report.decision_page.run_decision_room`); the report's path.
+
+    Parameters
+    ----------
+    color_by : str | None, optional
+        objective colouring the parallel coordinates (default: the first objective)
+    design : str, optional
+        design whose spectra and modes are shown: ``knee``, ``asf`` or a row index of the
+        front shown (``front_thinned.csv`` when the run has one, else ``front.csv``)
+    """
+    from hisopt.io import atomic_write_text
+    from hisopt.report.decision_page import run_decision_room
+
+    page = report_page(run_dir, color_by, design)
+    out = Path(run_dir) / "report.html"
+    atomic_write_text(out, page)
+    run_decision_room(run_dir)
+    return out
+
+
+def report_page(run_dir: str | Path, color_by: str | None = None, design: str = "knee") -> str:
+    """The text of ``RUN_DIR/report.html``: the run's summary, the front's figures and
+    tables; every design the run evaluated is in ``decision.html``, which it links, not here.
 
     A run with epsilon tolerances is shown by its thinned front: the figures, the knee and
     the ASF pick are of ``front_thinned.csv``; the page says how many designs both fronts hold.
@@ -217,15 +243,12 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         design whose spectra and modes are shown: ``knee``, ``asf`` or a row index of the
         front shown (``front_thinned.csv`` when the run has one, else ``front.csv``)
     """
-    import plotly.offline
-
     from hisopt.coupled.modal import modal_analysis
     from hisopt.hydraulics.catalogue import his_parameter_values
-    from hisopt.io import atomic_write_text
     from hisopt.optim.decision import asf_index, knee_index
     from hisopt.plotting import figures
     from hisopt.report import schematic
-    from hisopt.report.decision_page import DECISION_FILE, run_decision_room
+    from hisopt.report.decision_page import DECISION_FILE
     from hisopt.studies.spectra import response_spectra
 
     run_dir = Path(run_dir)
@@ -280,10 +303,10 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
     spec = problem.spec
     if spec.scenarios and spec.robust.aggregate == "per_scenario" and len(spec.objectives) > 1:
         pareto = figures.scenario_scatter_matrix(
-            front, spec.objectives, problem.scenario_names, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units
+            front, spec.objectives, problem.scenario_names, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units, design_hover=False
         )
     else:
-        pareto = figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units)
+        pareto = figures.front_scatter_matrix(front, objectives, variables, {"knee": knee, "ASF pick": asf}, run["refined"], units, design_hover=False)
     # a problem with load cases: the spectra of its [road] without payload, as `hisopt response` gives them
     road = f" ([road]: class {spec.road.road_class} at {format_quantity(spec.road.speed, 'm/s')})" if spec.scenarios else ""
     sections: list[tuple[str, Any]] = [
@@ -301,7 +324,8 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         ("Highlighted designs", html_table(picks, designs_caption, text_columns=("quantity [unit]",))),
         (f"Parts and settings of the {chosen_label} design", parts_section(problem, x, chosen_label)),
     ]
-    cost = catalogue_section(run, objectives, variables, units)
+    page_figures = PageFigures()
+    cost = catalogue_section(run, objectives, variables, units, page_figures)
     if cost is not None:
         sections.append(("What the catalogues cost", cost))
     if problem.spec.scenarios:
@@ -339,21 +363,19 @@ def build_report(run_dir: str | Path, color_by: str | None = None, design: str =
         if isinstance(content, str):
             parts.append(content)
         else:
-            parts.append('<div class="figure">' + content.to_html(full_html=False, include_plotlyjs=False, div_id=f"fig{i}") + "</div>")
+            parts.append('<div class="figure">' + page_figures.div(content, f"fig{i}") + "</div>")
     refined_note = "" if run["refined"] is None else f", refined front of {len(run['refined'])} designs"
-    page = f"""<!doctype html>
+    return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>hisopt report: {html.escape(problem.name)}</title>
 <style>{REPORT_CSS}</style>
-<script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
+{page_figures.head_html()}</head>
 <body><h1>hisopt report: {html.escape(problem.name)}</h1>
 <p class="meta">{html.escape(str(run_dir))}: {html.escape(front_note)}{refined_note};
 objectives {html.escape(", ".join(objectives))}; knee and ASF pick highlighted. Values in engineering units
 (SI in the CSV files).</p>
 <p class="meta">To narrow the front down to one design and hand it over: <a href="{DECISION_FILE}">the decision room</a>
-(linked views, reference-point and E-NAUTILUS navigation, export).</p>
+(every design of the run, the front and the other evaluations: linked views, each design's values and spectra,
+reference-point and E-NAUTILUS navigation, export). This page shows the front; hover a point for its row.</p>
 {"".join(parts)}
+{page_figures.scripts_html()}
 </body></html>"""
-    out = run_dir / "report.html"
-    atomic_write_text(out, page)
-    run_decision_room(run_dir)
-    return out
