@@ -62,7 +62,9 @@ def sensitivity_cmd(
     log: Annotated[
         bool, typer.Option("--log", help="indices of log10 of each quantity (its relative changes; steadier over a box where it spans decades)")
     ] = False,
-    out: Annotated[Path, typer.Option("--out", help="output directory for sensitivity.csv and sensitivity.html")] = Path("."),
+    out: Annotated[Path, typer.Option("--out", help="output folder for sensitivity.csv and sensitivity.html (a sensitivity study's own folder)")] = Path(
+        "sensitivity"
+    ),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
@@ -76,7 +78,7 @@ def sensitivity_cmd(
     """
     from hisopt.errors import ConfigError
     from hisopt.evaluation.parallel import open_backend
-    from hisopt.io import ensure_writable_dir
+    from hisopt.folders import SENSITIVITY, claim
     from hisopt.report.uncertainty import total_indices_shown, write_sensitivity
     from hisopt.studies.uncertainty import sensitivity
 
@@ -86,7 +88,7 @@ def sensitivity_cmd(
     if not p.spec.uncertain and design is not None:
         raise ConfigError("the problem has no [[uncertain]] inputs, so nothing varies around a design; add them (docs/model.md §18)", file=str(problem))
     x, where = (None, "over the whole box of the design variables") if design is None else _design(p, design)
-    ensure_writable_dir(out)
+    claim(out, SENSITIVITY)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
         result = sensitivity(p, x, n_base=samples, seed=seed, backend=backend, log=log)
     of = "log10 of each quantity, " if log else ""
@@ -103,7 +105,9 @@ def tolerance_cmd(
     design: DesignOpt = "baseline",
     samples: Annotated[int, typer.Option("--samples", parser=integer, metavar="N", help="Monte Carlo samples")] = 100_000,
     seed: SeedOpt = 0,
-    out: Annotated[Path, typer.Option("--out", help="output directory for tolerance.csv, violations.csv, samples.parquet and tolerance.html")] = Path("."),
+    out: Annotated[
+        Path, typer.Option("--out", help="output folder for tolerance.csv, violations.csv, samples.parquet and tolerance.html (a tolerance study's own folder)")
+    ] = Path("tolerance"),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
@@ -117,7 +121,7 @@ def tolerance_cmd(
     """
     from hisopt.errors import ConfigError
     from hisopt.evaluation.parallel import open_backend
-    from hisopt.io import ensure_writable_dir
+    from hisopt.folders import TOLERANCE, claim
     from hisopt.report.uncertainty import tolerance_shown, violations_shown, write_tolerance
     from hisopt.studies.uncertainty import tolerance, uncertain_inputs
 
@@ -127,7 +131,7 @@ def tolerance_cmd(
     if not p.spec.uncertain:
         raise ConfigError("the problem has no [[uncertain]] inputs; add them (docs/model.md §18)", file=str(problem))
     x, where = _design(p, design or "baseline")
-    ensure_writable_dir(out)
+    claim(out, TOLERANCE)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
         result = tolerance(p, x, n_samples=samples, seed=seed, backend=backend)
     limits = {c.name: c.limit for c in p.spec.constraints}
