@@ -12,9 +12,11 @@ A folder's kind is read from its record (:func:`folder_kind`):
 - ``run.json`` (an optimisation run, :mod:`hisopt.optim.rundir`), ``study.json`` (a layout
   study) and ``synthesis.json`` (a topology synthesis): the records those commands keep anyway;
 - :data:`MARKER` (``hisopt-folder.json``: the kind, the command and the hisopt version) for
-  every other kind, written by :func:`claim` when the folder is claimed;
-- for a folder written before hisopt kept markers, the files that kind writes (a run's
-  ``problem.toml`` before its first generation, ``sweep_*.csv``, ``tolerance.csv``, ...).
+  every other kind, written by :func:`claim` when the folder is claimed; a run gets one too,
+  since its ``run.json`` is written only when its first generation begins (a run stopped
+  before that is still a run, not a folder holding someone's ``problem.toml``);
+- for a folder written before hisopt kept markers, the files that kind writes
+  (``sweep_*.csv``, ``tolerance.csv``, ...).
 
 The library functions behind the commands call :func:`claim` too (the check is written once),
 so ``hisopt.optimize(out=...)``, ``compare_layouts(out=...)`` and the other writers refuse what
@@ -57,6 +59,8 @@ class FolderKind:
         [-] glob patterns of files that mark a folder of this kind written before markers
     readers : str
         [-] what reads it, for the line that says what a folder is
+    marked : bool
+        [-] :func:`claim` writes :data:`MARKER` (every kind whose record is not written at once)
     """
 
     name: str
@@ -65,6 +69,7 @@ class FolderKind:
     record: str
     legacy: tuple[str, ...] = ()
     readers: str = ""
+    marked: bool = True
 
     @property
     def noun(self) -> str:
@@ -87,7 +92,7 @@ KINDS: dict[str, FolderKind] = {
             "`hisopt status`, `resume`, `report`, `refine` and `sheet` take it",
         ),
         FolderKind(SEED_STUDY, "a seed study", "hisopt study", MARKER, ("seed-*/run.json", "seed-*/problem.toml"), "each seed-<n>/ is a run"),
-        FolderKind(LAYOUT_STUDY, "a layout study", "hisopt compare-layouts", "study.json", (), "`hisopt status` and `hisopt report` take it"),
+        FolderKind(LAYOUT_STUDY, "a layout study", "hisopt compare-layouts", "study.json", (), "`hisopt status` and `hisopt report` take it", marked=False),
         FolderKind(
             SYNTHESIS,
             "a topology synthesis",
@@ -95,6 +100,7 @@ KINDS: dict[str, FolderKind] = {
             "synthesis.json",
             (),
             "the same command resumes it; its report is report.html and its layout study study/",
+            marked=False,
         ),
         FolderKind(SWEEP, "a sweep", "hisopt sweep", MARKER, ("sweep_*.csv",)),
         FolderKind(REGIONS, "a feasible-region study", "hisopt regions", MARKER, ("regions_*.csv",)),
@@ -107,8 +113,6 @@ KINDS: dict[str, FolderKind] = {
 }
 """Every kind of folder a hisopt command writes, by name."""
 
-RUN_NEVER_STARTED = ("problem.toml", "problem.json")
-"""A run killed before its first generation leaves its problem copy alone (no ``run.json`` yet)."""
 OWN_TEMPORARIES = ".write-test"
 """Files hisopt's own writability probes may leave (and ``.*.tmp``, an atomic write cut short): not a user's."""
 
@@ -178,9 +182,6 @@ def folder_kind(path: str | Path) -> Found | None:
         return Found(KINDS[LAYOUT_STUDY], KINDS[LAYOUT_STUDY].record)
     if (path / MARKER).is_file():
         return _marker_kind(path)
-    entries = _entries(path)
-    if entries and set(entries) <= {*RUN_NEVER_STARTED, "history"}:
-        return Found(KINDS[RUN], f"{entries[0]}, a run that never started")
     for kind in KINDS.values():
         for pattern in kind.legacy:
             hit = next(iter(sorted(path.glob(pattern))), None)
@@ -234,8 +235,8 @@ def claim(path: str | Path, kind: str, option: str = "--out") -> Path:
     """Make ``path`` ``kind``'s output folder, before any work (module docstring).
 
     Checks with :func:`check_claim`, then creates the folder, proves it writable and, for a
-    kind without a record of its own, writes :data:`MARKER` (a folder of that kind written
-    before markers gets one too). A refused claim creates and writes nothing.
+    kind that is :attr:`FolderKind.marked`, writes :data:`MARKER` (a folder of that kind
+    written before markers gets one too). A refused claim creates and writes nothing.
 
     Parameters
     ----------
@@ -257,11 +258,11 @@ def claim(path: str | Path, kind: str, option: str = "--out") -> Path:
         As :func:`check_claim`, or the folder cannot be created or written.
     """
     path = Path(path)
-    found = check_claim(path, kind, option)
+    check_claim(path, kind, option)
     try:
         path.mkdir(parents=True, exist_ok=True)
         tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-", delete=True).close()
-        if KINDS[kind].record == MARKER and (found is None or found.evidence != MARKER):
+        if KINDS[kind].marked and not (path / MARKER).is_file():
             record: dict[str, Any] = {"format": MARKER_FORMAT, "kind": kind, "command": KINDS[kind].command, "hisopt": __version__}
             atomic_write_json(path / MARKER, record | {"created": datetime.now(UTC).isoformat(timespec="seconds")})
     except OSError as exc:

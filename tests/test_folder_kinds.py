@@ -98,8 +98,7 @@ def test_every_kind_is_told_by_its_record(built):
         found = folders.folder_kind(folder)
         assert found is not None and found.kind.name == kind, (kind, found)
         assert found.evidence == folders.KINDS[kind].record
-        marker = folder / folders.MARKER
-        assert marker.is_file() == (folders.KINDS[kind].record == folders.MARKER)
+        assert (folder / folders.MARKER).is_file() == folders.KINDS[kind].marked
     assert json.loads((built[folders.SWEEP] / folders.MARKER).read_text())["kind"] == folders.SWEEP
 
 
@@ -165,6 +164,22 @@ def test_a_folder_written_before_markers_is_told_by_its_files(built, copy, kind)
     assert digest(folder) == before
     assert run_cli(*WRITERS[kind](folder, built[folders.RUN])).code == 0  # its own command takes it, and marks it
     assert json.loads((folder / folders.MARKER).read_text())["kind"] == kind
+
+
+def test_a_run_stopped_before_its_first_generation_is_still_a_run(copy, tmp_path):
+    """Its run.json comes with the first generation; its marker before: the same command
+    starts it again. A folder holding only a user's problem file is not a run."""
+    run = copy(folders.RUN)
+    for path in run.iterdir():
+        if path.name not in (folders.MARKER, rundir.PROBLEM_TOML):
+            shutil.rmtree(path) if path.is_dir() else path.unlink()
+    assert run_cli(*WRITERS[folders.RUN](run, run)).code == 0 and (run / rundir.RUN_JSON).is_file()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    shutil.copy(DEFAULT_PROBLEM, mine / rundir.PROBLEM_TOML)
+    before = digest(mine)
+    refused(run_cli(*WRITERS[folders.RUN](mine, run)), "--out", mine, "did not write (problem.toml)")
+    assert digest(mine) == before
 
 
 def test_a_file_or_a_path_through_a_file_is_refused(built, tmp_path):

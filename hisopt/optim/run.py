@@ -212,10 +212,11 @@ def optimize(
     tolerances = resolve_epsilon(problem, epsilon)
     checkpoint_interval()  # a bad override fails before any work
     if out is not None:
-        from hisopt.folders import RUN, check_claim
+        from hisopt.folders import RUN, check_claim, claim
 
         check_claim(out, RUN)  # a folder of another kind, or a user's, is refused
         runstate.refuse_occupied(out)
+        claim(out, RUN)  # marked as a run before its run.json
     run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
     started = time.perf_counter()
     run: rundir.RunDirectory | None = None  # None: the run stays in memory
