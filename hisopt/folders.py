@@ -56,7 +56,9 @@ class FolderKind:
     record : str
         [-] the file that marks it: its own record, or :data:`MARKER`
     legacy : tuple[str, ...]
-        [-] glob patterns of files that mark a folder of this kind written before markers
+        [-] glob patterns that together mark a folder of this kind written before markers:
+        each must match (all the files the command writes, so that a user's folder holding
+        one file of the same name is not taken for one)
     readers : str
         [-] what reads it, for the line that says what a folder is
     marked : bool
@@ -88,10 +90,10 @@ KINDS: dict[str, FolderKind] = {
             "an optimisation run",
             "hisopt optimize",
             "run.json",
-            ("checkpoint.npz",),
+            (),
             "`hisopt status`, `resume`, `report`, `refine` and `sheet` take it",
         ),
-        FolderKind(SEED_STUDY, "a seed study", "hisopt study", MARKER, ("seed-*/run.json", "seed-*/problem.toml"), "each seed-<n>/ is a run"),
+        FolderKind(SEED_STUDY, "a seed study", "hisopt study", MARKER, ("seed-*/run.json", "front.csv", "runs.csv"), "each seed-<n>/ is a run"),
         FolderKind(LAYOUT_STUDY, "a layout study", "hisopt compare-layouts", "study.json", (), "`hisopt status` and `hisopt report` take it", marked=False),
         FolderKind(
             SYNTHESIS,
@@ -102,13 +104,13 @@ KINDS: dict[str, FolderKind] = {
             "the same command resumes it; its report is report.html and its layout study study/",
             marked=False,
         ),
-        FolderKind(SWEEP, "a sweep", "hisopt sweep", MARKER, ("sweep_*.csv",)),
-        FolderKind(REGIONS, "a feasible-region study", "hisopt regions", MARKER, ("regions_*.csv",)),
-        FolderKind(SHEET, "a design sheet", "hisopt sheet", MARKER, ("sheet.toml",)),
-        FolderKind(TOLERANCE, "a tolerance study", "hisopt tolerance", MARKER, ("tolerance.csv",)),
-        FolderKind(SENSITIVITY, "a sensitivity study", "hisopt sensitivity", MARKER, ("sensitivity.csv",)),
-        FolderKind(RESPONSE, "a response study", "hisopt response", MARKER, ("response.csv",)),
-        FolderKind(DROPTEST, "a drop test study", "hisopt droptest", MARKER, ("droptest.csv",)),
+        FolderKind(SWEEP, "a sweep", "hisopt sweep", MARKER, ("sweep_*.csv", "sweep_*.html")),
+        FolderKind(REGIONS, "a feasible-region study", "hisopt regions", MARKER, ("regions_*.csv", "regions_*.html")),
+        FolderKind(SHEET, "a design sheet", "hisopt sheet", MARKER, ("sheet.toml", "sheet.md", "sheet.html")),
+        FolderKind(TOLERANCE, "a tolerance study", "hisopt tolerance", MARKER, ("tolerance.csv", "violations.csv", "tolerance.html")),
+        FolderKind(SENSITIVITY, "a sensitivity study", "hisopt sensitivity", MARKER, ("sensitivity.csv", "sensitivity.html")),
+        FolderKind(RESPONSE, "a response study", "hisopt response", MARKER, ("response.csv", "response.html")),
+        FolderKind(DROPTEST, "a drop test study", "hisopt droptest", MARKER, ("droptest.csv", "droptest.html")),
     )
 }
 """Every kind of folder a hisopt command writes, by name."""
@@ -183,10 +185,9 @@ def folder_kind(path: str | Path) -> Found | None:
     if (path / MARKER).is_file():
         return _marker_kind(path)
     for kind in KINDS.values():
-        for pattern in kind.legacy:
-            hit = next(iter(sorted(path.glob(pattern))), None)
-            if hit is not None:
-                return Found(kind, str(hit.relative_to(path)))
+        hits = [next(iter(sorted(path.glob(pattern))), None) for pattern in kind.legacy]
+        if hits and all(hit is not None for hit in hits):
+            return Found(kind, " and ".join(str(hit.relative_to(path)) for hit in hits if hit is not None))
     return None
 
 

@@ -153,7 +153,7 @@ def test_a_folder_with_a_users_file_is_refused(built, tmp_path, kind):
     assert digest(folder) == before
 
 
-@pytest.mark.parametrize("kind", [folders.SWEEP, folders.TOLERANCE, folders.SHEET])
+@pytest.mark.parametrize("kind", [folders.SEED_STUDY, folders.SWEEP, folders.TOLERANCE, folders.SHEET])
 def test_a_folder_written_before_markers_is_told_by_its_files(built, copy, kind):
     folder = copy(kind)
     (folder / folders.MARKER).unlink()
@@ -164,6 +164,17 @@ def test_a_folder_written_before_markers_is_told_by_its_files(built, copy, kind)
     assert digest(folder) == before
     assert run_cli(*WRITERS[kind](folder, built[folders.RUN])).code == 0  # its own command takes it, and marks it
     assert json.loads((folder / folders.MARKER).read_text())["kind"] == kind
+
+
+def test_one_file_of_a_kinds_name_does_not_make_a_users_folder_that_kind(built, tmp_path):
+    """A folder written before markers is told by all the files its command writes: a user's
+    response.csv alone is the user's, and `hisopt response` does not write over it."""
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "response.csv").write_text("my,numbers\n1,2\n")
+    assert folders.folder_kind(mine) is None
+    refused(run_cli(*WRITERS[folders.RESPONSE](mine, built[folders.RUN])), "--out", mine, "did not write (response.csv)")
+    assert (mine / "response.csv").read_text() == "my,numbers\n1,2\n"
 
 
 def test_a_run_stopped_before_its_first_generation_is_still_a_run(copy, tmp_path):
