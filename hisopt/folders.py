@@ -37,7 +37,7 @@ from hisopt.io import atomic_write_json
 from hisopt.version import __version__
 
 MARKER = "hisopt-folder.json"
-"""The marker of a folder whose kind has no record of its own: ``{"kind", "command", "hisopt", "created"}``."""
+"""The marker :func:`claim` writes (a kind without a record of its own, and a run before its ``run.json``): ``{"kind", "command", "hisopt", "created"}``."""
 MARKER_FORMAT = "hisopt-folder/1"
 
 
@@ -59,8 +59,6 @@ class FolderKind:
         [-] glob patterns that together mark a folder of this kind written before markers:
         each must match (all the files the command writes, so that a user's folder holding
         one file of the same name is not taken for one)
-    readers : str
-        [-] what reads it, for the line that says what a folder is
     marked : bool
         [-] :func:`claim` writes :data:`MARKER` (every kind whose record is not written at once)
     """
@@ -70,13 +68,7 @@ class FolderKind:
     command: str
     record: str
     legacy: tuple[str, ...] = ()
-    readers: str = ""
     marked: bool = True
-
-    @property
-    def noun(self) -> str:
-        """[-] ``what`` without its article ("optimisation run")."""
-        return self.what.split(" ", 1)[1]
 
 
 RUN, SEED_STUDY, LAYOUT_STUDY, SYNTHESIS = "run", "seed-study", "layout-study", "synthesis"
@@ -85,25 +77,10 @@ SWEEP, REGIONS, SHEET, TOLERANCE, SENSITIVITY, RESPONSE, DROPTEST = "sweep", "re
 KINDS: dict[str, FolderKind] = {
     kind.name: kind
     for kind in (
-        FolderKind(
-            RUN,
-            "an optimisation run",
-            "hisopt optimize",
-            "run.json",
-            (),
-            "`hisopt status`, `resume`, `report`, `refine` and `sheet` take it",
-        ),
-        FolderKind(SEED_STUDY, "a seed study", "hisopt study", MARKER, ("seed-*/run.json", "front.csv", "runs.csv"), "each seed-<n>/ is a run"),
-        FolderKind(LAYOUT_STUDY, "a layout study", "hisopt compare-layouts", "study.json", (), "`hisopt status` and `hisopt report` take it", marked=False),
-        FolderKind(
-            SYNTHESIS,
-            "a topology synthesis",
-            "hisopt synthesize",
-            "synthesis.json",
-            (),
-            "the same command resumes it; its report is report.html and its layout study study/",
-            marked=False,
-        ),
+        FolderKind(RUN, "an optimisation run", "hisopt optimize", "run.json"),
+        FolderKind(SEED_STUDY, "a seed study", "hisopt study", MARKER, ("seed-*/run.json", "front.csv", "runs.csv")),
+        FolderKind(LAYOUT_STUDY, "a layout study", "hisopt compare-layouts", "study.json", marked=False),
+        FolderKind(SYNTHESIS, "a topology synthesis", "hisopt synthesize", "synthesis.json", marked=False),
         FolderKind(SWEEP, "a sweep", "hisopt sweep", MARKER, ("sweep_*.csv", "sweep_*.html")),
         FolderKind(REGIONS, "a feasible-region study", "hisopt regions", MARKER, ("regions_*.csv", "regions_*.html")),
         FolderKind(SHEET, "a design sheet", "hisopt sheet", MARKER, ("sheet.toml", "sheet.md", "sheet.html")),
@@ -191,18 +168,6 @@ def folder_kind(path: str | Path) -> Found | None:
     return None
 
 
-def describe_folder(path: str | Path) -> str | None:
-    """One line saying what ``path`` is and what reads it, or None when hisopt did not write it."""
-    try:
-        found = folder_kind(path)
-    except RunError as exc:
-        return str(exc)
-    if found is None:
-        return None
-    readers = f"; {found.kind.readers}" if found.kind.readers else ""
-    return f"{found.describe(path)}, written by `{found.kind.command}`{readers}"
-
-
 def check_claim(path: str | Path, kind: str, option: str = "--out") -> Found | None:
     """Refuse ``path`` as ``kind``'s output folder unless it is new, empty or of that kind;
     what it holds (None: new or empty). Reads only: nothing is created or written.
@@ -269,23 +234,3 @@ def claim(path: str | Path, kind: str, option: str = "--out") -> Path:
     except OSError as exc:
         raise RunError(f"{option} {path}: the folder is not writable ({exc.strerror or exc}); name a writable folder") from None
     return path
-
-
-def require_kind(path: str | Path, kinds: tuple[str, ...], takes: str) -> Found:
-    """The kind of ``path`` when it is one of ``kinds``; otherwise :class:`RunError` saying
-    what it is and that ``takes`` (e.g. "`hisopt refine` takes a run directory").
-
-    Raises
-    ------
-    RunError
-        ``path`` is missing, not a hisopt folder, or a folder of another kind.
-    """
-    path = Path(path)
-    if not path.exists():
-        raise RunError(f"{path}: not found; {takes}")
-    found = folder_kind(path)
-    if found is None:
-        raise RunError(f"{path}: not a folder hisopt wrote; {takes}")
-    if found.kind.name not in kinds:
-        raise RunError(f"{found.describe(path)}, written by `{found.kind.command}`; {takes}")
-    return found
