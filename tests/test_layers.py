@@ -70,6 +70,7 @@ LAYERS: list[list[str]] = [
         "hisopt.quantities",
         "hisopt.metrics",
         "hisopt.io",
+        "hisopt.folders",
         "hisopt.linalg",
         "hisopt.interrupt",
         "hisopt.robust",

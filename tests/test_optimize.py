@@ -336,7 +336,7 @@ def test_unwritable_or_occupied_run_directory_fails_before_work(tmp_path, proble
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     monkeypatch.setattr(type(problem), "evaluator", lambda self: pytest.fail("evaluated before checking --out"))
-    with pytest.raises(RunError, match="cannot create run directory"):
+    with pytest.raises(RunError, match="file is a file, not a folder"):  # hisopt.folders.check_claim
         optimize(problem, out=blocker / "run", **SMALL)
     (tmp_path / "old").mkdir()
     (tmp_path / "old" / "run.json").write_text("{}")
@@ -395,7 +395,7 @@ def test_cli_user_errors_are_one_line(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     out = cli("optimize", str(DEFAULT_PROBLEM), "--out", str(blocker / "run"))
-    assert out.returncode == 2 and "cannot create run directory" in out.stderr
+    assert out.returncode == 2 and "file is a file, not a folder" in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
     out = cli("optimize", str(DEFAULT_PROBLEM), "--pop", "2")
     assert out.returncode == 2 and "population size >= 4" in out.stderr

@@ -25,8 +25,6 @@ from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.gradient.asf_slp import SlpSettings, lp_steps, refine_designs
 from hisopt.optim.gradient.casadi_model import CasadiModel
 from hisopt.optim.gradient.refine import (
-    FRONT_REFINED_CSV,
-    REFINE_JSON,
     Part,
     RefineSettings,
     asf_weights,
@@ -36,7 +34,7 @@ from hisopt.optim.gradient.refine import (
     select_points,
 )
 from hisopt.optim.run import optimize
-from hisopt.optim.rundir import read_front
+from hisopt.optim.rundir import FRONT_REFINED_CSV, REFINE_JSON, read_front
 from tests.conftest import ROOT
 
 HANDLING = ROOT / "problems" / "roll_plane_his_handling.toml"

@@ -304,19 +304,19 @@ def test_cli_sweep_and_regions_write_csv_and_html(tmp_path):
     def run(*args: str) -> subprocess.CompletedProcess:
         return subprocess.run([sys.executable, "-m", "hisopt", *args], capture_output=True, text=True, timeout=300)
 
-    out = run("sweep", str(DEFAULT_PROBLEM), "--vary", "lam", "--points", "5", "--out", str(tmp_path))
+    out = run("sweep", str(DEFAULT_PROBLEM), "--vary", "lam", "--points", "5", "--out", str(tmp_path / "sweeps"))
     assert out.returncode == 0, out.stderr
-    frame = read_csv(tmp_path / "sweep_lam.csv")
+    frame = read_csv(tmp_path / "sweeps" / "sweep_lam.csv")
     assert len(frame) == 5 and "roll_frequency_hz" in frame and "tire_peak_psd" in frame
     units = frame.attrs["units"]
     assert set(units) == set(frame.columns) and units["lam"] == "-" and units["roll_frequency_hz"] == "Hz"
     assert units["roll_peak_psd"] == "(rad/s^2)^2/Hz" and units["tire_peak_psd"] == "N^2/Hz" and units["roll_damping_ratio"] == "-"
-    assert "plotly" in (tmp_path / "sweep_lam.html").read_text()[:20000].lower()
-    out = run("regions", str(DEFAULT_PROBLEM), "--pair", "p0,Rv", "--points", "4", "--out", str(tmp_path))
+    assert "plotly" in (tmp_path / "sweeps" / "sweep_lam.html").read_text()[:20000].lower()
+    out = run("regions", str(DEFAULT_PROBLEM), "--pair", "p0,Rv", "--points", "4", "--out", str(tmp_path / "regions"))  # a folder of its own
     assert out.returncode == 0, out.stderr
-    grid = read_csv(tmp_path / "regions_p0_Rv.csv")
+    grid = read_csv(tmp_path / "regions" / "regions_p0_Rv.csv")
     assert len(grid) == 16 and set(grid.attrs["units"]) == set(grid.columns)
     assert grid.attrs["units"]["p0"] == "Pa" and grid.attrs["units"]["Rv"] == "Pa s m^-3" and grid.attrs["units"]["sigma_aw"] == "m/s^2"
-    assert (tmp_path / "regions_p0_Rv.html").stat().st_size > 1_000_000  # plotly.js embedded: offline
+    assert (tmp_path / "regions" / "regions_p0_Rv.html").stat().st_size > 1_000_000  # plotly.js embedded: offline
     bad = run("regions", str(DEFAULT_PROBLEM), "--pair", "p0")
     assert bad.returncode == 2 and "--pair" in bad.stderr and "Traceback" not in bad.stderr

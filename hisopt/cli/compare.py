@@ -78,6 +78,9 @@ def compare_layouts_command(
     problem = load_problem(problem_path)
     limit = _handling_limit(problem, handling, handling_limit)
     check_arguments(problem, layouts, seeds, handling, limit)  # one line and exit 2 before any work
+    from hisopt.folders import LAYOUT_STUDY, check_claim
+
+    check_claim(out, LAYOUT_STUDY)  # a folder of another kind, or a user's, is refused
     read_study_record(out, problem, study_budget(problem, pop, gens))
 
     def progress(run: dict[str, Any]) -> None:

@@ -258,7 +258,7 @@ def refine_with_progress(run_dir: Path, max_points: int, method: str, workers: i
 
     from hisopt.evaluation.parallel import open_backend
     from hisopt.optim.gradient.refine import method_settings, refine_run, start_designs
-    from hisopt.optim.rundir import FRONT_CSV, FRONT_REFINED_CSV, read_front, run_problem
+    from hisopt.optim.rundir import FRONT_CSV, read_front, refined_files, run_problem
 
     method_settings(method, None)  # every check before the progress bar
     problem = run_problem(run_dir)[0]
@@ -278,8 +278,8 @@ def refine_with_progress(run_dir: Path, max_points: int, method: str, workers: i
     )
     line = bound_summary(result.front, problem)
     if line:
-        print(f"{line}; see the on_bound column of {FRONT_REFINED_CSV}")
-    print(f"wrote {run_dir / FRONT_REFINED_CSV}")
+        print(f"{line}; see the on_bound column of {refined_files(method)[0]}")
+    print(f"wrote {run_dir / refined_files(method)[0]}")
 
 
 def bound_summary(front: Any, problem: Any) -> str | None:

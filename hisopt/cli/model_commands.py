@@ -64,7 +64,7 @@ def layouts(
 
 def droptest(
     problem: ProblemArg,
-    out: Annotated[Path, typer.Option("--out", help="output directory for droptest.csv and droptest.html")],
+    out: Annotated[Path, typer.Option("--out", help="output folder for droptest.csv and droptest.html (a drop test's own folder)")],
     p0: Annotated[
         str,
         typer.Option(
@@ -139,13 +139,15 @@ def droptest(
     if measured is not None:
         read_measured(measured)  # fail before the simulations if the file is unusable
     prob = load(problem, set_)
+    from hisopt.folders import DROPTEST, claim
+
+    claim(out, DROPTEST)  # before any work: a folder of another kind, or a user's, is refused
     tests = run_drop_tests(prob, p0_values, height, mode=mode)  # type: ignore[arg-type]
     if measured is not None:
         p0_meas = prob.spec.his.p0 if measured_p0 is None else measured_p0
         tests.append(measured_drop_test(prob, measured, case, p0_meas))  # type: ignore[arg-type]
     frame = drop_table(tests)
     try:
-        out.mkdir(parents=True, exist_ok=True)
         write_csv(frame, out / "droptest.csv")
         spectra_figure(tests).write_html(out / "droptest.html", include_plotlyjs=True)
     except OSError as exc:
@@ -263,19 +265,20 @@ def init(
 
 def response(
     problem: ProblemArg,
-    out: Annotated[Path, typer.Option(help="output directory for response.csv and response.html")],
+    out: Annotated[Path, typer.Option(help="output folder for response.csv and response.html (a response study's own folder)")],
     set_: SetOpt = None,
 ) -> None:
     """Response spectra with and without HIS (paper Figure 4).
 
     Writes OUT/response.csv and OUT/response.html (interactive, works offline).
     """
-    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.folders import RESPONSE, claim
+    from hisopt.io import write_csv
     from hisopt.plotting.theme import write_html
     from hisopt.studies.spectra import response_spectra
 
     p = load(problem, set_)
-    ensure_writable_dir(out)
+    claim(out, RESPONSE)  # before any work: a folder of another kind, or a user's, is refused
     spectra = response_spectra(p)
     write_csv(spectra.frame, out / "response.csv")
     write_html(spectra.plot(), out / "response.html")

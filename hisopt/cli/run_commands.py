@@ -68,8 +68,10 @@ def optimize_cmd(
         while out.exists():
             suffix += 1
             out = Path("runs") / f"{p.name}-{stamp}-{suffix}"
+    from hisopt.folders import RUN, check_claim
     from hisopt.optim.runstate import refuse_occupied
 
+    check_claim(out, RUN)  # a folder of another kind, or a user's, is refused
     refuse_occupied(out)  # says what state a run already there is in
     from hisopt.optim.decision import reference_point
 
@@ -141,10 +143,12 @@ def status_cmd(
     `hisopt compare-layouts` study: its layouts, seeds, each run's state, its tables and
     report, and what to do next.
     """
+    from hisopt.folders import LAYOUT_STUDY, folder_kind
     from hisopt.optim.runstate import read_state
-    from hisopt.studies.layout_folder import is_layout_study, study_status
+    from hisopt.studies.layout_folder import study_status
 
-    if is_layout_study(run_dir):
+    found = folder_kind(run_dir)  # a folder of another kind: read_state says what it is
+    if found is not None and found.kind.name == LAYOUT_STUDY:
         typer.echo("\n".join(study_status(run_dir)))
         return
     typer.echo(read_state(run_dir).line())
@@ -172,6 +176,10 @@ def study(
 
     p = load(problem, None)
     seed_list = parse_seeds(seeds)
+    if out is not None:
+        from hisopt.folders import SEED_STUDY, check_claim
+
+        check_claim(out, SEED_STUDY)  # before any work: a folder of another kind, or a user's, is refused
     finished: list[int] = []
     k = len(p.objective_names)
 
@@ -213,10 +221,12 @@ def report(
     `hisopt compare-layouts` study, its study report from its files.
     """
     from hisopt.cli.compare import study_report
+    from hisopt.folders import LAYOUT_STUDY, folder_kind
     from hisopt.report.html import build_report
-    from hisopt.studies.layout_folder import is_layout_study
 
-    path = study_report(run_dir, color_by, design) if is_layout_study(run_dir) else build_report(run_dir, color_by=color_by, design=design)
+    found = folder_kind(run_dir)  # a folder of another kind: build_report refuses it, saying what it is
+    study = found is not None and found.kind.name == LAYOUT_STUDY
+    path = study_report(run_dir, color_by, design) if study else build_report(run_dir, color_by=color_by, design=design)
     typer.echo(f"wrote {path}")
     decision = path.parent / "decision.html"
     if decision.is_file():
@@ -242,7 +252,8 @@ def refine_cmd(
 ) -> None:
     """Refine RUN_DIR's front by gradients.
 
-    Writes RUN_DIR/front_refined.csv. Each of up to --max-points designs spread over
+    Writes RUN_DIR/front_refined.csv (--method ipopt: RUN_DIR/front_refined_ipopt.csv, beside
+    the SLP's; the same method again writes its file anew). Each of up to --max-points designs spread over
     front.csv is moved towards the Pareto front by an NLP (its achievement scalarising
     function) and kept only if, evaluated again, it weakly dominates its start. The NLPs
     are solved by batched SLP on the evaluator (default) or by CasADi/IPOPT (--method
@@ -268,6 +279,7 @@ def sheet(
     accumulators, charge, valves, pipes), its quantities in every load case, its operating
     envelope and its modes; `hisopt evaluate sheet.toml` reproduces it. docs/model.md §17.4.
     """
+    from hisopt.folders import SHEET, check_claim
     from hisopt.optim.decision import front_design
     from hisopt.optim.rundir import FRONT_CSV, run_problem
     from hisopt.report.sheet import write_sheet
@@ -276,7 +288,9 @@ def sheet(
     problem, _ = run_problem(run_dir)
     source = Path(run_dir) / FRONT_CSV
     row, x = front_design(problem, source, design)
-    paths = write_sheet(design_sheet(problem, x, row, str(source)), out or Path(run_dir) / f"sheet-{row}")
+    folder = out or Path(run_dir) / f"sheet-{row}"
+    check_claim(folder, SHEET)  # before any work: a folder of another kind, or a user's, is refused
+    paths = write_sheet(design_sheet(problem, x, row, str(source)), folder)
     for path in paths:
         typer.echo(f"wrote {path}")
 

@@ -16,7 +16,7 @@ def sweep_cmd(
     problem: ProblemArg,
     vary: Annotated[str, typer.Option("--vary", metavar="NAME", help="design variable to sweep across its bounds, e.g. p0")],
     points: Annotated[int, typer.Option("--points", parser=integer, metavar="N", help="values between the bounds (both included)")] = 41,
-    out: Annotated[Path, typer.Option("--out", help="output directory for sweep_NAME.csv and sweep_NAME.html")] = Path("."),
+    out: Annotated[Path, typer.Option("--out", help="output folder for sweep_NAME.csv and sweep_NAME.html (a sweep's own folder)")] = Path("sweeps"),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
@@ -28,14 +28,16 @@ def sweep_cmd(
     force; writes OUT/sweep_NAME.csv and OUT/sweep_NAME.html.
     """
     from hisopt.evaluation.parallel import open_backend
-    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.folders import SWEEP, check_claim, claim
+    from hisopt.io import write_csv
     from hisopt.plotting.theme import write_html
     from hisopt.studies.sweeps import sweep
 
     p = load(problem, set_, scenario)
+    check_claim(out, SWEEP)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
         result = sweep(p, vary, points, backend=backend)  # validates --vary and --points first
-    ensure_writable_dir(out)
+    claim(out, SWEEP)
     csv, html = out / f"sweep_{vary}.csv", out / f"sweep_{vary}.html"
     write_csv(result.to_frame(), csv)
     write_html(result.plot(), html)
@@ -46,7 +48,7 @@ def regions_cmd(
     problem: ProblemArg,
     pair: Annotated[str, typer.Option("--pair", metavar="A,B", help="two design variables, comma-separated, e.g. dA,lam")],
     points: Annotated[int, typer.Option("--points", parser=integer, metavar="N", help="grid values per variable")] = 41,
-    out: Annotated[Path, typer.Option("--out", help="output directory for regions_A_B.csv and regions_A_B.html")] = Path("."),
+    out: Annotated[Path, typer.Option("--out", help="output folder for regions_A_B.csv and regions_A_B.html (a regions study's own folder)")] = Path("regions"),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
@@ -57,7 +59,8 @@ def regions_cmd(
     constraints; writes OUT/regions_A_B.csv and OUT/regions_A_B.html.
     """
     from hisopt.errors import ConfigError
-    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.folders import REGIONS, check_claim, claim
+    from hisopt.io import write_csv
     from hisopt.plotting.theme import write_html
     from hisopt.studies.sweeps import regions
 
@@ -67,9 +70,10 @@ def regions_cmd(
     from hisopt.evaluation.parallel import open_backend
 
     p = load(problem, set_)
+    check_claim(out, REGIONS)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
         result = regions(p, (names[0], names[1]), points, backend=backend)
-    ensure_writable_dir(out)
+    claim(out, REGIONS)
     stem = f"regions_{names[0]}_{names[1]}"
     write_csv(result.to_frame(), out / f"{stem}.csv")
     write_html(result.plot(), out / f"{stem}.html")

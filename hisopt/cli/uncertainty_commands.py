@@ -90,7 +90,9 @@ def sensitivity_cmd(
             help="indices of log10 of every quantity (its relative changes), or of none [default: log10 of each quantity spanning more than a decade]",
         ),
     ] = None,
-    out: Annotated[Path, typer.Option("--out", help="output directory for sensitivity.csv and sensitivity.html")] = Path("."),
+    out: Annotated[Path, typer.Option("--out", help="output folder for sensitivity.csv and sensitivity.html (a sensitivity study's own folder)")] = Path(
+        "sensitivity"
+    ),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
@@ -107,7 +109,7 @@ def sensitivity_cmd(
     """
     from hisopt.errors import ConfigError
     from hisopt.evaluation.parallel import open_backend
-    from hisopt.io import ensure_writable_dir
+    from hisopt.folders import SENSITIVITY, claim
     from hisopt.report.uncertainty import sensitivity_notes, total_indices_shown, write_sensitivity
     from hisopt.studies.sobol import MAX_EVALUATIONS, TARGET_HALF_WIDTH, check_convergence_settings, check_n_base
     from hisopt.studies.uncertainty import sensitivity
@@ -126,7 +128,7 @@ def sensitivity_cmd(
     if not p.spec.uncertain and design is not None:
         raise ConfigError("the problem has no [[uncertain]] inputs, so nothing varies around a design; add them (docs/model.md §18)", file=str(problem))
     x, where = (None, "over the whole box of the design variables") if design is None else _design(p, design)
-    ensure_writable_dir(out)
+    claim(out, SENSITIVITY)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
         result = sensitivity(p, x, samples, seed, backend=backend, log=log, target=half_width, max_evaluations=cap, max_seconds=max_time)
     of = "log10 of each quantity, " if log else ""
@@ -145,7 +147,9 @@ def tolerance_cmd(
     design: DesignOpt = "baseline",
     samples: Annotated[int, typer.Option("--samples", parser=integer, metavar="N", help="Monte Carlo samples")] = 100_000,
     seed: SeedOpt = 0,
-    out: Annotated[Path, typer.Option("--out", help="output directory for tolerance.csv, violations.csv, samples.parquet and tolerance.html")] = Path("."),
+    out: Annotated[
+        Path, typer.Option("--out", help="output folder for tolerance.csv, violations.csv, samples.parquet and tolerance.html (a tolerance study's own folder)")
+    ] = Path("tolerance"),
     set_: SetOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
@@ -159,7 +163,7 @@ def tolerance_cmd(
     """
     from hisopt.errors import ConfigError
     from hisopt.evaluation.parallel import open_backend
-    from hisopt.io import ensure_writable_dir
+    from hisopt.folders import TOLERANCE, claim
     from hisopt.report.uncertainty import tolerance_shown, violations_shown, write_tolerance
     from hisopt.studies.uncertainty import tolerance, uncertain_inputs
 
@@ -169,7 +173,7 @@ def tolerance_cmd(
     if not p.spec.uncertain:
         raise ConfigError("the problem has no [[uncertain]] inputs; add them (docs/model.md §18)", file=str(problem))
     x, where = _design(p, design or "baseline")
-    ensure_writable_dir(out)
+    claim(out, TOLERANCE)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
         result = tolerance(p, x, n_samples=samples, seed=seed, backend=backend)
     limits = {c.name: c.limit for c in p.spec.constraints}

@@ -197,7 +197,8 @@ def optimize(
     ConfigError
         A setting is out of range or a tolerance unreadable.
     RunError
-        ``out`` cannot be written or already holds a run (checked before any work).
+        ``out`` cannot be written, already holds a run, or is a folder of another kind or a
+        non-empty folder hisopt did not write (:func:`hisopt.folders.claim`; checked before any work).
     KeyboardInterrupt
         After Ctrl-C or SIGTERM (:class:`hisopt.interrupt.Interrupted`, in the main thread),
         once the checkpoint and partial outputs are written and ``run.json`` says
@@ -211,9 +212,14 @@ def optimize(
     tolerances = resolve_epsilon(problem, epsilon)
     checkpoint_interval()  # a bad override fails before any work
     if out is not None:
+        from hisopt.folders import RUN, check_claim, claim
+
+        check_claim(out, RUN)  # a folder of another kind, or a user's, is refused
         runstate.refuse_occupied(out)
     started = time.perf_counter()
     reference = reference_point(problem)  # a box with no evaluable design is refused before anything is written
+    if out is not None:
+        claim(out, RUN)  # marked as a run before its run.json
     run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
     run: rundir.RunDirectory | None = None  # None: the run stays in memory
     if run_dir is not None:
@@ -351,12 +357,31 @@ def resume(run_dir: str | Path, *, progress: ProgressFn | None = None) -> Optimi
     return prepare_resume(run_dir).run(progress)
 
 
+def optimize_or_continue(problem: Problem, out: Path, seed: int, pop_size: int | None, generations: int | None) -> OptimizationResult:
+    """A study's run: a new run in ``out``, or the run already there continued (or only read,
+    when it has finished), so that the same study command resumes a study.
+
+    Raises
+    ------
+    RunError
+        ``out`` holds a run of another problem or budget, or one that cannot be resumed.
+    """
+    if not (Path(out) / rundir.RUN_JSON).is_file():
+        return optimize(problem, out=out, seed=seed, pop_size=pop_size, generations=generations)
+    plan = prepare_resume(out)
+    wanted = resolve_settings(problem, pop_size=pop_size, generations=generations, seed=seed)
+    if plan.engine.problem.spec != problem.spec or plan.engine.settings != wanted:
+        raise RunError(f"{out} holds a run of another problem or budget than this study's; choose another --out")
+    return plan.run()
+
+
 __all__ = [
     "GenerationStats",
     "OptimizationResult",
     "RunSettings",
     "build_algorithm",
     "optimize",
+    "optimize_or_continue",
     "prepare_resume",
     "resolve_settings",
     "resume",

@@ -14,6 +14,8 @@ Run directory files (all written atomically):
 - ``front.csv``: the archive's non-dominated feasible designs: variables, objectives,
   constraint quantities, physical units, shortest round-trip decimals and a units row
   (:func:`hisopt.io.write_csv`; read it back with :func:`hisopt.io.read_csv`);
+- ``front_refined.csv`` and ``refine.json`` (``hisopt refine``, SLP), ``front_refined_ipopt.csv``
+  and ``refine_ipopt.json`` (``--method ipopt``): each method its own files (:data:`REFINED_FILES`);
 - ``front_thinned.csv`` (a run with epsilon tolerances only): the thinned front
   (:mod:`hisopt.optim.thinning`), ``front.csv``'s columns and format, a subset of its rows;
 - ``evaluations.parquet``: every evaluated design
@@ -85,9 +87,11 @@ FRONT_THINNED_CSV = "front_thinned.csv"
 CONTINUOUS_FRONT_CSV = "continuous_front.csv"
 """The continuous relaxation's front (a run of a problem with choices, docs/model.md §17.5): ``front.csv``'s columns."""
 FRONT_REFINED_CSV = "front_refined.csv"
-"""Refined front (``hisopt refine``): ``front.csv``'s columns plus ``source_index``."""
+"""Refined front (``hisopt refine``, SLP): ``front.csv``'s columns plus ``source_index``."""
 REFINE_JSON = "refine.json"
 """Summary of the refinement (settings, hypervolumes, timing, per point)."""
+REFINED_FILES = {"slp": (FRONT_REFINED_CSV, REFINE_JSON), "ipopt": ("front_refined_ipopt.csv", "refine_ipopt.json")}
+"""Refinement method -> (refined front, summary): a second method never writes over the first's files."""
 LAYOUT_STUDY_JSON = "study.json"
 """The record of a layout study directory (:mod:`hisopt.studies.layout_study`, whose runs are
 run directories one level down): named here so that a run command given such a folder says so."""
@@ -275,6 +279,11 @@ def read_run_json(run_dir: Path) -> dict[str, Any]:
             f"{run_dir}/report.html and its layout study {run_dir}/study (`hisopt status` and `hisopt report` take that)"
         )
     if not path.is_file():
+        from hisopt.folders import RUN, folder_kind
+
+        found = folder_kind(run_dir)
+        if found is not None and found.kind.name != RUN:
+            raise RunError(f"{found.describe(run_dir)}, written by `{found.kind.command}`, not a run; expected the --out directory of `hisopt optimize`")
         if any((run_dir / name).is_file() for name in (PROBLEM_TOML, PROBLEM_JSON)):
             raise RunError(f"{run_dir}: the run never started (no {RUN_JSON}); start it again with `hisopt optimize PROBLEM --out {run_dir}`")
         raise RunError(f"{run_dir}: not a run directory (no {RUN_JSON}); start a run with `hisopt optimize`")
@@ -285,6 +294,16 @@ def read_run_json(run_dir: Path) -> dict[str, Any]:
     if not isinstance(info, dict):
         raise RunError(f"{path}: not a hisopt run record; start over with another --out")
     return info
+
+
+def refined_files(method: str) -> tuple[str, str]:
+    """``(refined front, summary)`` file names of refinement ``method`` (:data:`REFINED_FILES`)."""
+    return REFINED_FILES.get(method, (f"front_refined_{method}.csv", f"refine_{method}.json"))
+
+
+def refined_fronts(run_dir: str | Path) -> list[Path]:
+    """The refined fronts a run holds, one per refinement method, SLP's first."""
+    return [Path(run_dir) / front for front, _ in REFINED_FILES.values() if (Path(run_dir) / front).is_file()]
 
 
 def read_front(path: str | Path) -> pd.DataFrame:

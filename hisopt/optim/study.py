@@ -63,10 +63,12 @@ SUMMARY_COLUMNS = ("seed", "evaluations", "hypervolume", "wall_time_s", "front_s
 
 
 def _run_seed(seed: int, problem: Problem, out: str | None, pop_size: int | None, generations: int | None) -> dict[str, Any]:
-    from hisopt.optim.run import optimize
+    from hisopt.optim.run import optimize, optimize_or_continue
 
-    run_dir = None if out is None else str(Path(out) / f"seed-{seed}")
-    result = optimize(problem, out=run_dir, seed=seed, pop_size=pop_size, generations=generations)
+    if out is None:
+        result = optimize(problem, seed=seed, pop_size=pop_size, generations=generations)
+    else:  # the same study again continues its runs (a finished one is only read)
+        result = optimize_or_continue(problem, Path(out) / f"seed-{seed}", seed, pop_size, generations)
     # only the front leaves the task: the run's history stays in its run directory
     return {
         "seed": seed,
@@ -97,7 +99,9 @@ def study(
     seeds : list[int]
         [-] one run per seed
     out : str | Path | None, optional
-        study directory (``seed-<n>/`` run directories, merged ``front.csv``, ``runs.csv``)
+        study directory (``seed-<n>/`` run directories, merged ``front.csv``, ``runs.csv``);
+        the same study again continues its runs (a finished one is only read); a folder of
+        another kind, or one with files hisopt did not write, is refused (:func:`hisopt.folders.claim`)
     pop_size, generations : int | None, optional
         [-] overrides of the problem file's optimizer settings
     backend : Backend | None, optional
@@ -113,7 +117,8 @@ def study(
     in ``O(n log^2 n)`` time and ``O(n)`` memory for ``n`` designs in the union.
     """
     from hisopt.evaluation.parallel import Backend
-    from hisopt.io import ensure_writable_dir, write_csv
+    from hisopt.folders import SEED_STUDY, claim
+    from hisopt.io import write_csv
     from hisopt.optim.archive import non_dominated_mask
     from hisopt.optim.decision import hypervolume, reference_point
     from hisopt.units import attach_units
@@ -124,7 +129,7 @@ def study(
     backend = backend or Backend()
     reference_point(problem)  # a box with no evaluable design says why before OUT is made (cached for the runs here)
     if out is not None:
-        ensure_writable_dir(out)
+        claim(out, SEED_STUDY)  # refuses a folder of another kind, or a user's
 
     def report(_: int, run: dict[str, Any]) -> None:
         if progress is not None:

@@ -49,13 +49,14 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
     out: dict[str, Any] = {"record": record, "problem": problem, "front": without_bound_column(read_csv(front_path))}
     files = (
         ("thinned", rundir.FRONT_THINNED_CSV),
-        ("refined", rundir.FRONT_REFINED_CSV),
         ("generations", rundir.GENERATIONS_CSV),
         ("continuous", rundir.CONTINUOUS_FRONT_CSV),
     )
     for key, name in files:
         path = run_dir / name
         out[key] = without_bound_column(read_csv(path)) if path.is_file() else None  # marks: recomputed where shown
+    refined = [without_bound_column(read_csv(path)) for path in rundir.refined_fronts(run_dir)]  # SLP's and IPOPT's
+    out["refined"] = pd.concat(refined, ignore_index=True) if refined else None
     return out
 
 

@@ -94,8 +94,17 @@ def html_page(sheet: DesignSheet) -> str:
 
 
 def write_sheet(sheet: DesignSheet, folder: Path) -> list[Path]:
-    """Write :data:`SHEET_FILES` into ``folder`` (made if need be); their paths."""
-    folder.mkdir(parents=True, exist_ok=True)
+    """Write :data:`SHEET_FILES` into ``folder`` (made if need be); their paths.
+
+    Raises
+    ------
+    RunError
+        ``folder`` is a folder of another kind, or holds files hisopt did not write
+        (:func:`hisopt.folders.claim`).
+    """
+    from hisopt.folders import SHEET, claim
+
+    claim(folder, SHEET)
     paths = [folder / name for name in SHEET_FILES]
     paths[0].write_text(markdown(sheet) + "\n", encoding="utf-8")
     paths[1].write_text(html_page(sheet), encoding="utf-8")

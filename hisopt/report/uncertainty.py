@@ -105,7 +105,11 @@ def sensitivity_notes(result: SensitivityResult) -> list[str]:
 
 
 def write_sensitivity(result: SensitivityResult, out: Path, title: str, where: str) -> list[Path]:
-    """``sensitivity.csv`` (SI, units row) and ``sensitivity.html`` (bars and the table) in ``out``."""
+    """``sensitivity.csv`` (SI, units row) and ``sensitivity.html`` (bars and the table) in ``out``
+    (claimed as a sensitivity study's folder: :func:`hisopt.folders.claim` refuses another kind's)."""
+    from hisopt.folders import SENSITIVITY, claim
+
+    claim(out, SENSITIVITY)
     frame = result.indices
     units = {"S1": "-", "S1_conf": "-", "ST": "-", "ST_conf": "-", "quantity": "", "unit": "", "input": "", "input_unit": "", "distribution": ""}
     csv = write_csv(frame, out / SENSITIVITY_FILES[0], units)
@@ -155,7 +159,11 @@ def violations_shown(table: pd.DataFrame) -> pd.DataFrame:
 def write_tolerance(result: ToleranceResult, out: Path, title: str, where: str, limits: dict[str, float], inputs: pd.DataFrame) -> list[Path]:
     """``tolerance.csv``, ``violations.csv`` (SI, each row's unit in its ``unit`` column), ``samples.parquet`` (every
     sample's inputs and quantities, SI) and ``tolerance.html`` in ``out``; ``inputs`` lists
-    what varies (``input``, ``distribution``)."""
+    what varies (``input``, ``distribution``). ``out`` is claimed as a tolerance study's folder
+    (:func:`hisopt.folders.claim` refuses another kind's)."""
+    from hisopt.folders import TOLERANCE, claim
+
+    claim(out, TOLERANCE)
     summary = result.summary
     # one quantity per row, each in the SI unit its "unit" column names (no units row: it differs by row)
     csv = write_csv(summary, out / TOLERANCE_FILES[0], {})

@@ -44,7 +44,7 @@ CHUNK = 2000
 """[-] Designs per batch of curves (bounds the memory of the direct solves)."""
 
 KINDS = ("front", "refined", "evaluated")
-"""Where a row comes from: ``front.csv``, ``front_refined.csv`` or ``evaluations.parquet``."""
+"""Where a row comes from: ``front.csv``, a refined front (``front_refined.csv``, ``front_refined_ipopt.csv``) or ``evaluations.parquet``."""
 
 
 @dataclass(frozen=True)
@@ -115,8 +115,7 @@ def run_sources(run_dir: str | Path, max_rows: int = MAX_ROWS) -> list[Source]:
     problem = rundir.load_run_problem(run_dir, record["problem"], check_original=False)
     names = list(problem.variable_names)
     parts = [(read_csv(run_dir / rundir.FRONT_CSV), "front")]
-    if (run_dir / rundir.FRONT_REFINED_CSV).is_file():
-        parts.append((read_csv(run_dir / rundir.FRONT_REFINED_CSV), "refined"))
+    parts += [(read_csv(path), "refined") for path in rundir.refined_fronts(run_dir)]  # each method's
     x = [frame[names].to_numpy(dtype=float) for frame, _ in parts]
     kind = [np.full(len(frame), k) for frame, k in parts]
     row = [np.arange(len(frame)) for frame, _ in parts]

@@ -100,17 +100,11 @@ def parse_seed_list(text: str | Sequence[int]) -> list[int]:
 # --- one (layout, seed) run, in whichever process runs it ---------------------------------------
 def _run(problem: Problem, run_dir: Path | None, seed: int, pop: int | None, gens: int | None) -> Any:
     """A new run, or the run already in ``run_dir`` continued (or just read when finished)."""
-    from hisopt.optim import rundir
-    from hisopt.optim.run import optimize, prepare_resume
-    from hisopt.optim.settings import resolve_settings
+    from hisopt.optim.run import optimize, optimize_or_continue
 
-    if run_dir is None or not (run_dir / rundir.RUN_JSON).is_file():
-        return optimize(problem, out=run_dir, seed=seed, pop_size=pop, generations=gens)
-    plan = prepare_resume(run_dir)
-    wanted = resolve_settings(problem, pop_size=pop, generations=gens, seed=seed)
-    if plan.engine.problem.spec != problem.spec or plan.engine.settings != wanted:
-        raise RunError(f"{run_dir} holds a run of another problem or budget than this study's; choose another --out")
-    return plan.run()
+    if run_dir is None:
+        return optimize(problem, seed=seed, pop_size=pop, generations=gens)
+    return optimize_or_continue(problem, run_dir, seed, pop, gens)
 
 
 def _run_task(task: tuple[str, int], cases: dict[str, Problem], out: str | None, pop: int | None, gens: int | None, handling: str) -> dict[str, Any]:
@@ -329,16 +323,19 @@ def run_layout_study(
     ConfigError
         An unknown layout, bad seeds, an unknown handling quantity or a non-positive limit.
     RunError
-        ``out`` holds a study of another problem or budget, or a run that cannot be resumed.
+        ``out`` holds a study of another problem or budget, a run that cannot be resumed, a
+        folder of another kind or files hisopt did not write (:func:`hisopt.folders.claim`).
     """
     from hisopt.evaluation.parallel import Backend
-    from hisopt.io import ensure_writable_dir
+    from hisopt.folders import LAYOUT_STUDY, check_claim, claim
 
     seed_list, cases, handling = check_arguments(problem, layouts, seeds, handling, handling_limit)
     budget = study_budget(problem, pop_size, generations)  # bad budgets fail before any work
     out_dir = None if out is None else Path(out)
     if out_dir is not None:
-        ensure_writable_dir(out_dir)
+        check_claim(out_dir, LAYOUT_STUDY)  # a folder of another kind, or a user's, is refused
+        read_study_record(out_dir, problem, budget)  # so is a study of another problem or budget
+        claim(out_dir, LAYOUT_STUDY)
     record, norm = _study_record(out_dir, problem, budget, handling, cases)
     if out_dir is not None:
         from hisopt.io import atomic_write_json

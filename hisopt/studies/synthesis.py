@@ -397,9 +397,11 @@ def run_synthesis(
     ConfigError
         A bad K, chamber set, seeds or budget, or a search beyond the limits.
     RunError
-        ``out`` holds another synthesis.
+        ``out`` holds another synthesis, a folder of another kind or files hisopt did not
+        write (:func:`hisopt.folders.claim`).
     """
-    from hisopt.io import atomic_write_json, ensure_writable_dir, write_csv
+    from hisopt.folders import SYNTHESIS, check_claim, claim
+    from hisopt.io import atomic_write_json, write_csv
     from hisopt.studies.layout_study import parse_seed_list, read_study_record, study_budget
 
     say = progress or (lambda _: None)
@@ -411,9 +413,10 @@ def run_synthesis(
     out_dir = None if out is None else Path(out)
     record = _record(problem, max_elements, chambers, symmetric, optimise)
     if out_dir is not None:
-        ensure_writable_dir(out_dir)
-        check_record(out_dir, record)
+        check_claim(out_dir, SYNTHESIS)  # a folder of another kind, or a user's, is refused
+        check_record(out_dir, record)  # so is another synthesis
         read_study_record(out_dir / STUDY_DIR, problem, budget)
+        claim(out_dir, SYNTHESIS)
         atomic_write_json(out_dir / SYNTHESIS_JSON, record)
     say(f"enumerating {count:,} candidates of at most {max_elements} elements")
     enumeration = topology.enumerate_layouts(max_elements, chambers, symmetric)

@@ -64,7 +64,6 @@ from hisopt.errors import ConfigError, RunError
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.gradient.asf_nlp import Part, RefineSettings, node_plan, solve_asf
 from hisopt.optim.gradient.asf_slp import SlpSettings, asf_merit, refine_designs
-from hisopt.optim.rundir import FRONT_REFINED_CSV, REFINE_JSON
 
 if TYPE_CHECKING:
     from hisopt.evaluation.parallel import Backend
@@ -595,7 +594,8 @@ def refine_run(
     backend: Backend | None = None,
     progress: Callable[[PointResult], None] | None = None,
 ) -> RefineResult:
-    """Refine a run directory's ``front.csv``; write ``front_refined.csv`` and ``refine.json``.
+    """Refine a run directory's ``front.csv``; write ``front_refined.csv`` and ``refine.json``
+    (``method="ipopt"``: ``front_refined_ipopt.csv`` and ``refine_ipopt.json``, beside SLP's).
 
     Parameters
     ----------
@@ -633,8 +633,9 @@ def refine_run(
         progress=progress,
         source=str(run_dir / rundir.FRONT_CSV),
     )
-    write_csv(with_bound_column(result.front, problem), run_dir / FRONT_REFINED_CSV)
+    front_file, summary_file = rundir.refined_files(method)  # each method its own files
+    write_csv(with_bound_column(result.front, problem), run_dir / front_file)
     summary = result.summary() | {"max_points": max_points, "method": method, "settings": asdict(settings)}
     summary["per_point"] = json.loads(result.points.to_json(orient="records"))
-    rundir.atomic_write_json(run_dir / REFINE_JSON, summary)
+    rundir.atomic_write_json(run_dir / summary_file, summary)
     return result
