@@ -78,3 +78,16 @@ def not_empty(values: Collection[Any], key: str, what: str) -> None:
     """Refuse an empty collection: ``what`` names one of its items ("a drop test")."""
     if len(values) == 0:
         raise ConfigError(f"expected at least one {what}, got none", key=key)
+
+
+def columns(frame: Any, names: Collection[str], key: str) -> None:
+    """Refuse ``frame`` unless it is a DataFrame holding every column of ``names``; ``key``
+    names the argument that asked for the column (``objectives``, ``color_by``)."""
+    import pandas as pd
+
+    if not isinstance(frame, pd.DataFrame):
+        raise ConfigError(f"expected a pandas DataFrame, got {type(frame).__name__}", key="frame")
+    missing = [n for n in names if n not in frame.columns]
+    if missing:
+        shown = ", ".join(map(str, frame.columns[:12])) + (", ..." if len(frame.columns) > 12 else "")
+        raise ConfigError(f"no column {missing[0]!r} in the table; its columns are {shown}", key=key)

@@ -23,7 +23,9 @@ import pandas as pd
 import pytest
 
 import hisopt
+import hisopt.plotting
 import hisopt.report
+import hisopt.road
 from hisopt.errors import ConfigError, HisoptError
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
@@ -105,7 +107,7 @@ CASES: list[Case] = [
     Case("admissible", "not a problem", lambda c: hisopt.admissible("problem.toml", c.design), "problem"),
     Case("uncertain_inputs", "not a problem", lambda c: hisopt.uncertain_inputs(None), "space"),
     Case("his_parameter_values", "not a his", lambda c: hisopt.his_parameter_values("his"), "his"),
-    Case("his_parameter_values", "unknown override", lambda c: hisopt.his_parameter_values(c.problem.spec.his, {"bogus": 1.0}), "bogus"),
+    Case("his_parameter_values", "overrides not a dict", lambda c: hisopt.his_parameter_values(c.problem.spec.his, [1.0]), "overrides"),
     # --- the model -------------------------------------------------------------------------------
     Case("CoupledModel", "not a vehicle", lambda c: hisopt.CoupledModel("car"), "vehicle"),
     Case("Evaluator", "not a problem", lambda c: hisopt.Evaluator("problem.toml"), "problem"),
@@ -124,24 +126,29 @@ CASES: list[Case] = [
     Case("simulate", "empty time", lambda c: hisopt.simulate(c.problem.model(), [], np.zeros((0, 4))), "t_s"),
     Case("simulate", "road of the wrong shape", lambda c: hisopt.simulate(c.problem.model(), np.linspace(0, 1, 11), np.zeros((11, 3))), "road_m"),
     Case("simulate", "unknown mode", lambda c: hisopt.simulate(c.problem.model(), np.linspace(0, 1, 11), np.zeros((11, 4)), mode="bogus"), "mode"),
+    Case("simulate", "unknown solver", lambda c: hisopt.simulate(c.problem.model(), np.linspace(0, 1, 11), np.zeros((11, 4)), method="bogus"), "method"),
+    Case("simulate", "not a model", lambda c: hisopt.simulate("model", np.linspace(0, 1, 11), np.zeros((11, 4))), "model"),
     Case("simulate_drop", "unknown case", lambda c: hisopt.simulate_drop(c.problem.model(), "bogus"), "case"),
     Case("simulate_drop", "NaN height", lambda c: hisopt.simulate_drop(c.problem.model(), "front_axle", height_m=np.nan), "height"),
     Case("simulate_drop", "zero sample rate", lambda c: hisopt.simulate_drop(c.problem.model(), "front_axle", sample_rate_hz=0.0), "sample_rate_hz"),
+    Case("simulate_drop", "text height", lambda c: hisopt.simulate_drop(c.problem.model(), "front_axle", height_m="5 cm"), "height"),
+    Case("simulate_drop", "not a model", lambda c: hisopt.simulate_drop("model", "front_axle"), "model"),
     Case("response_sensors", "not a response", lambda c: hisopt.response_sensors("response"), "response"),
     Case("run_drop_tests", "no pressures", lambda c: hisopt.run_drop_tests(c.problem, []), "p0"),
     Case("run_drop_tests", "unknown case", lambda c: hisopt.run_drop_tests(c.problem, [2e6], cases=("bogus",)), "case"),
     Case("run_drop_tests", "negative height", lambda c: hisopt.run_drop_tests(c.problem, [2e6], height_m=-0.05), "height"),
+    Case("run_drop_tests", "one number for the list", lambda c: hisopt.run_drop_tests(c.problem, 2e6), "p0"),
     Case("measured_drop_test", "missing file", lambda c: hisopt.measured_drop_test(c.problem, c.scratch / "none.csv", "front_axle", 2e6), "none.csv"),
     Case("measured_drop_test", "unknown case", lambda c: hisopt.measured_drop_test(c.problem, c.scratch / "none.csv", "bogus", 2e6), "case"),
     Case("drop_table", "no tests", lambda c: hisopt.drop_table([]), "tests"),
     Case("drop_table", "not tests", lambda c: hisopt.drop_table(["x"]), "tests"),
     Case("spectra_figure", "no tests", lambda c: hisopt.spectra_figure([]), "tests"),
     # --- units and files -------------------------------------------------------------------------
-    Case("format_quantity", "unknown unit", lambda c: hisopt.format_quantity(1.0, "furlong"), "furlong"),
+    Case("format_quantity", "unit not text", lambda c: hisopt.format_quantity(1.0, 3), "unit"),
     Case("format_quantity", "text value", lambda c: hisopt.format_quantity("abc", "m"), "value"),
     Case("format_quantity", "zero digits", lambda c: hisopt.format_quantity(1.0, "m", digits=0), "digits"),
     Case("display_frame", "not a frame", lambda c: hisopt.display_frame("frame"), "frame"),
-    Case("display_frame", "unknown unit", lambda c: hisopt.display_frame(pd.DataFrame({"a": [1.0]}), {"a": "furlong"}), "furlong"),
+    Case("display_frame", "units not a dict", lambda c: hisopt.display_frame(pd.DataFrame({"a": [1.0]}), ["m"]), "units"),
     Case("read_csv", "missing file", lambda c: hisopt.read_csv(c.scratch / "none.csv"), "none.csv"),
     # --- studies ---------------------------------------------------------------------------------
     Case("sweep", "unknown variable", lambda c: hisopt.sweep(c.problem, "bogus"), "bogus"),
@@ -152,8 +159,10 @@ CASES: list[Case] = [
     Case("tolerance", "one sample", lambda c: hisopt.tolerance(c.uncertain, c.uncertain.baseline, n_samples=1), "n_samples", ConfigError),
     Case("tolerance", "no uncertain inputs", lambda c: hisopt.tolerance(c.problem, c.design, n_samples=10), "uncertain"),
     Case("tolerance", "wrong length", lambda c: hisopt.tolerance(c.uncertain, [1.0, 2.0], n_samples=10), "shape"),
+    Case("tolerance", "NaN design", lambda c: hisopt.tolerance(c.uncertain, np.full(len(c.uncertain.variable_names), np.nan), n_samples=10), "design"),
+    Case("tolerance", "text seed", lambda c: hisopt.tolerance(c.uncertain, c.uncertain.baseline, n_samples=10, seed="x"), "seed"),
+    Case("tolerance", "not a problem", lambda c: hisopt.tolerance("problem.toml", [1.0], n_samples=10), "space"),
     Case("sensitivity", "not a power of two", lambda c: hisopt.sensitivity(c.uncertain, c.uncertain.baseline, n_base=1000), "n_base", ConfigError),
-    Case("sensitivity", "nothing varies", lambda c: hisopt.sensitivity(c.problem, c.design, n_base=8), "uncertain"),
     Case("sensitivity", "wrong length", lambda c: hisopt.sensitivity(c.uncertain, [1.0], n_base=8), "shape"),
     # --- optimisation ----------------------------------------------------------------------------
     Case("optimize", "population 0", lambda c: hisopt.optimize(c.problem, pop_size=0, generations=1), "pop"),
@@ -170,7 +179,10 @@ CASES: list[Case] = [
     Case("refine_front", "front without the variables", lambda c: hisopt.refine_front(c.problem, pd.DataFrame({"a": [1.0]})), "front"),
     Case("refine_front", "no points", lambda c: hisopt.refine_front(c.problem, hisopt.read_csv(c.run / "front.csv"), max_points=0), "max_points"),
     Case("refine_front", "unknown method", lambda c: hisopt.refine_front(c.problem, hisopt.read_csv(c.run / "front.csv"), method="bogus"), "method"),
+    Case("refine_front", "text max_points", lambda c: hisopt.refine_front(c.problem, hisopt.read_csv(c.run / "front.csv"), max_points="x"), "max_points"),
+    Case("refine_front", "front not a table", lambda c: hisopt.refine_front(c.problem, "front.csv"), "front"),
     Case("open_backend", "no workers", lambda c: hisopt.open_backend(workers=0).__enter__(), "workers"),
+    Case("open_backend", "text workers", lambda c: hisopt.open_backend(workers="two").__enter__(), "workers"),
     # --- layouts ---------------------------------------------------------------------------------
     Case("compare_layouts", "unknown layout", lambda c: hisopt.compare_layouts(c.problem, "bogus", seeds=[1], pop_size=8, generations=1), "bogus"),
     Case("compare_layouts", "bad seeds", lambda c: hisopt.compare_layouts(c.problem, "axle_roll", seeds="x", pop_size=8, generations=1), "seeds"),
@@ -181,8 +193,11 @@ CASES: list[Case] = [
         "handling",
     ),
     Case("run_layout_study", "population 0", lambda c: hisopt.run_layout_study(c.problem, "axle_roll", seeds=[1], pop_size=0, generations=1), "pop"),
+    Case("run_layout_study", "not a problem", lambda c: hisopt.run_layout_study("problem.toml", "axle_roll", seeds=[1]), "problem"),
     Case("run_synthesis", "no elements", lambda c: hisopt.run_synthesis(c.problem, 0), "max_elements"),
     Case("run_synthesis", "unknown chambers", lambda c: hisopt.run_synthesis(c.problem, 6, chambers="bogus"), "chambers"),
+    Case("run_synthesis", "not a problem", lambda c: hisopt.run_synthesis("problem.toml", 6), "problem"),
+    Case("run_synthesis", "negative optimise", lambda c: hisopt.run_synthesis(c.problem, 6, optimise=-1), "optimise"),
     # --- sub-packages ----------------------------------------------------------------------------
     Case("report.decision_room", "missing folder", lambda c: hisopt.report.decision_room(c.scratch / "none"), "none"),
     Case("report.decision_room", "empty run.json", lambda c: hisopt.report.decision_room(c.folder("empty", run_json="")), "run.json"),
@@ -196,7 +211,40 @@ CASES: list[Case] = [
     Case("report.decision_room", "max_rows 0", lambda c: hisopt.report.decision_room(c.run, max_rows=0), "max_rows"),
     Case("report.build_report", "unknown design", lambda c: hisopt.report.build_report(c.folder("report"), design="bogus"), "design"),
     Case("report.build_report", "empty run.json", lambda c: hisopt.report.build_report(c.folder("empty-report", run_json="{}")), "run.json"),
+    Case("report.build_report", "unknown colour column", lambda c: hisopt.report.build_report(c.folder("report"), color_by="bogus"), "color_by"),
+    Case("report.layout_schematic", "not a layout", lambda c: hisopt.report.layout_schematic("axle_roll"), "layout"),
+    Case("report.write_layout_report", "not a study", lambda c: hisopt.report.write_layout_report("runs/layouts"), "result"),
+    Case("report.fronts_figure", "not a study", lambda c: hisopt.report.fronts_figure(None), "result"),
+    Case("report.curve_figure", "not a study", lambda c: hisopt.report.curve_figure(None), "result"),
+    Case("report.attainment_figure", "not a study", lambda c: hisopt.report.attainment_figure(None), "result"),
+    Case(
+        "road.random_profile",
+        "unknown road class",
+        lambda c: hisopt.road.random_profile(np.linspace(0, 1, 101), "Z", 10.0, 2.7, np.random.default_rng(0), 0.5, 20.0),
+        "class",
+    ),
+    Case(
+        "road.random_profile",
+        "band upside down",
+        lambda c: hisopt.road.random_profile(np.linspace(0, 1, 101), "C", 10.0, 2.7, np.random.default_rng(0), 20.0, 0.5),
+        "f_min_hz",
+    ),
+    Case("road.bump_profile", "zero speed", lambda c: hisopt.road.bump_profile(np.linspace(0, 1, 101), 0.05, 1.0, 0.0, 2.7), "speed_mps"),
+    Case("road.step_profile", "unknown wheel", lambda c: hisopt.road.step_profile(np.linspace(0, 1, 101), 0.05, 0.1, wheels=("xx",)), "wheel"),
+    Case("road.wheel_input_csd", "unknown coherence", lambda c: hisopt.road.wheel_input_csd(np.ones(3), 1e-6, 10.0, 2.7, 1.5, coherence="bogus"), "coherence"),
+    Case(
+        "plotting.tolerance_figure",
+        "unknown quantity",
+        lambda c: hisopt.plotting.tolerance_figure(pd.DataFrame({"a": [1.0]}), ["bogus"], {}, {}, {}, "t"),
+        "quantities",
+    ),
+    Case("plotting.parallel_coordinates", "unknown colour column", lambda c: hisopt.plotting.parallel_coordinates(_front(c), ["p0"], [], "bogus"), "color_by"),
+    Case("plotting.front_scatter_matrix", "unknown objective", lambda c: hisopt.plotting.front_scatter_matrix(_front(c), ["bogus"], ["p0"]), "objectives"),
 ]
+
+
+def _front(c: Context) -> pd.DataFrame:
+    return hisopt.read_csv(c.run / "front.csv")
 
 
 def _in_memory_result(c: Context) -> hisopt.OptimizationResult:

@@ -51,6 +51,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from hisopt.arguments import not_empty, number, of_type
 from hisopt.constants import WHEEL_NAMES
 from hisopt.coupled.modal import MODE_NAMES, mac, mechanical_mode_shapes, modal_analysis, modal_table, motion_coordinates
 from hisopt.coupled.model import CoupledModel
@@ -186,6 +187,12 @@ def simulate_drop(
     -------
     TimeResponse
     """
+    of_type(model, CoupledModel, "model", "a CoupledModel (a problem's model(design))")
+    _case(case)
+    number(height_m, "height_m", positive=True, unit="m")
+    duration_s = number(duration_s, "duration_s", positive=True, unit="s")
+    sample_rate_hz = number(sample_rate_hz, "sample_rate_hz", positive=True, unit="Hz")
+    number(t_drop_s, "t_drop_s", low=0.0, high=duration_s, unit="s")
     t = np.arange(int(round(duration_s * sample_rate_hz)) + 1) / sample_rate_hz
     road = drop_profile(t, case, height_m, t_drop_s)
     if mode == "nonlinear":
@@ -214,6 +221,7 @@ def sensor_frame(t_s: ArrayLike, corner_acc: ArrayLike, wheel_acc: ArrayLike | N
 
 def response_sensors(response: TimeResponse) -> pd.DataFrame:
     """The eight sensor signals of a simulated drop (unfiltered), measured-file layout."""
+    of_type(response, TimeResponse, "response", "a TimeResponse (hisopt.simulate_drop, hisopt.simulate)")
     return sensor_frame(response.t_s, response.corner_acceleration, response.acceleration[:, 3:])
 
 
@@ -444,8 +452,11 @@ def run_drop_tests(
     mode: SimulationMode = "linear",
 ) -> list[DropTest]:
     """All drop tests for each precharge (paper Table 3 uses 1, 2 and 3 MPa)."""
+    if np.ndim(p0_pa) != 1 or isinstance(p0_pa, str):
+        raise ConfigError(f"expected a list of gauge precharges [Pa], e.g. [1e6, 2e6], got {p0_pa!r}", key="p0")
     if len(p0_pa) == 0:
         raise ConfigError("expected at least one p0 value", key="p0")
+    not_empty(cases, "cases", "drop test case")
     return [run_drop_test(problem, case, p0, height_m, mode) for p0 in p0_pa for case in cases]
 
 
@@ -455,11 +466,20 @@ def drop_table(tests: Sequence[DropTest]) -> pd.DataFrame:
     A measured test replaces the simulated one of the same case and ``p0`` (its
     ``frequency_time_hz`` is the measured frequency); other measured tests are appended.
     """
+    _check_tests(tests)
     rows: dict[tuple[str, float], dict[str, Any]] = {}
     for test in sorted(tests, key=lambda d: d.source == "measured"):
         rows[(test.case, test.p0_pa)] = test.row()
     frame = pd.DataFrame(list(rows.values()), columns=list(TABLE_COLUMNS))
     return attach_units(frame, extra={"p0": "Pa", "mac": "-"})
+
+
+def _check_tests(tests: Sequence[DropTest]) -> None:
+    """Refuse anything but a non-empty sequence of drop tests (``tests``)."""
+    of_type(tests, Sequence, "tests", "a list of drop tests (hisopt.run_drop_tests, hisopt.measured_drop_test)")
+    not_empty(tests, "tests", "drop test")
+    for test in tests:
+        of_type(test, DropTest, "tests", "a list of drop tests (hisopt.run_drop_tests, hisopt.measured_drop_test)")
 
 
 def unpaired_notes(tests: Sequence[DropTest]) -> list[str]:
@@ -551,6 +571,7 @@ def spectra_figure(tests: Sequence[DropTest]) -> Figure:
     """Response spectra of the drop tests, one panel per body mode (paper Fig. 13; :func:`hisopt.plotting.droptest.drop_spectra_figure`)."""
     from hisopt.plotting.droptest import drop_spectra_figure
 
+    _check_tests(tests)
     return drop_spectra_figure([t._spectrum_data() for t in tests], {case: spec.mode for case, spec in DROP_CASES.items()})
 
 

@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import integer, problem_argument
 from hisopt.errors import ConfigError, RunError
 from hisopt.hydraulics import topology
 from hisopt.optim.rundir import SYNTHESIS_JSON
@@ -403,8 +404,8 @@ def run_synthesis(
     from hisopt.studies.layout_study import parse_seed_list, read_study_record, study_budget
 
     say = progress or (lambda _: None)
-    if optimise < 0:
-        raise ConfigError(f"expected a count >= 0, got {optimise}", key="--optimise")
+    problem_argument(problem)
+    integer(optimise, "--optimise", minimum=0, what="layouts to optimise")
     parse_seed_list(seeds)
     budget = study_budget(problem, pop_size, generations)
     count = check_search(max_elements, chambers, symmetric, max_candidates)

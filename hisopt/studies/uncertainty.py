@@ -75,8 +75,11 @@ def tolerance(space: DesignSpace, design: np.ndarray, n_samples: int = 100_000, 
     violation of every constraint: what cannot be evaluated is not shown to hold.
     """
     check_tolerance(space, n_samples, "n_samples")
+    integer(seed, "seed", minimum=0)
     evaluator = UncertainEvaluator(space)
-    x = space.design_matrix(design)[:1]
+    x = space.design_matrix(design)
+    if len(x) != 1 or not np.isfinite(x).all():
+        raise ConfigError(f"expected one design of finite values, got {len(x)} rows{'' if np.isfinite(x).all() else ' with NaN or inf'}", key="design")
     u = monte_carlo_variates(n_samples, len(evaluator.inputs), seed)
     got = evaluator(x, u, backend)
     inputs = evaluator.values(np.repeat(x, len(u), axis=0), u)

@@ -60,6 +60,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import integer, of_type, problem_argument
 from hisopt.errors import ConfigError, RunError
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.gradient.asf_nlp import Part, RefineSettings, node_plan, solve_asf
@@ -178,8 +179,7 @@ def select_points(f: np.ndarray, max_points: int) -> np.ndarray:
     """
     from hisopt.optim.decision import normalised_log
 
-    if max_points < 1:
-        raise ConfigError(f"expected at least 1 point to refine, got {max_points}", key="--max-points")
+    max_points = integer(max_points, "--max-points", minimum=1, what="point to refine")
     n = len(f)
     if n <= max_points:
         return np.arange(n)
@@ -461,6 +461,9 @@ def refine_front(
     from hisopt.optim.decision import hypervolume, reference_point
 
     started = time.perf_counter()
+    problem_argument(problem)
+    of_type(front, pd.DataFrame, "front", "a DataFrame of the front (hisopt.read_csv of front.csv)")
+    integer(max_points, "--max-points", minimum=1, what="point to refine")
     settings = method_settings(method, settings)
     names = list(problem.objective_names)
     var_names = list(problem.variable_names)
@@ -615,6 +618,7 @@ def refine_run(
     from hisopt.optim import rundir
     from hisopt.plausibility import with_bound_column
 
+    integer(max_points, "--max-points", minimum=1, what="point to refine")
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise RunError(f"{run_dir}: run directory not found; expected the --out directory of `hisopt optimize`")
