@@ -42,7 +42,7 @@ Control, and Dynamics 8(5), 620-627, 1985.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -51,7 +51,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from hisopt.arguments import not_empty, number, of_type
+from hisopt.arguments import not_empty, number, of_type, one_of
 from hisopt.constants import WHEEL_NAMES
 from hisopt.coupled.modal import MODE_NAMES, mac, mechanical_mode_shapes, modal_analysis, modal_table, motion_coordinates
 from hisopt.coupled.model import CoupledModel
@@ -444,6 +444,26 @@ def run_drop_test(
     return process_record(problem, case, p0_pa, response_sensors(response), "simulated")
 
 
+def check_drop_arguments(p0_pa: Sequence[float], height_m: float, mode: str, names: Mapping[str, str] | None = None) -> list[float]:
+    """The precharges [Pa] of a set of drop tests, after refusing in one line a bad list of
+    precharges (empty, not finite or below 0), drop height (not finite or not > 0) or mode;
+    ``names`` the arguments as the caller knows them (``hisopt droptest``: ``--p0``,
+    ``--height``, ``--mode``; the library: ``p0``, ``height``, ``mode``)."""
+    from hisopt.specification.validation import magnitude_problem
+
+    key = {"p0": "p0", "height": "height", "mode": "mode"} | dict(names or {})
+    if isinstance(p0_pa, (str, bytes)) or np.ndim(p0_pa) != 1:
+        raise ConfigError(f"expected a list of gauge precharges [Pa], e.g. [1e6, 2e6], got {p0_pa!r}", key=key["p0"])
+    not_empty(p0_pa, key["p0"], "precharge")
+    values = [number(v, key["p0"], low=0.0, unit="Pa") for v in p0_pa]
+    number(height_m, key["height"], positive=True, unit="m")
+    wrong = magnitude_problem(float(height_m))
+    if wrong:
+        raise ConfigError(f"{wrong}, got {height_m!r} m", key=key["height"])
+    one_of(mode, ("linear", "nonlinear"), key["mode"])
+    return values
+
+
 def run_drop_tests(
     problem: Problem,
     p0_pa: Sequence[float],
@@ -452,10 +472,7 @@ def run_drop_tests(
     mode: SimulationMode = "linear",
 ) -> list[DropTest]:
     """All drop tests for each precharge (paper Table 3 uses 1, 2 and 3 MPa)."""
-    if np.ndim(p0_pa) != 1 or isinstance(p0_pa, str):
-        raise ConfigError(f"expected a list of gauge precharges [Pa], e.g. [1e6, 2e6], got {p0_pa!r}", key="p0")
-    if len(p0_pa) == 0:
-        raise ConfigError("expected at least one p0 value", key="p0")
+    p0_pa = check_drop_arguments(p0_pa, height_m, mode)
     not_empty(cases, "cases", "drop test case")
     return [run_drop_test(problem, case, p0, height_m, mode) for p0 in p0_pa for case in cases]
 

@@ -273,6 +273,16 @@ class SynthesisResult:
     out: Path | None
 
 
+def check_search_arguments(max_elements: int, chambers: str, max_candidates: int) -> None:
+    """The search's own arguments, refused in one line (no counting: instant, so the command
+    calls it before it starts anything): ``--max-elements`` and ``--max-candidates`` whole
+    numbers >= 1, ``--chambers`` a known set."""
+    integer(max_elements, "--max-elements", minimum=1, what="element")
+    integer(max_candidates, "--max-candidates", minimum=1, what="candidate")
+    if chambers not in topology.CHAMBER_SETS:
+        raise ConfigError(f"unknown chamber set {chambers!r}; expected one of {', '.join(topology.CHAMBER_SETS)}", key="--chambers")
+
+
 def check_search(max_elements: int, chambers: str, symmetric: bool, max_candidates: int) -> int:
     """The number of candidates of a search, refused up front when too large.
 
@@ -283,10 +293,7 @@ def check_search(max_elements: int, chambers: str, symmetric: bool, max_candidat
         :data:`MAX_STRUCTURES` structures or ``max_candidates`` candidates (with the count
         and the time it would take).
     """
-    if max_elements < 1:
-        raise ConfigError(f"expected at least 1 element, got {max_elements}", key="--max-elements")
-    if chambers not in topology.CHAMBER_SETS:
-        raise ConfigError(f"unknown chamber set {chambers!r}; expected one of {', '.join(topology.CHAMBER_SETS)}", key="--chambers")
+    check_search_arguments(max_elements, chambers, max_candidates)
     structures = topology.search_structure_count(max_elements, chambers, symmetric)
     if structures > MAX_STRUCTURES:
         raise ConfigError(

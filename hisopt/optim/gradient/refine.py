@@ -166,6 +166,12 @@ class RefineResult:
 
 
 # --- choosing the starting points ------------------------------------------------------------
+def check_max_points(max_points: int) -> int:
+    """``max_points`` as an int, refused (``--max-points``, as the command names it) unless
+    a whole number >= 1; ``hisopt refine`` and the library call this one check."""
+    return integer(max_points, "--max-points", minimum=1, what="point to refine")
+
+
 def select_points(f: np.ndarray, max_points: int) -> np.ndarray:
     """[-] Rows of front ``f`` (n, k) spread evenly over it, at most ``max_points``, sorted.
 
@@ -179,7 +185,7 @@ def select_points(f: np.ndarray, max_points: int) -> np.ndarray:
     """
     from hisopt.optim.decision import normalised_log
 
-    max_points = integer(max_points, "--max-points", minimum=1, what="point to refine")
+    max_points = check_max_points(max_points)
     n = len(f)
     if n <= max_points:
         return np.arange(n)
@@ -463,7 +469,7 @@ def refine_front(
     started = time.perf_counter()
     problem_argument(problem)
     of_type(front, pd.DataFrame, "front", "a DataFrame of the front (hisopt.read_csv of front.csv)")
-    integer(max_points, "--max-points", minimum=1, what="point to refine")
+    check_max_points(max_points)
     settings = method_settings(method, settings)
     names = list(problem.objective_names)
     var_names = list(problem.variable_names)
@@ -618,7 +624,7 @@ def refine_run(
     from hisopt.optim import rundir
     from hisopt.plausibility import with_bound_column
 
-    integer(max_points, "--max-points", minimum=1, what="point to refine")
+    check_max_points(max_points)
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise RunError(f"{run_dir}: run directory not found; expected the --out directory of `hisopt optimize`")
