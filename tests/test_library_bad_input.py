@@ -102,8 +102,8 @@ CASES: list[Case] = [
     Case("load_problem", "not a path", lambda c: hisopt.load_problem(42), "path"),
     Case("problem_from_dict", "empty", lambda c: hisopt.problem_from_dict({}), "<problem>"),
     Case("problem_from_dict", "not a dict", lambda c: hisopt.problem_from_dict("vehicle"), "data"),
-    Case("admissible", "wrong length", lambda c: hisopt.admissible(c.problem, np.ones((1, 2))), "shape"),
-    Case("admissible", "text", lambda c: hisopt.admissible(c.problem, "abc"), "abc"),
+    Case("admissible", "wrong length", lambda c: hisopt.admissible(c.problem, np.ones((1, 2))), "x: "),
+    Case("admissible", "text", lambda c: hisopt.admissible(c.problem, "abc"), "x: "),
     Case("admissible", "not a problem", lambda c: hisopt.admissible("problem.toml", c.design), "problem"),
     Case("uncertain_inputs", "not a problem", lambda c: hisopt.uncertain_inputs(None), "space"),
     Case("his_parameter_values", "not a his", lambda c: hisopt.his_parameter_values("his"), "his"),
@@ -292,3 +292,23 @@ def test_every_public_callable_has_a_bad_argument_row():
     for name in NOT_CALLED:
         value = getattr(hisopt, name)
         assert not callable(value) or isinstance(value, type) or name == "catalogue", name
+
+
+def test_the_command_and_the_library_refuse_one_sample_with_one_check(context: Context, tmp_path):
+    """`hisopt tolerance --samples 1` and `hisopt.tolerance(..., n_samples=1)` say the same
+    thing (one check, two names for the argument), and the command writes nothing."""
+    from tests.cli_inprocess import run_cli
+
+    out = tmp_path / "tolerance"
+    outcome = run_cli("tolerance", str(UNCERTAIN_PROBLEM), "--samples", "1", "--out", str(out))
+    with pytest.raises(ConfigError) as caught:
+        hisopt.tolerance(context.uncertain, context.uncertain.baseline, n_samples=1)
+    assert caught.value.key == "n_samples"
+    assert outcome.code == 2 and outcome.error_lines == [f"error: --samples: {caught.value.detail}"]
+    assert not out.exists()
+
+
+def test_decision_room_takes_the_result_of_a_run_with_a_directory(context: Context):
+    """An OptimizationResult with a run directory is read from that directory: its front whole."""
+    room = hisopt.report.decision_room(_run_result(context), max_rows=1)
+    assert (room.table["kind"] == "front").sum() == len(_front(context)) == len(room.table)
