@@ -22,7 +22,7 @@ class ConfigError(HisoptError, ValueError):
 
 
 class ProblemFileNotFoundError(HisoptError, FileNotFoundError):
-    """A problem file (or run directory) does not exist."""
+    """An input file (a problem file, a CSV, a measured record) or a run directory does not exist."""
 
 
 class ModelError(HisoptError, ValueError):

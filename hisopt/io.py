@@ -101,14 +101,33 @@ def read_csv(path: str | Path, **kwargs: Any) -> pd.DataFrame:
     """Read a CSV written by :func:`write_csv` (or any plain CSV): floats exactly, units row
     (if any) moved to ``attrs["units"]``.
 
-    ``kwargs`` go to :func:`pandas.read_csv`. Raises what :func:`pandas.read_csv` raises.
+    ``kwargs`` go to :func:`pandas.read_csv`.
+
+    Raises
+    ------
+    ProblemFileNotFoundError
+        ``path`` does not exist (a :class:`FileNotFoundError` too).
+    ConfigError
+        ``path`` is a directory, or not a CSV pandas can read (a :class:`ValueError` too).
     """
     import csv
 
-    with open(path, encoding="utf-8", newline="") as handle:
-        rows = list(itertools.islice(csv.reader(handle), 2))
+    from hisopt.errors import ConfigError, ProblemFileNotFoundError
+
+    try:
+        with open(path, encoding="utf-8", newline="") as handle:
+            rows = list(itertools.islice(csv.reader(handle), 2))
+    except FileNotFoundError:
+        raise ProblemFileNotFoundError(f"{path}: not found; expected a CSV file") from None
+    except IsADirectoryError:
+        raise ConfigError("a directory; expected a CSV file", file=str(path)) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"not UTF-8 text ({exc.reason} at byte {exc.start}); expected a CSV file", file=str(path)) from None
     has_units = len(rows) == 2 and _is_units_row(rows[1])
-    frame = pd.read_csv(path, skiprows=[1] if has_units else None, **kwargs)
+    try:
+        frame = pd.read_csv(path, skiprows=[1] if has_units else None, **kwargs)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise ConfigError(f"unreadable CSV ({str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__})", file=str(path)) from None
     if has_units:
         frame.attrs["units"] = {name: unit.strip()[1:-1] for name, unit in zip(rows[0], rows[1], strict=True) if unit.strip() not in ("", "[]")}
     return frame

@@ -7,12 +7,15 @@ docs/model.md §8.1 DataFrame (objectives, constraints, ``feasible``, ``status``
 from __future__ import annotations
 
 import logging
+import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import of_type
 from hisopt.evaluation.evaluate import Evaluator, results_frame
 from hisopt.evaluation.robust_evaluator import RobustEvaluator, evaluator_for
 from hisopt.evaluation.scenarios import ScenarioEvaluator
@@ -73,6 +76,7 @@ def load_problem(path: str | Path, *, warn_implausible: bool = True) -> Problem:
     An implausible value the file gives issues a :class:`~hisopt.errors.PlausibilityWarning`
     (:mod:`hisopt.plausibility`) unless ``warn_implausible`` is False (a run's own copy).
     """
+    of_type(path, (str, os.PathLike), "path", "a problem file's path (str or Path)")
     spec, digest = read_problem_file(path, warn_implausible=warn_implausible)
     return Problem(spec, Path(path), digest)
 
@@ -80,4 +84,5 @@ def load_problem(path: str | Path, *, warn_implausible: bool = True) -> Problem:
 def problem_from_dict(data: dict[str, Any], source: str = "<problem>", *, warn_implausible: bool = True) -> Problem:
     """Build a problem from a dictionary with the problem file's structure (``warn_implausible``:
     as :func:`hisopt.specification.config.parse_problem`; False for a dump of a checked problem with a change)."""
+    of_type(data, Mapping, "data", "a dict with the problem file's structure")
     return Problem(parse_problem(data, source, warn_implausible=warn_implausible))

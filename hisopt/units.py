@@ -41,6 +41,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
+from hisopt.arguments import integer, of_type
+from hisopt.errors import ConfigError
+
 NO_UNIT = "-"
 """Unit of ratios, counts, flags and labels."""
 
@@ -277,6 +280,14 @@ def display_for(unit: str, values: ArrayLike | float = 0.0, digits: int = DIGITS
 
 def format_quantity(value: float, unit: str, digits: int = DIGITS) -> str:
     """One value in engineering units: ``format_quantity(1e5, "Pa") == "0.1 MPa"``."""
+    if isinstance(value, (str, bytes, bool)):
+        raise ConfigError(f"expected a number, got {value!r}", key="value")
+    try:
+        float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"expected a number, got {type(value).__name__}", key="value") from None
+    of_type(unit, str, "unit", "a unit (str), e.g. 'Pa'")
+    integer(digits, "digits", minimum=1, what="significant figures")
     return display_for(unit, value, digits)(value)
 
 
@@ -295,6 +306,10 @@ def display_frame(frame: pd.DataFrame, units: Mapping[str, str] | None = None, d
     digits : int, optional
         [-] significant figures
     """
+    of_type(frame, pd.DataFrame, "frame", "a pandas DataFrame")
+    if units is not None:
+        of_type(units, Mapping, "units", "a dict of column names to units")
+    integer(digits, "digits", minimum=1, what="significant figures")
     units = dict(frame.attrs.get("units", {}) if units is None else units)
     out = {}
     for col in frame.columns:

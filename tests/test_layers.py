@@ -75,6 +75,7 @@ LAYERS: list[list[str]] = [
         "hisopt.interrupt",
         "hisopt.robust",
         "hisopt.plausibility",
+        "hisopt.arguments",
         "hisopt.version",
     ],
 ]

@@ -117,20 +117,23 @@ def droptest(
     from hisopt.errors import ConfigError
     from hisopt.io import write_csv
     from hisopt.quantities import to_si
-    from hisopt.simulation.droptest import DROP_CASES, drop_table, measured_drop_test, read_measured, run_drop_tests, spectra_figure, unpaired_notes
+    from hisopt.simulation.droptest import (
+        DROP_CASES,
+        check_drop_arguments,
+        drop_table,
+        measured_drop_test,
+        read_measured,
+        run_drop_tests,
+        spectra_figure,
+        unpaired_notes,
+    )
+    from hisopt.specification.validation import parameter_rule
     from hisopt.units import display_for, format_number
 
     p0_values = [to_si(v, "Pa", key="--p0") for v in p0.split(",") if v.strip()]
-    from hisopt.specification.validation import parameter_rule, plausible
-
-    if not p0_values or not parameter_rule("p0").holds(p0_values).all():
-        raise ConfigError(f"expected one or more finite precharges >= 0 Pa, got {p0!r}", key="--p0")
-    if not (height > 0 and plausible(height)):
-        raise ConfigError(f"expected a finite drop height > 0 m, got {height!r}", key="--height")
+    check_drop_arguments(p0_values, height, mode, {"p0": "--p0", "height": "--height", "mode": "--mode"})
     if measured_p0 is not None and (measured is None or not parameter_rule("p0").holds(measured_p0)):
         raise ConfigError(f"expected a finite precharge >= 0 Pa with --measured, got {measured_p0!r}", key="--measured-p0")
-    if mode not in ("linear", "nonlinear"):
-        raise ConfigError(f"expected linear or nonlinear, got {mode!r}", key="--mode")
     if (measured is None) != (case is None):
         raise ConfigError("--measured and --case go together: name the file and which drop test it records", key="--case")
     if case is not None and case not in DROP_CASES:

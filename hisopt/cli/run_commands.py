@@ -259,11 +259,10 @@ def refine_cmd(
     are solved by batched SLP on the evaluator (default) or by CasADi/IPOPT (--method
     ipopt), in this process or on Dask with --workers or --scheduler. See docs/refine.md.
     """
-    from hisopt.errors import ConfigError
-
-    if max_points < 1:
-        raise ConfigError(f"expected at least 1, got {max_points}", key="--max-points")
     from hisopt.cli.console import refine_with_progress
+    from hisopt.optim.gradient.refine import check_max_points
+
+    check_max_points(max_points)
 
     refine_with_progress(run_dir, max_points, method, workers, scheduler)
 

@@ -61,13 +61,10 @@ def synthesize_command(
     from hisopt.evaluation.parallel import open_backend
     from hisopt.problem import load_problem
     from hisopt.report.synthesis_report import write_synthesis_report
-    from hisopt.studies.synthesis import run_synthesis
+    from hisopt.studies.synthesis import check_search_arguments, run_synthesis
 
     problem = load_problem(problem_path)
-    if max_candidates < 1:
-        from hisopt.errors import ConfigError
-
-        raise ConfigError(f"expected a count >= 1, got {max_candidates}", key="--max-candidates")
+    check_search_arguments(max_elements, chambers, max_candidates)  # the library's own check, before the backend starts
     try:
         with interrupt.signals_as_interrupts(), open_backend(workers, scheduler) as backend:
             result = run_synthesis(

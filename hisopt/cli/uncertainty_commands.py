@@ -161,17 +161,15 @@ def tolerance_cmd(
     the model cannot evaluate counts as a violation). Writes OUT/tolerance.csv,
     OUT/violations.csv, OUT/samples.parquet and OUT/tolerance.html.
     """
-    from hisopt.errors import ConfigError
+    from hisopt.arguments import integer
     from hisopt.evaluation.parallel import open_backend
     from hisopt.folders import TOLERANCE, claim
     from hisopt.report.uncertainty import tolerance_shown, violations_shown, write_tolerance
-    from hisopt.studies.uncertainty import tolerance, uncertain_inputs
+    from hisopt.studies.uncertainty import check_tolerance, tolerance, uncertain_inputs
 
-    if samples < 2:
-        raise ConfigError(f"expected at least 2 samples; got {samples}", key="--samples")
+    integer(samples, "--samples", minimum=2, what="samples")  # before the problem loads
     p = load(problem, set_)
-    if not p.spec.uncertain:
-        raise ConfigError("the problem has no [[uncertain]] inputs; add them (docs/model.md §18)", file=str(problem))
+    check_tolerance(p, samples, "--samples", str(problem))
     x, where = _design(p, design or "baseline")
     claim(out, TOLERANCE)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:

@@ -34,8 +34,10 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
+from hisopt.arguments import integer, number, problem_argument
 from hisopt.constants import DOF_NAMES
 from hisopt.coupled.model import CoupledModel
+from hisopt.errors import ConfigError
 from hisopt.units import attach_units
 
 MODE_NAMES = ("bounce", "roll", "pitch", "front_axle_hop", "front_axle_tramp", "rear_axle_hop", "rear_axle_tramp")
@@ -378,9 +380,10 @@ def modal_analysis(problem: Any, design: Any = None, his: bool = True) -> pd.Dat
     pd.DataFrame
         The :func:`modal_table` of the design: one row per mode, named by its shape.
     """
+    problem_argument(problem)
     x = problem.design_matrix(problem.baseline if design is None else design)
     if x.shape[0] != 1:
-        raise ValueError(f"modal_analysis takes one design, got {x.shape[0]}")
+        raise ConfigError(f"modal_analysis takes one design, got {x.shape[0]}", key="design")
     return attach_units(modal_table(problem.model(x, his=his)))  # units in attrs["units"]
 
 
@@ -466,9 +469,15 @@ def track_modes(
         ``frequency_hz``, ``damped_frequency_hz``, ``damping_ratio`` and ``motion_share`` (as
         in :func:`modal_table`; NaN where a mode is overdamped).
     """
+    problem_argument(problem)
     x = problem.design_matrix(designs)
-    if not 0 <= anchor < len(x):
-        raise ValueError(f"anchor {anchor} is not a design index (0 to {len(x) - 1})")
+    if not len(x):
+        raise ConfigError("expected at least one design, got none", key="designs")
+    anchor = integer(anchor, "anchor", minimum=0)
+    if anchor >= len(x):
+        raise ConfigError(f"{anchor} is not a design index (0 to {len(x) - 1})", key="anchor")
+    number(min_mac, "min_mac", low=0.0, high=1.0)
+    integer(max_depth, "max_depth", minimum=0)
     mass_diag = np.diag(problem.model(x[:1], his=his).mass)
 
     def sets(xs: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from hisopt.arguments import of_type
 from hisopt.constants import DOF_NAMES
 from hisopt.errors import ModelError
 from hisopt.hydraulics import backend as bk
@@ -100,6 +101,11 @@ class CoupledModel:
 
     vehicle: VehicleParams | VehicleBatch
     his: HydraulicSystem | None = None
+
+    def __post_init__(self) -> None:
+        of_type(self.vehicle, (VehicleParams, VehicleBatch), "vehicle", "a VehicleParams (a problem's spec.vehicle) or a VehicleBatch")
+        if self.his is not None:
+            of_type(self.his, HydraulicSystem, "his", "a HydraulicSystem (a problem's model().his) or None")
 
     @property
     def car(self) -> VehicleParams:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import integer, of_type, problem_argument
 from hisopt.coupled.operating_point import accumulator_quantities, accumulator_rooms
 from hisopt.coupled.response import Output, accumulator_outputs, standard_outputs
 from hisopt.errors import ModelError
@@ -99,6 +100,8 @@ class Evaluator:
         peak_steps: int = 2,
         tolerance: float = 1e-4,
     ):
+        problem_argument(problem)
+        chunk_size = integer(chunk_size, "chunk_size", minimum=1)
         spec = problem.spec
         _prime_allocator()
         self.problem = problem
@@ -601,6 +604,9 @@ def static_quantity(model: CoupledModel, name: str) -> np.ndarray:
 
 def roll_gradient(model: CoupledModel) -> np.ndarray:
     """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
+    from hisopt.coupled.model import CoupledModel
+
+    of_type(model, CoupledModel, "model", "a CoupledModel (a problem's model())")
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
 
 

@@ -102,8 +102,9 @@ def open_backend(workers: int | None = None, scheduler: str | None = None, clien
         finally:
             own.close()
         return
-    if workers is None or workers < 1:
-        raise ConfigError(f"expected --workers >= 1, got {workers}", key="--workers")
+    from hisopt.arguments import integer
+
+    workers = integer(workers, "--workers", minimum=1, what="worker")
     # One BLAS thread per worker process: the workers already use every core.
     saved = {k: os.environ.get(k) for k in _THREAD_VARS}
     os.environ.update({k: "1" for k in _THREAD_VARS})

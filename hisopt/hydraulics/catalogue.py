@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from hisopt.arguments import of_type
 from hisopt.errors import ModelError, with_article
 from hisopt.hydraulics.layout import (
     ELEMENT_KINDS,
@@ -224,6 +225,9 @@ def his_parameter_values(his: RollPlaneHIS, overrides: Mapping[str, Any] | None 
     """Every parameter the layout and the cylinders read: ``[his]`` values, the layout's extra
     parameters (:func:`layout_defaults`), then ``overrides`` (design variables); the fluid at
     ``temperature`` [K] (None: the reference temperature; :func:`~hisopt.hydraulics.roll_plane.parameter_values`)."""
+    of_type(his, RollPlaneHIS, "his", "a problem's [his] section (problem.spec.his)")
+    if overrides is not None:
+        of_type(overrides, Mapping, "overrides", "a dict of parameter names to values")
     return parameter_values(his, {**layout_defaults(his), **(overrides or {})}, temperature)
 
 

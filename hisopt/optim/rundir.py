@@ -306,6 +306,15 @@ def refined_fronts(run_dir: str | Path) -> list[Path]:
     return [Path(run_dir) / front for front, _ in REFINED_FILES.values() if (Path(run_dir) / front).is_file()]
 
 
+def run_record(run_dir: Path) -> dict[str, Any]:
+    """``run_dir/run.json`` of a run that started: :func:`read_run_json`, and a
+    :class:`RunError` when the record lacks its problem (an empty ``{}`` or another file)."""
+    info = read_run_json(run_dir)
+    if not isinstance(info.get("problem"), dict):
+        raise RunError(f"{Path(run_dir) / RUN_JSON}: lacks 'problem', so not the record of a run that started; start over with another --out")
+    return info
+
+
 def read_front(path: str | Path) -> pd.DataFrame:
     """A ``front.csv`` (full precision; the values round-trip), without its ``on_bound`` marks
     (derived from the values and the box: written again with every front)."""
@@ -331,9 +340,7 @@ def run_problem(run_dir: Path) -> tuple[Problem, np.ndarray | None]:
         from hisopt.problem import load_problem
 
         return load_problem(run_dir / PROBLEM_TOML, warn_implausible=False), None  # a run's copy
-    info = read_run_json(run_dir)
-    if "problem" not in info:
-        raise RunError(f"{run_dir / RUN_JSON}: lacks 'problem'; the run never started")
+    info = run_record(run_dir)
     reference = info.get("settings", {}).get("hypervolume_reference_log10")
     return load_run_problem(run_dir, info["problem"]), None if reference is None else np.asarray(reference, dtype=float)
 

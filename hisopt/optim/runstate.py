@@ -158,6 +158,17 @@ def read_state(run_dir: str | Path) -> RunState:
     return RunState(run_dir, status, rundir.checkpoint_generation(run_dir), total, info, alive)
 
 
+def finished_run(run_dir: str | Path, what: str) -> RunState:
+    """The state of ``run_dir`` when it is a finished run, else a :class:`RunError` of one
+    line: the folder's state and what to do (``what`` names the caller, e.g.
+    ``decision_room``, which needs every file of a finished run)."""
+    rundir.run_record(Path(run_dir))
+    state = read_state(run_dir)
+    if state.status != FINISHED:
+        raise RunError(f"{state.line()}; {what} takes a finished run")
+    return state
+
+
 def record_failure(info: dict[str, Any], session: dict[str, Any], exc: BaseException, generation: int) -> None:
     """Mark ``info`` failed at ``generation`` with ``exc``; ``repeated`` if the last failure
     was the same error at the same generation."""

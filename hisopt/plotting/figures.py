@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import columns as require_columns
+from hisopt.arguments import not_empty
 from hisopt.plotting.theme import COLORS, template
 from hisopt.robust import scenario_column
 from hisopt.units import Display, display_for, hypervolume_unit
@@ -112,6 +114,9 @@ def front_scatter_matrix(
 ) -> go.Figure:
     """Scatter matrix of the objectives; hovering a point shows its whole design
     (``design_hover=False``: its front row and the two values, for a light page)."""
+    not_empty(objectives, "objectives", "objective")
+    require_columns(front, objectives, "objectives")
+    require_columns(front, variables, "variables")
     view = _objective_view(displays(front, list(variables) + list(objectives), units), objectives, ("front", "refined front"), "#66a182")
     title = "Pareto front: objectives (hover for the design)" if design_hover else "Pareto front: objectives (hover for the front row)"
     return _scatter_matrix([view], front, refined, highlights, len(objectives), title, design_hover)
@@ -200,8 +205,11 @@ def parallel_coordinates(
     """Parallel coordinates of variables and objectives, coloured by ``color_by``."""
     import plotly.graph_objects as go
 
-    columns = list(variables) + list(objectives)
-    shown = displays(front, list(dict.fromkeys(columns + [color_by])), units)
+    require_columns(front, variables, "variables")
+    require_columns(front, objectives, "objectives")
+    require_columns(front, [color_by], "color_by")
+    names = list(variables) + list(objectives)
+    shown = displays(front, list(dict.fromkeys(names + [color_by])), units)
 
     def dimension(c: str) -> dict:
         out = {"label": shown[c].label(c), "values": shown[c].values(front[c])}
@@ -213,7 +221,7 @@ def parallel_coordinates(
     colorbar["tickformat"] = ".2~e" if colour.scientific else ".4~g"
     fig = go.Figure(
         go.Parcoords(
-            dimensions=[dimension(c) for c in columns],
+            dimensions=[dimension(c) for c in names],
             line={"color": colour.values(front[color_by]), "colorscale": "Viridis", "showscale": True, "colorbar": colorbar},
             labelfont={"size": 12},
             labelangle=-20,
@@ -223,11 +231,11 @@ def parallel_coordinates(
     )
     colour_name = colour.label(color_by)
     top = 140
-    if len(columns) > 10:  # e.g. per-scenario objectives: slanted labels would cross the next axes' ranges
+    if len(names) > 10:  # e.g. per-scenario objectives: slanted labels would cross the next axes' ranges
         top = 80 + 7 * max(len(d["label"]) for d in fig.data[0].dimensions)  # ~7 px per character at 12 px
         fig.update_traces(labelangle=-90)
         # ticks of neighbouring axes meet below ~75 px apart: a fixed width (the report's figures scroll sideways)
-        fig.update_layout(width=75 * len(columns) + 190, autosize=False)
+        fig.update_layout(width=75 * len(names) + 190, autosize=False)
     fig.update_layout(
         template=template(),
         title=f"Designs and objectives of the front (colour: {colour_name})",

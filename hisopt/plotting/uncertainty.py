@@ -10,6 +10,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import columns as require_columns
+from hisopt.arguments import not_empty
 from hisopt.plotting.theme import COLORS, template
 from hisopt.units import display_for
 
@@ -83,6 +85,8 @@ def tolerance_figure(
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
+    not_empty(quantities, "quantities", "quantity")
+    require_columns(values, quantities, "quantities")
     cols = min(3, len(quantities))
     rows = math.ceil(len(quantities) / cols)
     fig = make_subplots(rows=rows, cols=cols, subplot_titles=list(quantities), horizontal_spacing=0.08, vertical_spacing=0.6 / max(rows, 1))

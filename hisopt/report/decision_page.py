@@ -26,12 +26,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.errors import ConfigError, RunError
 from hisopt.plausibility import BOUND_TOLERANCE
 from hisopt.report.tables import REPORT_CSS
 from hisopt.studies.decision_room import KINDS
 from hisopt.units import display_for, is_psd
 
 if TYPE_CHECKING:
+    from hisopt.optim.results import OptimizationResult
     from hisopt.studies.decision_room import Curves, Room
     from hisopt.studies.layout_study import LayoutStudyResult
 
@@ -284,27 +286,53 @@ class DecisionRoom:
         return f'<iframe srcdoc="{html.escape(self.html, quote=True)}" style="width:100%;height:2300px;border:1px solid #e3e6ea"></iframe>'
 
 
-def decision_room(source: str | Path | LayoutStudyResult, max_rows: int | None = None) -> DecisionRoom:
-    """The decision room of a run directory (``hisopt optimize --out``) or of a layout
-    study's result (:func:`hisopt.compare_layouts`), as ``hisopt report`` writes it to
-    ``decision.html``.
+def decision_room(source: str | Path | OptimizationResult | LayoutStudyResult, max_rows: int | None = None) -> DecisionRoom:
+    """The decision room of a finished run (its directory, ``hisopt optimize --out``, or the
+    :class:`hisopt.OptimizationResult` of a run with one) or of a layout study's result
+    (:func:`hisopt.compare_layouts`), as ``hisopt report`` writes it to ``decision.html``.
 
     Parameters
     ----------
-    source : str | Path | LayoutStudyResult
-        a run directory, or a layout study
+    source : str | Path | OptimizationResult | LayoutStudyResult
+        a finished run's directory or result, or a layout study
     max_rows : int | None, optional
         [-] designs the page holds at most (default
         :data:`hisopt.studies.decision_room.MAX_ROWS`)
-    """
-    from hisopt.studies import decision_room as data
 
-    limit = data.MAX_ROWS if max_rows is None else max_rows
+    Raises
+    ------
+    RunError
+        ``source`` is not a finished run (no or an unreadable ``run.json``, a run still
+        running, interrupted or failed, a folder of another kind), or a result without a
+        directory to read its designs from.
+    ConfigError
+        ``source`` is none of the above, or ``max_rows`` is not a whole number >= 1.
+    """
+    from hisopt.arguments import integer
+    from hisopt.optim.results import OptimizationResult
+    from hisopt.optim.runstate import finished_run
+    from hisopt.studies import decision_room as data
+    from hisopt.studies.layout_study import LayoutStudyResult
+
+    limit = data.MAX_ROWS if max_rows is None else integer(max_rows, "max_rows", minimum=1, what="designs")
+    if isinstance(source, OptimizationResult):
+        if source.run_dir is None:
+            raise RunError(
+                "decision_room takes a finished run directory or layout study; this OptimizationResult has no run directory: pass out= to hisopt.optimize"
+            )
+        source = source.run_dir
     if isinstance(source, (str, Path)):
+        finished_run(source, "decision_room")
         sources = data.run_sources(source, limit)
         title = f"Decision room: {sources[0].problem.name}"
-    else:
+    elif isinstance(source, LayoutStudyResult):
         sources = data.layout_sources(source, limit)
         title = "Decision room: layout study"
+    else:
+        raise ConfigError(
+            f"expected a finished run's directory, its OptimizationResult or a LayoutStudyResult, got {type(source).__name__}", key="source"
+        )
+    if not sources:
+        raise RunError("decision_room: the layout study has no front yet; run it to the end with hisopt.compare_layouts")
     room = data.decision_room_data(sources)
     return DecisionRoom(room, decision_room_page(room, title, f"{len(room.table)} designs; every quantity in engineering units, exports in SI."))

@@ -41,7 +41,7 @@ def load_run_files(run_dir: str | Path) -> dict[str, Any]:
     from hisopt.optim import rundir
 
     run_dir = Path(run_dir)
-    record = rundir.read_run_json(run_dir)
+    record = rundir.run_record(run_dir)
     front_path = run_dir / rundir.FRONT_CSV
     if not front_path.is_file():
         raise RunError(f"{front_path}: missing; the run has not finished a generation yet")

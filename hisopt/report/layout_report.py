@@ -26,6 +26,14 @@ if TYPE_CHECKING:
 _GRID_CSS = ".schematics{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}"
 
 
+def _check_study(result: Any) -> None:
+    """Refuse anything but a layout study's result (``result``)."""
+    from hisopt.arguments import of_type
+    from hisopt.studies.layout_study import LayoutStudyResult
+
+    of_type(result, LayoutStudyResult, "result", "a LayoutStudyResult (hisopt.run_layout_study)")
+
+
 def _colour(i: int) -> str:
     return COLORS[i % len(COLORS)]
 
@@ -45,6 +53,7 @@ def schematics(result: LayoutStudyResult) -> list[go.Figure]:
 
 def fronts_figure(result: LayoutStudyResult) -> go.Figure:
     """Every seed's front per layout in the shared normalised space (scatter matrix)."""
+    _check_study(result)
     import plotly.graph_objects as go
 
     names = list(result.normalisation.objectives)
@@ -70,6 +79,7 @@ def fronts_figure(result: LayoutStudyResult) -> go.Figure:
 
 def curve_figure(result: LayoutStudyResult) -> go.Figure:
     """Best comfort against the handling limit per layout (staircases), the limit marked."""
+    _check_study(result)
     import plotly.graph_objects as go
 
     h, unit = result.handling, result.table.attrs["units"]["handling_limit"]
@@ -121,6 +131,7 @@ def curve_figure(result: LayoutStudyResult) -> go.Figure:
 
 def attainment_figure(result: LayoutStudyResult) -> go.Figure:
     """EAF surfaces (best, median, worst seed) and the Vorob'ev expectation per layout."""
+    _check_study(result)
     import plotly.graph_objects as go
 
     h, unit = result.handling, result.table.attrs["units"]["handling_limit"]
@@ -192,6 +203,7 @@ def table_html(result: LayoutStudyResult) -> str:
 
 def write_layout_report(result: LayoutStudyResult, path: str | Path | None = None) -> Path:
     """Write the report (default ``DIR/report.html``) and return its path."""
+    _check_study(result)
     import plotly.offline
 
     from hisopt.errors import ConfigError

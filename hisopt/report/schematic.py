@@ -121,6 +121,10 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
     """
     import plotly.graph_objects as go
 
+    from hisopt.arguments import of_type
+
+    of_type(layout, Layout, "layout", "a Layout (a problem's layout())")
+
     fig = go.Figure()
     for wheel, name in enumerate(WHEEL_NAMES):
         x, y = wheel_position(wheel)

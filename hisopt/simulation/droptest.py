@@ -42,7 +42,7 @@ Control, and Dynamics 8(5), 620-627, 1985.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -51,6 +51,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from hisopt.arguments import not_empty, number, of_type, one_of
 from hisopt.constants import WHEEL_NAMES
 from hisopt.coupled.modal import MODE_NAMES, mac, mechanical_mode_shapes, modal_analysis, modal_table, motion_coordinates
 from hisopt.coupled.model import CoupledModel
@@ -186,6 +187,12 @@ def simulate_drop(
     -------
     TimeResponse
     """
+    of_type(model, CoupledModel, "model", "a CoupledModel (a problem's model(design))")
+    _case(case)
+    number(height_m, "height_m", positive=True, unit="m")
+    duration_s = number(duration_s, "duration_s", positive=True, unit="s")
+    sample_rate_hz = number(sample_rate_hz, "sample_rate_hz", positive=True, unit="Hz")
+    number(t_drop_s, "t_drop_s", low=0.0, high=duration_s, unit="s")
     t = np.arange(int(round(duration_s * sample_rate_hz)) + 1) / sample_rate_hz
     road = drop_profile(t, case, height_m, t_drop_s)
     if mode == "nonlinear":
@@ -214,6 +221,7 @@ def sensor_frame(t_s: ArrayLike, corner_acc: ArrayLike, wheel_acc: ArrayLike | N
 
 def response_sensors(response: TimeResponse) -> pd.DataFrame:
     """The eight sensor signals of a simulated drop (unfiltered), measured-file layout."""
+    of_type(response, TimeResponse, "response", "a TimeResponse (hisopt.simulate_drop, hisopt.simulate)")
     return sensor_frame(response.t_s, response.corner_acceleration, response.acceleration[:, 3:])
 
 
@@ -436,6 +444,26 @@ def run_drop_test(
     return process_record(problem, case, p0_pa, response_sensors(response), "simulated")
 
 
+def check_drop_arguments(p0_pa: Sequence[float], height_m: float, mode: str, names: Mapping[str, str] | None = None) -> list[float]:
+    """The precharges [Pa] of a set of drop tests, after refusing in one line a bad list of
+    precharges (empty, not finite or below 0), drop height (not finite or not > 0) or mode;
+    ``names`` the arguments as the caller knows them (``hisopt droptest``: ``--p0``,
+    ``--height``, ``--mode``; the library: ``p0``, ``height``, ``mode``)."""
+    from hisopt.specification.validation import magnitude_problem
+
+    key = {"p0": "p0", "height": "height", "mode": "mode"} | dict(names or {})
+    if isinstance(p0_pa, (str, bytes)) or np.ndim(p0_pa) != 1:
+        raise ConfigError(f"expected a list of gauge precharges [Pa], e.g. [1e6, 2e6], got {p0_pa!r}", key=key["p0"])
+    not_empty(p0_pa, key["p0"], "precharge")
+    values = [number(v, key["p0"], low=0.0, unit="Pa") for v in p0_pa]
+    number(height_m, key["height"], positive=True, unit="m")
+    wrong = magnitude_problem(float(height_m))
+    if wrong:
+        raise ConfigError(f"{wrong}, got {height_m!r} m", key=key["height"])
+    one_of(mode, ("linear", "nonlinear"), key["mode"])
+    return values
+
+
 def run_drop_tests(
     problem: Problem,
     p0_pa: Sequence[float],
@@ -444,8 +472,8 @@ def run_drop_tests(
     mode: SimulationMode = "linear",
 ) -> list[DropTest]:
     """All drop tests for each precharge (paper Table 3 uses 1, 2 and 3 MPa)."""
-    if len(p0_pa) == 0:
-        raise ConfigError("expected at least one p0 value", key="p0")
+    p0_pa = check_drop_arguments(p0_pa, height_m, mode)
+    not_empty(cases, "cases", "drop test case")
     return [run_drop_test(problem, case, p0, height_m, mode) for p0 in p0_pa for case in cases]
 
 
@@ -455,11 +483,20 @@ def drop_table(tests: Sequence[DropTest]) -> pd.DataFrame:
     A measured test replaces the simulated one of the same case and ``p0`` (its
     ``frequency_time_hz`` is the measured frequency); other measured tests are appended.
     """
+    _check_tests(tests)
     rows: dict[tuple[str, float], dict[str, Any]] = {}
     for test in sorted(tests, key=lambda d: d.source == "measured"):
         rows[(test.case, test.p0_pa)] = test.row()
     frame = pd.DataFrame(list(rows.values()), columns=list(TABLE_COLUMNS))
     return attach_units(frame, extra={"p0": "Pa", "mac": "-"})
+
+
+def _check_tests(tests: Sequence[DropTest]) -> None:
+    """Refuse anything but a non-empty sequence of drop tests (``tests``)."""
+    of_type(tests, Sequence, "tests", "a list of drop tests (hisopt.run_drop_tests, hisopt.measured_drop_test)")
+    not_empty(tests, "tests", "drop test")
+    for test in tests:
+        of_type(test, DropTest, "tests", "a list of drop tests (hisopt.run_drop_tests, hisopt.measured_drop_test)")
 
 
 def unpaired_notes(tests: Sequence[DropTest]) -> list[str]:
@@ -551,6 +588,7 @@ def spectra_figure(tests: Sequence[DropTest]) -> Figure:
     """Response spectra of the drop tests, one panel per body mode (paper Fig. 13; :func:`hisopt.plotting.droptest.drop_spectra_figure`)."""
     from hisopt.plotting.droptest import drop_spectra_figure
 
+    _check_tests(tests)
     return drop_spectra_figure([t._spectrum_data() for t in tests], {case: spec.mode for case, spec in DROP_CASES.items()})
 
 

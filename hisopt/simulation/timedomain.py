@@ -22,13 +22,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, get_args
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 
+from hisopt.arguments import of_type, one_of
 from hisopt.constants import DOF_NAMES, WHEEL_NAMES
 from hisopt.coupled.model import CoupledModel, StateSpace
 from hisopt.errors import ConfigError, ModelError
@@ -274,6 +275,8 @@ def simulate(
     -------
     TimeResponse
     """
+    of_type(model, CoupledModel, "model", "a CoupledModel (a problem's model(design))")
+    one_of(method, get_args(SolverMethod), "method")
     if model.pipe_model != "lumped":
         raise ConfigError(f"time simulation needs pipe_model='lumped', got {model.pipe_model!r}")
     if mode not in ("linear", "nonlinear"):

@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel
 
+from hisopt.arguments import problem_argument
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.layout import FIELD_LOWER, FIELD_UPPER, Layout, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
@@ -454,13 +455,26 @@ class DesignCheck:
 def admissible(problem: DesignSpace, x: np.ndarray) -> np.ndarray:
     """[-] Rows whose every value is finite and obeys its parameter's rule, ``(n,)``, and
     whose cylinders' rods are thinner than their bores (:func:`cylinder_breaks`)."""
-    x = np.asarray(x, dtype=float)
+    problem_argument(problem)
+    x = _number_array(x, len(problem.variable_names))
     ok = np.ones(x.shape[0], dtype=bool)
     for j, name in enumerate(problem.variable_names):
         ok &= problem.parameter_rule(name).holds(x[:, j])
     for _, bad, _ in cylinder_breaks(problem, x):
         ok &= ~bad
     return ok
+
+
+def _number_array(x: Any, n_var: int) -> np.ndarray:
+    """``x`` as a float array ``(n, n_var)`` (NaN allowed: such a row is not admissible), else
+    a :class:`ConfigError` naming ``x``."""
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"expected an array of numbers of shape (n, {n_var}), got {_short(x)}", key="x") from None
+    if arr.ndim != 2 or arr.shape[1] != n_var:
+        raise ConfigError(f"expected an array of shape (n, {n_var}), got shape {arr.shape}", key="x")
+    return arr
 
 
 def cylinder_breaks(problem: DesignSpace, x: np.ndarray) -> list[tuple[str, np.ndarray, np.ndarray]]:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from hisopt.errors import RunError
 from hisopt.evaluation.channels import DirectOutputs
 from hisopt.evaluation.evaluate import Evaluator
 from hisopt.evaluation.transient import step_responses
@@ -111,7 +112,7 @@ def run_sources(run_dir: str | Path, max_rows: int = MAX_ROWS) -> list[Source]:
     from hisopt.optim import rundir
 
     run_dir = Path(run_dir)
-    record = rundir.read_run_json(run_dir)
+    record = rundir.run_record(run_dir)
     problem = rundir.load_run_problem(run_dir, record["problem"], check_original=False)
     names = list(problem.variable_names)
     parts = [(read_csv(run_dir / rundir.FRONT_CSV), "front")]
@@ -147,7 +148,7 @@ def layout_sources(result: LayoutStudyResult, max_rows: int = MAX_ROWS) -> list[
     from hisopt.optim import rundir
 
     if result.out is None:
-        raise ValueError("the layout study has no directory to read its fronts from")
+        raise RunError("the layout study has no directory to read its fronts from; pass out= to hisopt.compare_layouts")
     found = []
     for case in result.cases:
         seeds = sorted(int(s) for s in result.runs.loc[result.runs["layout"] == case.name, "seed"])

@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import problem_argument
 from hisopt.errors import ConfigError, RunError
 from hisopt.optim.rundir import LAYOUT_STUDY_JSON
 from hisopt.plausibility import seed_count_problem
@@ -272,6 +273,7 @@ def check_arguments(
     ConfigError
         As :func:`run_layout_study`.
     """
+    problem_argument(problem)
     seed_list = parse_seed_list(seeds)
     cases = layout_cases(problem, layouts)
     name = check_handling(problem, handling or default_handling_quantity(problem))

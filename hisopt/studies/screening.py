@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import problem_argument
 from hisopt.hydraulics.catalogue import CUSTOM, catalogue, his_layout, his_parameter_values
 from hisopt.hydraulics.coupling import HydraulicSystem
 from hisopt.hydraulics.network import compile_network
@@ -103,6 +104,8 @@ def mode_stiffness(problem: DesignSpace | None = None) -> pd.DataFrame:
     """
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
+    if problem is not None:
+        problem_argument(problem)
     his = problem.spec.his if problem is not None else RollPlaneHIS()
     rows = []
     names = list(catalogue()) + ([CUSTOM] if his.layout == CUSTOM else [])

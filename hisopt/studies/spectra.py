@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import one_of, problem_argument
+from hisopt.errors import ConfigError
 from hisopt.evaluation.channels import DirectOutputs
 from hisopt.evaluation.evaluate import Evaluator
 from hisopt.units import psd_unit, variable_units, with_units
@@ -69,8 +71,15 @@ def frequency_grid(models: list[Any], f_lo_hz: float, f_hi_hz: float, n: int = 1
 
 def response_spectra(problem: Problem, design: Any = None, outputs: tuple[str, ...] = FIG4_OUTPUTS) -> ResponseSpectra:
     """Road-induced PSDs of ``outputs`` for ``design`` (baseline if None) and the car without HIS."""
-    x = problem.design_matrix(problem.baseline if design is None else design)[:1]
+    problem_argument(problem)
+    x = problem.design_matrix(problem.baseline if design is None else design)
+    if len(x) != 1:
+        raise ConfigError(f"expected one design, got {len(x)}", key="design")
     ev = Evaluator(problem)
+    if isinstance(outputs, str):
+        outputs = (outputs,)
+    for name in outputs:
+        one_of(name, list(ev.all_outputs), "outputs")
     chosen = {name: ev.all_outputs[name] for name in outputs}
     models = {"his": problem.model(x), "ref": problem.model(his=False)}
     band = problem.spec.band

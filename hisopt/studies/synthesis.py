@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import integer, problem_argument
 from hisopt.errors import ConfigError, RunError
 from hisopt.hydraulics import topology
 from hisopt.optim.rundir import SYNTHESIS_JSON
@@ -272,6 +273,16 @@ class SynthesisResult:
     out: Path | None
 
 
+def check_search_arguments(max_elements: int, chambers: str, max_candidates: int) -> None:
+    """The search's own arguments, refused in one line (no counting: instant, so the command
+    calls it before it starts anything): ``--max-elements`` and ``--max-candidates`` whole
+    numbers >= 1, ``--chambers`` a known set."""
+    integer(max_elements, "--max-elements", minimum=1, what="element")
+    integer(max_candidates, "--max-candidates", minimum=1, what="candidate")
+    if chambers not in topology.CHAMBER_SETS:
+        raise ConfigError(f"unknown chamber set {chambers!r}; expected one of {', '.join(topology.CHAMBER_SETS)}", key="--chambers")
+
+
 def check_search(max_elements: int, chambers: str, symmetric: bool, max_candidates: int) -> int:
     """The number of candidates of a search, refused up front when too large.
 
@@ -282,10 +293,7 @@ def check_search(max_elements: int, chambers: str, symmetric: bool, max_candidat
         :data:`MAX_STRUCTURES` structures or ``max_candidates`` candidates (with the count
         and the time it would take).
     """
-    if max_elements < 1:
-        raise ConfigError(f"expected at least 1 element, got {max_elements}", key="--max-elements")
-    if chambers not in topology.CHAMBER_SETS:
-        raise ConfigError(f"unknown chamber set {chambers!r}; expected one of {', '.join(topology.CHAMBER_SETS)}", key="--chambers")
+    check_search_arguments(max_elements, chambers, max_candidates)
     structures = topology.search_structure_count(max_elements, chambers, symmetric)
     if structures > MAX_STRUCTURES:
         raise ConfigError(
@@ -405,8 +413,8 @@ def run_synthesis(
     from hisopt.studies.layout_study import parse_seed_list, read_study_record, study_budget
 
     say = progress or (lambda _: None)
-    if optimise < 0:
-        raise ConfigError(f"expected a count >= 0, got {optimise}", key="--optimise")
+    problem_argument(problem)
+    integer(optimise, "--optimise", minimum=0, what="layouts to optimise")
     parse_seed_list(seeds)
     budget = study_budget(problem, pop_size, generations)
     count = check_search(max_elements, chambers, symmetric, max_candidates)

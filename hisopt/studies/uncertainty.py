@@ -25,6 +25,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from hisopt.arguments import integer, problem_argument
+from hisopt.errors import ConfigError
 from hisopt.evaluation.uncertain import UncertainEvaluator, monte_carlo_variates
 from hisopt.metrics import METRICS
 from hisopt.robust import quantity_of
@@ -73,16 +75,28 @@ def tolerance(space: DesignSpace, design: np.ndarray, n_samples: int = 100_000, 
     A sample where the model fails (unstable, or an input drawn beyond its rule) counts as a
     violation of every constraint: what cannot be evaluated is not shown to hold.
     """
+    check_tolerance(space, n_samples, "n_samples")
+    integer(seed, "seed", minimum=0)
     evaluator = UncertainEvaluator(space)
-    if not evaluator.inputs:
-        raise ValueError("the problem has no [[uncertain]] inputs; add one (docs/model.md §18)")
-    x = space.design_matrix(design)[:1]
+    x = space.design_matrix(design)
+    if len(x) != 1 or not np.isfinite(x).all():
+        raise ConfigError(f"expected one design of finite values, got {len(x)} rows{'' if np.isfinite(x).all() else ' with NaN or inf'}", key="design")
     u = monte_carlo_variates(n_samples, len(evaluator.inputs), seed)
     got = evaluator(x, u, backend)
     inputs = evaluator.values(np.repeat(x, len(u), axis=0), u)
     nominal = {k: float(v[0]) for k, v in space_nominal(space, x).items()}
     frame = pd.DataFrame(inputs | {k: got[k][0] for k in evaluator.names} | {"valid": got["valid"][0]})
     return ToleranceResult(frame, summarise(frame, evaluator.names, nominal), violations(space, frame), seed)
+
+
+def check_tolerance(space: DesignSpace, n_samples: int, key: str, source: str | None = None) -> None:
+    """Refuse a tolerance study that cannot say anything: fewer than 2 samples (a spread of
+    one sample is NaN) or a problem without ``[[uncertain]]`` inputs; ``key`` names the sample
+    count as the caller knows it (``n_samples``, ``--samples``), ``source`` the problem file."""
+    problem_argument(space, "space")
+    integer(n_samples, key, minimum=2, what="samples")
+    if not space.spec.uncertain:
+        raise ConfigError("the problem has no [[uncertain]] inputs; add them (docs/model.md §18)", file=source or str(space.path or space.name))
 
 
 def space_nominal(space: DesignSpace, x: np.ndarray) -> dict[str, np.ndarray]:
@@ -246,5 +260,6 @@ def uncertain_inputs(space: DesignSpace) -> pd.DataFrame:
     evaluator takes it (:func:`hisopt.evaluation.uncertain.route`), in file order."""
     from hisopt.evaluation.uncertain import route
 
+    problem_argument(space, "space")
     items = resolve_uncertain(space.spec)
     return pd.DataFrame({"input": [u.name for u in items], "distribution": [u.text for u in items], "route": [route(u, space) for u in items]})

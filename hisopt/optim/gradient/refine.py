@@ -60,6 +60,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.arguments import integer, of_type, problem_argument
 from hisopt.errors import ConfigError, RunError
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.optim.gradient.asf_nlp import Part, RefineSettings, node_plan, solve_asf
@@ -164,6 +165,12 @@ class RefineResult:
 
 
 # --- choosing the starting points ------------------------------------------------------------
+def check_max_points(max_points: int) -> int:
+    """``max_points`` as an int, refused (``--max-points``, as the command names it) unless
+    a whole number >= 1; ``hisopt refine`` and the library call this one check."""
+    return integer(max_points, "--max-points", minimum=1, what="point to refine")
+
+
 def select_points(f: np.ndarray, max_points: int) -> np.ndarray:
     """[-] Rows of front ``f`` (n, k) spread evenly over it, at most ``max_points``, sorted.
 
@@ -177,8 +184,7 @@ def select_points(f: np.ndarray, max_points: int) -> np.ndarray:
     """
     from hisopt.optim.decision import normalised_log
 
-    if max_points < 1:
-        raise ConfigError(f"expected at least 1 point to refine, got {max_points}", key="--max-points")
+    max_points = check_max_points(max_points)
     n = len(f)
     if n <= max_points:
         return np.arange(n)
@@ -460,6 +466,9 @@ def refine_front(
     from hisopt.optim.decision import hypervolume, reference_point
 
     started = time.perf_counter()
+    problem_argument(problem)
+    of_type(front, pd.DataFrame, "front", "a DataFrame of the front (hisopt.read_csv of front.csv)")
+    check_max_points(max_points)
     settings = method_settings(method, settings)
     names = list(problem.objective_names)
     var_names = list(problem.variable_names)
@@ -615,6 +624,7 @@ def refine_run(
     from hisopt.optim import rundir
     from hisopt.plausibility import with_bound_column
 
+    check_max_points(max_points)
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise RunError(f"{run_dir}: run directory not found; expected the --out directory of `hisopt optimize`")
