@@ -174,10 +174,11 @@ def design_curves(problem: Problem, x: np.ndarray, f_hz: np.ndarray | None = Non
 
     ``method``: ``"modal"`` the spectra from the channels the evaluator integrates
     (:meth:`hisopt.evaluation.evaluate.Evaluator.output_spectra`: poles and residues, the direct
-    solve for a design whose form is not trusted and for distributed pipes); ``"direct"`` every
-    design's by direct solve of its dynamic stiffness (the reference, several times slower).
-    The step response is the pole-residue form's either way
-    (:func:`hisopt.evaluation.transient.step_responses`).
+    solve for a design whose form is not trusted and for distributed pipes) and the step
+    response from the antisymmetric half of a model that is its own mirror image; ``"direct"``
+    every design's spectra by direct solve of its dynamic stiffness and its step response from
+    the full state space (the reference: the build before, several times slower). The step
+    response is the pole-residue form's either way (:func:`hisopt.evaluation.transient.step_responses`).
     """
     if method not in CURVE_METHODS:
         raise ValueError(f"method must be one of {', '.join(CURVE_METHODS)}, got {method!r}")
@@ -196,7 +197,7 @@ def design_curves(problem: Problem, x: np.ndarray, f_hz: np.ndarray | None = Non
         if method == "direct":
             with np.errstate(all="ignore"):
                 spectra[part] = ev.spectra(grid, DirectOutputs(model, chosen)(2 * np.pi * f[None, :]))
-            step[part] = step_responses(model, model.car, t, step_g)
+            step[part] = step_responses(model, model.car, t, step_g, halves=False)
             continue
         for rows, group in model.groups():  # one state space each (the valves a design shorts), realised once for both
             with np.errstate(all="ignore"):
