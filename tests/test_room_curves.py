@@ -146,3 +146,14 @@ def test_the_curve_method_is_checked(problems):
     p = problems["roll_plane_his"]
     with pytest.raises(ValueError, match="modal, direct"):
         design_curves(p, p.baseline[None, :], method="fast")
+
+
+def test_distributed_pipes_get_the_direct_solve(rng):
+    """The evaluator's channels of distributed pipes are the direct solve (§10.1): the same
+    spectra both ways, and the step response of the lumped twin's full state space."""
+    p = hisopt.load_problem(ROOT / "problems" / "roll_plane_his_pipes.toml")
+    x = random_designs(p, 3, rng, corners=False)
+    fast, exact = design_curves(p, x), design_curves(p, x, method="direct")
+    np.testing.assert_allclose(fast.spectra, exact.spectra, rtol=SAME_SOLVE, atol=0)
+    np.testing.assert_array_equal(fast.step, exact.step)
+

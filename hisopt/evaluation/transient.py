@@ -451,7 +451,8 @@ def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams, halve: 
     a = a.reshape((-1,) + a.shape[-2:])
     n, size = a.shape[:2]
     b = np.broadcast_to(roll_moment_input(vehicle, size), (n, size))
-    half = _roll_half(coupled, ss, b) if halve and coupled is not None else None  # type: ignore[arg-type]
+    lumped = coupled is not None and coupled.pipe_model == "lumped"  # a distributed model's state space is its lumped twin's
+    half = _roll_half(coupled, ss, b) if halve and lumped else None  # type: ignore[arg-type]
     with np.errstate(all="ignore"):
         static = _static_gain(a, b) if coupled is None else static_roll_gain(coupled)
         if half is None:
