@@ -156,4 +156,3 @@ def test_distributed_pipes_get_the_direct_solve(rng):
     fast, exact = design_curves(p, x), design_curves(p, x, method="direct")
     np.testing.assert_allclose(fast.spectra, exact.spectra, rtol=SAME_SOLVE, atol=0)
     np.testing.assert_array_equal(fast.step, exact.step)
-
