@@ -98,7 +98,7 @@ def test_pipes_of_1e10_m_are_repaired_never_reported_wrong(problem, rng):
     x = random_designs(p, 2, rng, corners=False)
     x = np.vstack([x, p.lower + (p.upper - p.lower) * np.array([[1, 1, 1, 0], [0, 0, 0, 1]])])
     model = p.model(x).groups()[0][1]
-    flagged = evaluate.ModalChannels(model, model.state_space(), p.evaluator().bases).conditioning > evaluate.CONDITION_LIMIT
+    flagged = channels.ModalChannels(model, model.state_space(), p.evaluator().bases).conditioning > channels.CONDITION_LIMIT
     assert flagged.all()  # the repair is what is tested here
     fast, ref = p.evaluator()(x), reference(p, x)
     for name in p.evaluator().names:
@@ -119,7 +119,7 @@ def test_distributed_pipes_of_1e10_m_are_right_or_flagged(problem, rng):
     corner = [4e6, 25e-4, 0.8, 1.6e6]  # p0, dA, lam, Rv: the design
     x = np.vstack([corner, random_designs(p, 3, rng, corners=False)])
     model = p.model(x)
-    assert (channels.eigen_conditioning(model.state_space().a) > evaluate.CONDITION_LIMIT).all()  # the repair is tested
+    assert (channels.eigen_conditioning(model.state_space().a) > channels.CONDITION_LIMIT).all()  # the repair is tested
     fast, ref = p.evaluator()(x), reference(p, x)
     assert ref["sigma_aw"][0] == pytest.approx(17.58, abs=0.005)
     # right, not merely flagged: the state matrix of such pipes is numerically singular (which

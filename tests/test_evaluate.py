@@ -60,7 +60,6 @@ def test_peaks_are_continuous_maxima_not_grid_samples(problem):
 def test_pole_residue_path_equals_direct_solve(problem, rng, split, monkeypatch):
     """The channels' FRFs from poles and residues, split into symmetric halves or not."""
     import hisopt.evaluation.channels as channels
-    import hisopt.evaluation.evaluate as evaluate
     from hisopt.evaluation.symmetry import split as halves_of
     from hisopt.evaluation.symmetry import state_mirror
 
@@ -69,7 +68,7 @@ def test_pole_residue_path_equals_direct_solve(problem, rng, split, monkeypatch)
     ev = problem.evaluator()
     x = random_designs(problem, 20, rng)
     model = problem.model(x)
-    fast = evaluate.ModalChannels(model, model.state_space(), ev.all_outputs)
+    fast = channels.ModalChannels(model, model.state_space(), ev.all_outputs)
     assert ("sym" in fast.forms) == split
     direct = DirectOutputs(model, ev.all_outputs)
     f_hz = np.geomspace(0.3, 120, 50)

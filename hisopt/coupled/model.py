@@ -239,8 +239,16 @@ class CoupledModel:
         eliminated by a batched Schur complement and one pressure per closed circuit by its
         volume balance (:mod:`hisopt.hydraulics.realisation`); shorts (``R_v = 0``) stay exact:
         a short between two storage nodes merges them, which needs every design of the batch
-        to share its pattern of shorts (:meth:`groups` splits a batch).
+        to share its pattern of shorts (:meth:`groups` splits a batch). Computed once per
+        model: the road channels and the roll step response of a batch share it.
         """
+        cached = self.__dict__.get("_state_space")
+        if cached is None:
+            cached = self._realised_state_space()
+            object.__setattr__(self, "_state_space", cached)  # a frozen model: its realisation never changes
+        return cached
+
+    def _realised_state_space(self) -> StateSpace:
         v = self.vehicle
         m_diag = np.diagonal(self.mass, axis1=-2, axis2=-1)
         if self.his is None:

@@ -213,6 +213,29 @@ class DirectOutputs:
         return np.stack([r.road[0] * f_hz ** -r.road[1] * np.moveaxis(frf_power(frf, f_hz, r.tau, r.coherence), -1, 0) for r in roads])
 
 
+def road_channels(model: CoupledModel, outputs: dict[str, Output], feed: dict[str, list[np.ndarray]] | None = None) -> tuple[np.ndarray, Channels, np.ndarray]:
+    """The road channels of ``outputs`` of a batch of models sharing one state space (one of
+    :meth:`hisopt.coupled.model.CoupledModel.groups`), as the evaluator takes them: poles and
+    residues (:class:`ModalChannels`), the direct solve (:class:`DirectOutputs`) for the designs
+    whose form is not trusted (eigenvector conditioning above :data:`CONDITION_LIMIT`) and for
+    distributed pipes.
+
+    Returns
+    -------
+    lam, channels, flagged : tuple[np.ndarray, Channels, np.ndarray]
+        [rad/s] the state matrices' eigenvalues ``(n, k)`` (of the lumped twin for distributed
+        pipes), the channels, and per design whether its poles are not trusted (the evaluator
+        repairs those, :func:`repair_poles`)
+    """
+    ss = model.state_space()
+    if model.pipe_model == "distributed":  # the lumped twin's poles place the nodes
+        return np.linalg.eigvals(ss.a), DirectOutputs(model, outputs), eigen_conditioning(ss.a) > CONDITION_LIMIT
+    modal = ModalChannels(model, ss, outputs, feed)
+    flagged = modal.conditioning > CONDITION_LIMIT  # eigenvectors too ill-conditioned for accurate residues
+    channels: Channels = MixedChannels(modal, DirectOutputs(model.subset(flagged), outputs), flagged) if np.any(flagged) else modal
+    return modal.lam, channels, flagged
+
+
 class MixedChannels:
     """Channels from ``fast`` except for the designs flagged in ``use_slow``, from ``slow``."""
 

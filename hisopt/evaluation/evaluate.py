@@ -12,6 +12,7 @@ against a direct solve; designs that are unstable or singular give NaN, never an
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -24,17 +25,14 @@ from hisopt.coupled.response import Output, accumulator_outputs, standard_output
 from hisopt.errors import ModelError
 from hisopt.evaluation import psd as psd_kernels
 from hisopt.evaluation.channels import (
-    CONDITION_LIMIT,
     Channels,
     DirectOutputs,
-    MixedChannels,
-    ModalChannels,
     Pair,
     RoadCase,
     channel_feedthrough,
-    eigen_conditioning,
     frf_power,
     repair_poles,
+    road_channels,
 )
 from hisopt.evaluation.peaks import refine_maximum
 from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
@@ -261,26 +259,11 @@ class Evaluator:
     def _channels(self, model: CoupledModel) -> tuple[np.ndarray, Channels, np.ndarray]:
         """Poles ``(n, k)`` [rad/s], the road channels' responses, and whether each design's
         poles are trusted (after :func:`repair_poles` where the eigenvectors are ill-conditioned)."""
-        ss = model.state_space()
-        channels: Channels
-        repaired = np.ones(len(ss.a), dtype=bool)
-        if model.pipe_model == "distributed":
-            lam = np.linalg.eigvals(ss.a)  # the lumped twin's poles place the nodes
-            channels = DirectOutputs(model, self.bases)
-            flagged = eigen_conditioning(ss.a) > CONDITION_LIMIT
-            if np.any(flagged):  # the twin's eigenvalues are off (pipes of 1e-10 m): nodes there would miss the peaks
-                lam = lam.copy()
-                lam[flagged], repaired[flagged] = repair_poles(model.subset(flagged), lam[flagged], self.f_hi)
-        else:
-            modal = ModalChannels(model, ss, self.bases, self._feed)
-            lam = modal.lam
-            channels = modal
-            flagged = modal.conditioning > CONDITION_LIMIT
-            if np.any(flagged):  # eigenvectors too ill-conditioned for accurate poles and residues
-                sub = model.subset(flagged)
-                lam = lam.copy()
-                lam[flagged], repaired[flagged] = repair_poles(sub, lam[flagged], self.f_hi)
-                channels = MixedChannels(modal, DirectOutputs(sub, self.bases), flagged)
+        lam, channels, flagged = road_channels(model, self.bases, self._feed)
+        repaired = np.ones(len(lam), dtype=bool)
+        if np.any(flagged):  # nodes at such poles would miss the peaks: Newton's method on det K_dyn
+            lam = lam.copy()
+            lam[flagged], repaired[flagged] = repair_poles(model.subset(flagged), lam[flagged], self.f_hi)
         return lam, channels, repaired
 
     def nodes(self, lam: np.ndarray, model: CoupledModel | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -427,16 +410,22 @@ class Evaluator:
             lambda: accumulator_rooms(model.his) if model.his is not None else [],
         )
 
+    def output_spectra(self, model: CoupledModel, names: Sequence[str], f_hz: np.ndarray) -> np.ndarray:
+        """One-sided PSDs ``(n, F, len(names))`` of the outputs ``names`` (of
+        :attr:`all_outputs`) at ``f_hz`` (n, F) [Hz] on this evaluator's road, of a batch of
+        models sharing one state space (one of :meth:`~hisopt.coupled.model.CoupledModel.groups`):
+        from the channels the evaluator integrates (:func:`~hisopt.evaluation.channels.road_channels`,
+        its compiled kernel; the direct solve where a design's form is not trusted), an output
+        ``s^p (c . X)`` from its displacement's as the evaluator derives it."""
+        bases, derived = _share_outputs({name: self.all_outputs[name] for name in names})
+        _, channels, _ = road_channels(model, bases)
+        psd = self.psd(np.ascontiguousarray(f_hz, dtype=float), channels)
+        place = {base: i for i, base in enumerate(bases)}
+        return np.stack([_derived_psd(derived[name], f_hz, psd[place[derived[name][0]]]) for name in names], axis=-1)
+
     def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
         """PSD of output ``name`` from its base: ``scale^2 omega^(2p) S_base``."""
-        _, scale, power = self.derived[name]
-        if power == 0 and scale == 1.0:
-            return base_psd
-        factor = np.full(f_hz.shape, scale**2)
-        omega2 = np.square(2 * np.pi * f_hz)
-        for _ in range(power):
-            factor *= omega2
-        return factor * base_psd
+        return _derived_psd(self.derived[name], f_hz, base_psd)
 
     def _refined_maxima(self, names: list[str], f: np.ndarray, spectra: np.ndarray, frf: Channels) -> dict[str, np.ndarray]:
         """Continuous maxima of the outputs ``names``' PSDs (``spectra``: ``(k, n, F)`` at the
@@ -556,6 +545,19 @@ def _prime_allocator(block_bytes: int = 16 << 20) -> None:
 def _total(terms: np.ndarray) -> np.ndarray:
     """Row sums in sequential order (zero-weight padding nodes add exact zeros)."""
     return np.cumsum(terms, axis=1)[:, -1]
+
+
+def _derived_psd(rule: tuple[str, float, int], f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
+    """PSD of an output from its base's by its ``rule`` ``(base, scale, p)`` of
+    :func:`_share_outputs`: ``scale^2 omega^(2p) S_base``."""
+    _, scale, power = rule
+    if power == 0 and scale == 1.0:
+        return base_psd
+    factor = np.full(f_hz.shape, scale**2)
+    omega2 = np.square(2 * np.pi * f_hz)
+    for _ in range(power):
+        factor *= omega2
+    return factor * base_psd
 
 
 def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[str, tuple[str, float, int]]]:

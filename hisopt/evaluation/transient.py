@@ -159,8 +159,9 @@ class ModalForm:
         return np.sum(self.res[:, None, :] / (s[..., None] - self.lam[:, None, :]), axis=-1)
 
 
-def modal_form(a: np.ndarray, b: np.ndarray, static: np.ndarray) -> tuple[ModalForm, np.ndarray]:
-    """The pole-residue form of ``phi`` per unit ``a_y`` and whether each design's is trusted.
+def modal_form(a: np.ndarray, b: np.ndarray, static: np.ndarray, row: int = ROLL) -> tuple[ModalForm, np.ndarray]:
+    """The pole-residue form of ``phi`` per unit ``a_y`` and whether each design's is trusted
+    (``row``: the state that is ``phi``).
 
     Parameters
     ----------
@@ -176,7 +177,7 @@ def modal_form(a: np.ndarray, b: np.ndarray, static: np.ndarray) -> tuple[ModalF
     lam, v = np.linalg.eig(a_bal)
     with np.errstate(all="ignore"):
         w_b = np.linalg.solve(v, (b / d)[..., None])[..., 0]
-        res = v[:, ROLL, :] * d[:, ROLL, None] * w_b
+        res = v[:, row, :] * d[:, row, None] * w_b
         at_zero = static + np.sum(res / lam, axis=1)  # phi(0) = 0
         slope = np.sum(res, axis=1)  # dphi/dt(0) = c b = 0
         size = np.sum(np.abs(res / lam), axis=1)
@@ -394,13 +395,15 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
     return out
 
 
-def step_responses(model: CoupledModel, vehicle: VehicleParams, t_s: np.ndarray, step_g: float) -> np.ndarray:
+def step_responses(model: CoupledModel, vehicle: VehicleParams, t_s: np.ndarray, step_g: float, halves: bool = True) -> np.ndarray:
     """[rad] Roll angle ``phi(t)`` of a batch of designs under a lateral-acceleration step of
     ``step_g`` [g] at times ``t_s`` [s] ``(P,)``, shape ``(n, P)``: the pole-residue form of
     the step quantities (module docstring); NaN where a design is unstable or its residues
-    are not trusted (as its ``roll_step_peak``)."""
+    are not trusted (as its ``roll_step_peak``). ``halves``: the form of a model that is its
+    own mirror image from its antisymmetric half (the same form to rounding, an eighth of the
+    work); False: from the full state space, as :func:`transient_quantities` takes it."""
     t_s = np.asarray(t_s, dtype=float)
-    parts = [(rows, _roll_form(sub, vehicle)) for rows, sub in _valve_groups(model)]
+    parts = [(rows, _roll_form(sub, vehicle, halve=halves)) for rows, sub in _valve_groups(model)]
     out = np.full((sum(len(roll.a) for _, roll in parts), t_s.size), np.nan)
     for rows, roll in parts:
         usable = roll.ok & roll.trusted
@@ -436,8 +439,10 @@ def _valve_groups(model: CoupledModel | StateSpace) -> list[tuple[np.ndarray | N
     return [(None, model)]
 
 
-def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams) -> _RollForm:
-    """:class:`_RollForm` of designs sharing one state space (one of :func:`_valve_groups`)."""
+def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams, halve: bool = False) -> _RollForm:
+    """:class:`_RollForm` of designs sharing one state space (one of :func:`_valve_groups`);
+    ``halve``: of a model that is its own mirror image, from its antisymmetric half alone
+    (:func:`_roll_half`; the same form, an eighth of the eigendecomposition's work)."""
     from hisopt.coupled.model import CoupledModel
 
     coupled = model if isinstance(model, CoupledModel) else None
@@ -446,12 +451,38 @@ def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams) -> _Rol
     a = a.reshape((-1,) + a.shape[-2:])
     n, size = a.shape[:2]
     b = np.broadcast_to(roll_moment_input(vehicle, size), (n, size))
+    lumped = coupled is not None and coupled.pipe_model == "lumped"  # a distributed model's state space is its lumped twin's
+    half = _roll_half(coupled, ss, b) if halve and lumped else None  # type: ignore[arg-type]
     with np.errstate(all="ignore"):
         static = _static_gain(a, b) if coupled is None else static_roll_gain(coupled)
-        form, trusted = modal_form(a, b, static)
-        ok = stable(form.lam) & np.isfinite(static) & (static != 0)
+        if half is None:
+            form, trusted = modal_form(a, b, static)
+            ok = stable(form.lam)
+        else:
+            form, trusted = modal_form(half[0], half[1], static, half[2])
+            ok = stable(form.lam) & stable(np.linalg.eigvals(half[3]))  # the symmetric half's poles too
+        ok &= np.isfinite(static) & (static != 0)
         form = ModalForm(form.lam, form.res, np.where(ok, static, 1.0))  # placeholders: those rows stay NaN
     return _RollForm(form, trusted, ok, a, b, coupled)
+
+
+def _roll_half(model: CoupledModel, ss: StateSpace, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, np.ndarray] | None:
+    """The roll moment's half of a model that is its own mirror image
+    (:func:`hisopt.evaluation.symmetry.split`): a roll moment excites and a roll angle reads only
+    the antisymmetric states. Its state matrix, the input ``b`` ``(n, N)`` in its states, the
+    state that is the roll angle there, and the symmetric half's state matrix (for stability);
+    None when the model has no such halves."""
+    from hisopt.evaluation.symmetry import split, state_mirror
+
+    halves = split(ss, state_mirror(model, ss))
+    if halves is None:
+        return None
+    basis = halves["anti"].basis
+    roll = np.flatnonzero(basis[ROLL])
+    inside = b @ basis
+    if roll.size != 1 or basis[ROLL, roll[0]] != 1.0 or not np.array_equal(inside @ basis.T, b):  # the roll is one state there, the moment all in it
+        return None
+    return halves["anti"].a, inside, int(roll[0]), halves["sym"].a
 
 
 def static_roll_gain(model: CoupledModel) -> np.ndarray:

@@ -43,6 +43,8 @@ STEP_DURATION_S = 3.0
 have settled by then for every damping the paper's box allows)."""
 CHUNK = 2000
 """[-] Designs per batch of curves (bounds the memory of the direct solves)."""
+CURVE_METHODS = ("modal", "direct")
+"""How :func:`design_curves` computes the spectra: the evaluator's channels, or direct solves."""
 
 KINDS = ("front", "refined", "evaluated")
 """Where a row comes from: ``front.csv``, a refined front (``front_refined.csv``, ``front_refined_ipopt.csv``) or ``evaluations.parquet``."""
@@ -166,9 +168,20 @@ def layout_sources(result: LayoutStudyResult, max_rows: int = MAX_ROWS) -> list[
 
 
 # --- what each design is -----------------------------------------------------------------------
-def design_curves(problem: Problem, x: np.ndarray, f_hz: np.ndarray | None = None) -> Curves:
+def design_curves(problem: Problem, x: np.ndarray, f_hz: np.ndarray | None = None, method: str = "modal") -> Curves:
     """:class:`Curves` of designs ``x`` [SI] ``(n, n_var)`` of ``problem`` (with HIS) at
-    frequencies ``f_hz`` [Hz] (default :data:`SPECTRUM_SAMPLES` log-spaced over its [band])."""
+    frequencies ``f_hz`` [Hz] (default :data:`SPECTRUM_SAMPLES` log-spaced over its [band]).
+
+    ``method``: ``"modal"`` the spectra from the channels the evaluator integrates
+    (:meth:`hisopt.evaluation.evaluate.Evaluator.output_spectra`: poles and residues, the direct
+    solve for a design whose form is not trusted and for distributed pipes) and the step
+    response from the antisymmetric half of a model that is its own mirror image; ``"direct"``
+    every design's spectra by direct solve of its dynamic stiffness and its step response from
+    the full state space (the reference: the build before, several times slower). The step
+    response is the pole-residue form's either way (:func:`hisopt.evaluation.transient.step_responses`).
+    """
+    if method not in CURVE_METHODS:
+        raise ValueError(f"method must be one of {', '.join(CURVE_METHODS)}, got {method!r}")
     band = problem.spec.band
     f = np.geomspace(band.f_min_hz, band.f_max_hz, SPECTRUM_SAMPLES) if f_hz is None else np.asarray(f_hz, dtype=float)
     t = np.linspace(0.0, STEP_DURATION_S, STEP_SAMPLES)
@@ -180,9 +193,16 @@ def design_curves(problem: Problem, x: np.ndarray, f_hz: np.ndarray | None = Non
     for start in range(0, len(x), CHUNK):
         part = slice(start, start + CHUNK)
         model = problem.model(x[part])
-        n = len(x[part])
-        spectra[part] = ev.spectra(np.broadcast_to(f, (n, f.size)), DirectOutputs(model, chosen)(2 * np.pi * f[None, :]))
-        step[part] = step_responses(model, model.car, t, step_g)
+        grid = np.broadcast_to(f, (len(x[part]), f.size))
+        if method == "direct":
+            with np.errstate(all="ignore"):
+                spectra[part] = ev.spectra(grid, DirectOutputs(model, chosen)(2 * np.pi * f[None, :]))
+            step[part] = step_responses(model, model.car, t, step_g, halves=False)
+            continue
+        for rows, group in model.groups():  # one state space each (the valves a design shorts), realised once for both
+            with np.errstate(all="ignore"):
+                spectra[start + rows] = ev.output_spectra(group, SPECTRUM_OUTPUTS, grid[rows])
+            step[start + rows] = step_responses(group, group.car, t, step_g)
     units = {name: psd_unit(chosen[name].unit) for name in SPECTRUM_OUTPUTS}
     return Curves(f, t, spectra, step, SPECTRUM_OUTPUTS, units, step_g)
 
@@ -236,8 +256,9 @@ def problem_template(problem: Problem) -> str:
 
 
 # --- the room ------------------------------------------------------------------------------------
-def decision_room_data(sources: Sequence[Source]) -> Room:
-    """Every quantity, part and curve of the designs of ``sources`` (:class:`Room`)."""
+def decision_room_data(sources: Sequence[Source], method: str = "modal") -> Room:
+    """Every quantity, part and curve of the designs of ``sources`` (:class:`Room`);
+    ``method`` how the spectra are computed (:func:`design_curves`)."""
     if len(sources) > 255:
         raise ValueError(f"a room holds at most 255 sources (layouts times seeds), got {len(sources)}")
     frames: list[pd.DataFrame] = []
@@ -273,8 +294,8 @@ def decision_room_data(sources: Sequence[Source]) -> Room:
                 frame[c] = parts[c] if group == "part" else q[c].to_numpy(dtype=float)
         frame["feasible"] = q["feasible"].to_numpy(dtype=bool)
         frames.append(frame)
-        curves.append(design_curves(p, source.x, f_hz))
-        baseline[source.name] = design_curves(p, p.baseline[None, :], f_hz)
+        curves.append(design_curves(p, source.x, f_hz, method))
+        baseline[source.name] = design_curves(p, p.baseline[None, :], f_hz, method)
         templates[source.name] = problem_template(p)
         bounds[source.name] = {v: (float(lo), float(hi)) for v, lo, hi in zip(p.variable_names, p.lower, p.upper, strict=True)}
     table = pd.concat(frames, ignore_index=True)
