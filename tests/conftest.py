@@ -43,16 +43,41 @@ def every_quantity(steps: bool = True, swing: bool = False) -> tuple[list[str], 
     return objectives, [{"name": name, "limit": 1e-12} for name, m in METRICS.items() if not m.objective]
 
 
-def pytest_terminal_summary(terminalreporter) -> None:
-    """Print the outcome counts of the mutation corpus (tests/test_mutations.py) and the
-    decision room's brush times (tests/test_decision_room.py) if they ran."""
+def _summary_lines() -> list[str]:
+    """The outcome counts of the mutation corpus (tests/test_mutations.py) and the decision
+    room's brush times (tests/test_decision_room.py), if they ran in this process."""
     import sys
 
+    lines = []
     module = sys.modules.get("tests.test_mutations")
     for corpus, counts in (module.COUNTS if module is not None else {}).items():
         if counts:
             parts = ", ".join(f"{outcome}: {n}" for outcome, n in sorted(counts.items()))
-            terminalreporter.write_line(f"mutation corpus, {corpus}: {sum(counts.values())} ({parts})")
+            lines.append(f"mutation corpus, {corpus}: {sum(counts.values())} ({parts})")
     room = sys.modules.get("tests.test_decision_room")
     for archive, ms in (room.TIMINGS if room is not None else {}).items():
-        terminalreporter.write_line(f"decision room in headless Chromium: {archive}: every view updated in {ms:.0f} ms")
+        lines.append(f"decision room in headless Chromium: {archive}: every view updated in {ms:.0f} ms")
+    return lines
+
+
+_WORKER_LINES: list[str] = []
+"""Under pytest-xdist: the summary lines each worker sent back (the tests ran there)."""
+
+
+def pytest_sessionfinish(session) -> None:
+    """An xdist worker hands its summary lines to the controller, which prints them."""
+    workeroutput = getattr(session.config, "workeroutput", None)
+    if workeroutput is not None:
+        workeroutput["hisopt_summary"] = _summary_lines()
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error) -> None:
+    """An xdist hook, called on the controller as each worker ends: keep its summary lines."""
+    _WORKER_LINES.extend(getattr(node, "workeroutput", {}).get("hisopt_summary", []))
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    """Print the summary lines of :func:`_summary_lines`, from this process or the xdist workers."""
+    for line in _summary_lines() + _WORKER_LINES:
+        terminalreporter.write_line(line)
