@@ -206,6 +206,7 @@ def test_deferred_signals_wait_for_the_block_and_never_leak():
 
     from hisopt import interrupt
 
+    before = signal.getsignal(signal.SIGTERM)  # SIG_DFL, or the CLI's if a test imported hisopt.cli
     with interrupt.signals_as_interrupts():
         with pytest.raises(interrupt.Interrupted) as info:
             with interrupt.deferred():
@@ -218,4 +219,4 @@ def test_deferred_signals_wait_for_the_block_and_never_leak():
                 raise ValueError("write failed")
         with interrupt.deferred():
             pass  # nothing left over from the failed block
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    assert signal.getsignal(signal.SIGTERM) is before

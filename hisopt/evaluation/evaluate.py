@@ -416,7 +416,7 @@ class Evaluator:
         models sharing one state space (one of :meth:`~hisopt.coupled.model.CoupledModel.groups`):
         from the channels the evaluator integrates (:func:`~hisopt.evaluation.channels.road_channels`,
         its compiled kernel; the direct solve where a design's form is not trusted), an output
-        ``s^p (c . X)`` from its displacement's as the evaluator derives it."""
+        ``s^p c^T X`` from its displacement's as the evaluator derives it."""
         bases, derived = _share_outputs({name: self.all_outputs[name] for name in names})
         _, channels, _ = road_channels(model, bases)
         psd = self.psd(np.ascontiguousarray(f_hz, dtype=float), channels)
