@@ -164,6 +164,8 @@ CASES: list[Case] = [
     Case("tolerance", "not a problem", lambda c: hisopt.tolerance("problem.toml", [1.0], n_samples=10), "space"),
     Case("sensitivity", "not a power of two", lambda c: hisopt.sensitivity(c.uncertain, c.uncertain.baseline, n_base=1000), "n_base", ConfigError),
     Case("sensitivity", "wrong length", lambda c: hisopt.sensitivity(c.uncertain, [1.0], n_base=8), "shape"),
+    Case("sensitivity", "nothing varies around a design", lambda c: hisopt.sensitivity(c.problem, c.design, n_base=8), "[[uncertain]]", ConfigError),
+    Case("sensitivity", "not a problem", lambda c: hisopt.sensitivity("problem.toml", None, n_base=8), "space", ConfigError),
     # --- optimisation ----------------------------------------------------------------------------
     Case("optimize", "population 0", lambda c: hisopt.optimize(c.problem, pop_size=0, generations=1), "pop"),
     Case("optimize", "negative generations", lambda c: hisopt.optimize(c.problem, pop_size=8, generations=-1), "gen"),
@@ -186,6 +188,13 @@ CASES: list[Case] = [
     # --- layouts ---------------------------------------------------------------------------------
     Case("compare_layouts", "unknown layout", lambda c: hisopt.compare_layouts(c.problem, "bogus", seeds=[1], pop_size=8, generations=1), "bogus"),
     Case("compare_layouts", "bad seeds", lambda c: hisopt.compare_layouts(c.problem, "axle_roll", seeds="x", pop_size=8, generations=1), "seeds"),
+    Case(
+        "compare_layouts",
+        "text handling limit",
+        lambda c: hisopt.compare_layouts(c.problem, "axle_roll", seeds=[1], handling_limit="1.8 deg/g", pop_size=8, generations=1),
+        "handling",
+        ConfigError,
+    ),
     Case(
         "compare_layouts",
         "NaN handling limit",

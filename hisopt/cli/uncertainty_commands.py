@@ -112,7 +112,7 @@ def sensitivity_cmd(
     from hisopt.folders import SENSITIVITY, claim
     from hisopt.report.uncertainty import sensitivity_notes, total_indices_shown, write_sensitivity
     from hisopt.studies.sobol import MAX_EVALUATIONS, TARGET_HALF_WIDTH, check_convergence_settings, check_n_base
-    from hisopt.studies.uncertainty import sensitivity
+    from hisopt.studies.uncertainty import check_sensitivity, sensitivity
 
     if samples is not None:
         check_n_base(samples, key="--samples")
@@ -125,8 +125,7 @@ def sensitivity_cmd(
     cap = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
     check_convergence_settings(half_width, cap, max_time, keys=("--target", "--max-evaluations", "--max-time"))
     p = load(problem, set_)
-    if not p.spec.uncertain and design is not None:
-        raise ConfigError("the problem has no [[uncertain]] inputs, so nothing varies around a design; add them (docs/model.md §18)", file=str(problem))
+    check_sensitivity(p, design, str(problem))
     x, where = (None, "over the whole box of the design variables") if design is None else _design(p, design)
     claim(out, SENSITIVITY)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:

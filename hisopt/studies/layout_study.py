@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -277,8 +278,9 @@ def check_arguments(
     seed_list = parse_seed_list(seeds)
     cases = layout_cases(problem, layouts)
     name = check_handling(problem, handling or default_handling_quantity(problem))
-    if handling_limit is not None and not (np.isfinite(handling_limit) and handling_limit > 0):
-        raise ConfigError(f"expected a finite limit > 0 of {name}, got {handling_limit!r}", key="--handling-limit")
+    is_number = isinstance(handling_limit, numbers.Real) and not isinstance(handling_limit, bool)
+    if handling_limit is not None and not (is_number and np.isfinite(handling_limit) and handling_limit > 0):
+        raise ConfigError(f"expected a finite limit > 0 of {name} [SI], got {handling_limit!r}", key="--handling-limit")
     return seed_list, cases, name
 
 

@@ -99,6 +99,18 @@ def check_tolerance(space: DesignSpace, n_samples: int, key: str, source: str | 
         raise ConfigError("the problem has no [[uncertain]] inputs; add them (docs/model.md §18)", file=source or str(space.path or space.name))
 
 
+def check_sensitivity(space: DesignSpace, design: object, source: str | None = None) -> None:
+    """Refuse a sensitivity study in which nothing varies: a design given (so only the
+    uncertain inputs vary around it) to a problem without ``[[uncertain]]`` inputs; ``source``
+    names the problem file."""
+    problem_argument(space, "space")
+    if design is not None and not space.spec.uncertain:
+        raise ConfigError(
+            "the problem has no [[uncertain]] inputs, so nothing varies around a design; add them (docs/model.md §18)",
+            file=source or str(space.path or space.name),
+        )
+
+
 def space_nominal(space: DesignSpace, x: np.ndarray) -> dict[str, np.ndarray]:
     """The quantities of designs ``x`` with every input at its nominal value."""
     from hisopt.evaluation.scenarios import case_evaluator_for
@@ -214,6 +226,7 @@ def sensitivity(
     ranks them, whose variance a few extreme designs do not dominate); True of every
     quantity, False of none.
     """
+    check_sensitivity(space, design)
     if n_base is not None:
         check_n_base(n_base)
     check_convergence_settings(target, max_evaluations, max_seconds)
@@ -221,8 +234,6 @@ def sensitivity(
     uncertain = list(evaluator.inputs)
     variables = [] if design is not None else list(space.variable_names)
     factors = variables + [f"{u.name} (tolerance)" if u.name in variables else u.name for u in uncertain]
-    if not factors:
-        raise ValueError("nothing varies: the problem has no [[uncertain]] inputs and a design was given")
     fixed = None if design is None else space.design_matrix(design)[:1]
     units = space.variable_units
 
