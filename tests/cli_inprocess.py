@@ -46,3 +46,14 @@ def run_cli(*args: str) -> Outcome:
         for number, handler in handlers.items():
             signal.signal(number, handler)
     return Outcome(code, out.getvalue(), err.getvalue())
+
+
+def assert_one_line(out: Outcome, *parts: str) -> str:
+    """The one error line of a refused command (exit 2, no traceback), holding every one of ``parts``."""
+    assert out.code == 2, out
+    assert len(out.error_lines) == 1, out.stderr
+    line = out.error_lines[0]
+    assert line.startswith("error: ") and "Traceback" not in out.stderr
+    for part in parts:
+        assert part in line, line
+    return line

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from hisopt.io import read_csv
-from tests.cli_inprocess import Outcome, run_cli
+from tests.cli_inprocess import assert_one_line, run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
 TEXT = DEFAULT_PROBLEM.read_text(encoding="utf-8")
@@ -24,16 +24,6 @@ def edited(tmp_path: Path, old: str, new: str, name: str = "edited.toml") -> Pat
     path = tmp_path / name
     path.write_text(TEXT.replace(old, new, 1), encoding="utf-8")
     return path
-
-
-def assert_one_line(out: Outcome, *parts: str) -> str:
-    assert out.code == 2, out
-    assert len(out.error_lines) == 1, out.stderr
-    line = out.error_lines[0]
-    assert line.startswith("error: ") and "Traceback" not in out.stderr
-    for part in parts:
-        assert part in line, line
-    return line
 
 
 # --- accepted silently, wrong answer ---------------------------------------------------------

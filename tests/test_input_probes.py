@@ -17,7 +17,7 @@ import hisopt
 from hisopt.errors import ConfigError, PlausibilityWarning, RunError
 from hisopt.optim.decision import grid_designs, grid_sample_rows
 from hisopt.quantities import to_si
-from tests.cli_inprocess import Outcome, run_cli
+from tests.cli_inprocess import assert_one_line, run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
 DEFAULT_TEXT = DEFAULT_PROBLEM.read_text(encoding="utf-8")
@@ -56,16 +56,6 @@ def refusal(text: str) -> str:
 
 def folder_digest(folder: Path) -> dict[str, str]:
     return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
-def assert_one_line(out: Outcome, *parts: str) -> str:
-    assert out.code == 2, out
-    assert len(out.error_lines) == 1, out.stderr
-    line = out.error_lines[0]
-    assert line.startswith("error: ") and "Traceback" not in out.stderr
-    for part in parts:
-        assert part in line, line
-    return line
 
 
 # --- 1. a log-uniform input whose lower end is not above 0 -------------------------------------
