@@ -394,3 +394,20 @@ def test_the_decision_room_holds_every_layouts_fronts(serial, tmp_path):
         for v, value in zip(s.problem.variable_names, s.problem.baseline, strict=True):
             text = text.replace("{{" + v + "}}", repr(float(value)))
         assert problem_from_dict(tomllib.loads(text)).spec == s.problem.spec
+
+
+def test_quantities_of_a_problem_with_constraint_only_quantities():
+    """The study reads every objective, constraint and the handling quantity of a problem; a
+    constraint-only quantity (static_gas_fraction: lower is not better) among them is read as
+    a constraint, and each value equals the problem's own evaluation."""
+    import hisopt
+    from hisopt.studies.layout_metrics import COMFORT, evaluate_quantities
+
+    parts = hisopt.load_problem(ROOT / "problems" / "roll_plane_his_parts.toml")
+    names = (*parts.objective_names, *parts.constraint_names, COMFORT, "roll_gradient")
+    assert "roll_gradient" not in parts.objective_names + parts.constraint_names  # read through another problem
+    got = evaluate_quantities(parts, parts.baseline[None, :], names)
+    own = parts.evaluator()(parts.baseline[None, :])
+    for name in (*parts.objective_names, *parts.constraint_names):
+        assert got[name][0] == pytest.approx(own[name][0], rel=1e-12), name
+    assert np.isfinite(got["roll_gradient"][0]) and got["valid"][0]

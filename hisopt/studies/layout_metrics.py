@@ -76,12 +76,17 @@ def check_handling(problem: Problem, name: str) -> str:
 
 
 def quantity_problem(problem: Problem, names: tuple[str, ...]) -> Problem:
-    """``problem`` evaluating ``names`` (as objectives, the comfort one first; no constraints)."""
+    """``problem`` evaluating ``names``: as objectives, the comfort one first, but a quantity
+    that is a constraint only (``static_gas_fraction``: lower is not better) as a constraint
+    whose limit plays no part (only its value is read)."""
+    from hisopt.metrics import METRICS
     from hisopt.problem import problem_from_dict
 
+    wanted = list(dict.fromkeys((COMFORT, *names)))  # a frequency quantity always: see the report
+    only_constraints = [n for n in wanted if n in METRICS and not METRICS[n].objective]
     data = problem.spec.model_dump(by_alias=True)
-    data["objectives"] = list(dict.fromkeys((COMFORT, *names)))  # a frequency quantity always: see the report
-    data["constraints"] = []
+    data["objectives"] = [n for n in wanted if n not in only_constraints]
+    data["constraints"] = [{"name": n, "limit": 1.0} for n in only_constraints]
     return problem_from_dict(data, f"{problem.name} (quantities)", warn_implausible=False)  # checked when read
 
 
