@@ -300,6 +300,7 @@ def test_cli_study_of_a_scenario_problem_including_a_limit_no_design_meets(tmp_p
     assert "without the reference, no layout has a gain_vs_roll_plane_pct" in second.stdout
     page = (out / "report.html").read_text()
     assert page.count("No design at the limit.") == 2
+    assert page.count('id="hisopt-plotly"') == 1 and page.count("window.hisoptFigures.push") >= 5  # light: plotly.js once, compressed
 
     # between the two layouts' least values: one layout compared, the other said to have no design
     low, high = sorted(least.values())

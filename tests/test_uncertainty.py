@@ -326,6 +326,9 @@ def test_cli_tolerance_and_sensitivity_write_their_files(tmp_path):
     assert out.code == 0, out.stderr
     assert "1,024 base samples, 10,240 model evaluations" in out.stdout and "NOT converged" in out.stdout and "  S1 of " in out.stdout
     assert (tmp_path / "s" / "sensitivity.csv").exists() and (tmp_path / "s" / "sensitivity.html").exists()
+    for page in (tmp_path / "t" / "tolerance.html", tmp_path / "s" / "sensitivity.html"):  # light pages (hisopt.report.embed)
+        text = page.read_text()
+        assert text.count('id="hisopt-plotly"') == 1 and "window.hisoptFigures.push" in text and "Plotly.newPlot(" not in text.replace("return Plotly.newPlot(", "")
     out = run_cli("sensitivity", str(UNCERTAIN_PROBLEM), "--samples", "32", "--log", "--out", str(tmp_path / "b"))
     assert out.code == 0 and "log10 of each quantity" in out.stdout, out.stderr
     assert "decades" in (tmp_path / "b" / "sensitivity.csv").read_text()

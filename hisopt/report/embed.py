@@ -145,8 +145,9 @@ class PageFigures:
             return obj.tolist()
         return obj
 
-    def div(self, fig: go.Figure, div_id: str) -> str:
-        """The ``<div>`` of ``fig`` and the script that queues its drawing."""
+    def div(self, fig: go.Figure, div_id: str, config: dict[str, Any] | None = None) -> str:
+        """The ``<div>`` of ``fig`` and the script that queues its drawing; ``config`` plotly's
+        options for it (``{"displayModeBar": False}`` for a schematic), beside ``responsive``."""
         from plotly.io.json import to_json_plotly
 
         spec = fig.to_plotly_json()
@@ -154,7 +155,8 @@ class PageFigures:
         layout = to_json_plotly(spec["layout"])
         height = f"{int(fig.layout.height)}px" if fig.layout.height else "100%"
         width = f"{int(fig.layout.width)}px" if fig.layout.width else "100%"
-        call = f'window.hisoptFigures.push(["{div_id}", {data}, {layout}, {{"responsive": true}}]);'.replace("</", "<\\/")
+        options = json.dumps({"responsive": True} | dict(config or {}), separators=(",", ":"))
+        call = f'window.hisoptFigures.push(["{div_id}", {data}, {layout}, {options}]);'.replace("</", "<\\/")
         return f'<div id="{div_id}" class="plotly-graph-div" style="height:{height}; width:{width};"></div>\n<script>{call}</script>'
 
     def head_html(self) -> str:

@@ -204,20 +204,18 @@ def table_html(result: LayoutStudyResult) -> str:
 def write_layout_report(result: LayoutStudyResult, path: str | Path | None = None) -> Path:
     """Write the report (default ``DIR/report.html``) and return its path."""
     _check_study(result)
-    import plotly.offline
-
     from hisopt.errors import ConfigError
     from hisopt.io import atomic_write_text
     from hisopt.report.decision_page import DECISION_FILE, study_decision_room
+    from hisopt.report.embed import PageFigures
 
     if path is None:
         if result.out is None:
             raise ConfigError("the study has no directory; give the report a path")
         path = result.out / "report.html"
     figs = schematics(result)
-    cells = "".join(
-        f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}', config={'displayModeBar': False})}</div>" for i, f in enumerate(figs)
-    )
+    page_figures = PageFigures()
+    cells = "".join(f"<div>{page_figures.div(f, f'schematic{i}', config={'displayModeBar': False})}</div>" for i, f in enumerate(figs))
     sections: list[tuple[str, Any]] = [
         ("Layouts", f'<div class="schematics">{cells}</div>'),
         ("Comparison", table_html(result)),
@@ -228,11 +226,7 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
     parts = []
     for i, (title, content) in enumerate(sections):
         parts.append(f"<h2>{html.escape(title)}</h2>")
-        parts.append(
-            content
-            if isinstance(content, str)
-            else '<div class="figure">' + content.to_html(full_html=False, include_plotlyjs=False, div_id=f"fig{i}") + "</div>"
-        )
+        parts.append(content if isinstance(content, str) else '<div class="figure">' + page_figures.div(content, f"fig{i}") + "</div>")
     runs = result.runs
     seeds = sorted(set(runs["seed"]))
     budget = runs["evaluations"].iloc[0] if len(runs) else 0
@@ -241,7 +235,7 @@ def write_layout_report(result: LayoutStudyResult, path: str | Path | None = Non
     page = f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>hisopt layout study: {html.escape(name)}</title>
 <style>{REPORT_CSS}{_GRID_CSS}</style>
-<script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
+{page_figures.head_html()}</head>
 <body><h1>hisopt layout study: {html.escape(name)}</h1>
 <p class="meta">{len(result.cases)} layouts, seeds {html.escape(", ".join(map(str, seeds)))}, {budget} evaluations per run;
 objectives {html.escape(", ".join(result.normalisation.objectives))}. Equal handling: {html.escape(result.handling)}
@@ -251,6 +245,7 @@ the shared normalisation (docs/model.md §15). Values in engineering units (SI i
 <p class="meta">To compare the layouts' designs one by one, navigate their fronts and hand one over:
 <a href="{DECISION_FILE}">the decision room</a>.</p>
 {notes}{"".join(parts)}
+{page_figures.scripts_html()}
 </body></html>"""
     atomic_write_text(path, page)
     if Path(path) == (None if result.out is None else result.out / "report.html"):

@@ -72,25 +72,22 @@ def _ranking_html(result: SynthesisResult) -> str:
 
 def write_synthesis_report(result: SynthesisResult, path: str | Path | None = None) -> Path:
     """Write the report (default ``DIR/report.html``) and the study's own; return its path."""
-    import plotly.offline
-
     from hisopt.errors import ConfigError
     from hisopt.io import atomic_write_text
+    from hisopt.report.embed import PageFigures
     from hisopt.report.layout_report import curve_figure, write_layout_report
 
     if path is None:
         if result.out is None:
             raise ConfigError("the synthesis has no directory; give the report a path")
         path = result.out / "report.html"
+    page_figures = PageFigures()
     counts = display_frame(result.counts)
     parts = ["<h2>Candidates</h2>", html_table(counts, "Candidates per element count and those the screen kept")]
     if result.study is not None:
         if result.study.out is not None:
             write_layout_report(result.study)
-        cells = "".join(
-            f"<div>{f.to_html(full_html=False, include_plotlyjs=False, div_id=f'schematic{i}', config={'displayModeBar': False})}</div>"
-            for i, f in enumerate(best_schematics(result))
-        )
+        cells = "".join(f"<div>{page_figures.div(f, f'schematic{i}', config={'displayModeBar': False})}</div>" for i, f in enumerate(best_schematics(result)))
         limit = format_quantity(result.study.handling_limit, result.study.table.attrs["units"]["handling_limit"])
         parts += [
             "<h2>Ranking</h2>",
@@ -101,7 +98,7 @@ def write_synthesis_report(result: SynthesisResult, path: str | Path | None = No
             f"<h2>The best {min(BEST_SHOWN, len(result.layouts))}</h2>",
             f'<div class="schematics">{cells}</div>',
             "<h2>Trade-off: best comfort against the handling limit</h2>",
-            '<div class="figure">' + curve_figure(result.study).to_html(full_html=False, include_plotlyjs=False, div_id="curve") + "</div>",
+            '<div class="figure">' + page_figures.div(curve_figure(result.study), "curve") + "</div>",
         ]
     else:
         parts.append('<p class="meta">No candidate was optimised (none screened in, or --optimise 0).</p>')
@@ -110,11 +107,12 @@ def write_synthesis_report(result: SynthesisResult, path: str | Path | None = No
     page = f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>hisopt synthesis</title>
 <style>{REPORT_CSS}{_GRID_CSS}</style>
-<script type="text/javascript">{plotly.offline.get_plotlyjs()}</script></head>
+{page_figures.head_html()}</head>
 <body><h1>hisopt topology synthesis</h1>
 <p class="meta">{total:,} candidate layouts enumerated, {kept:,} kept by the screen; every candidate with its stiffness table is in
 candidates.csv (docs/model.md §20). Values in engineering units (SI in the CSV files).</p>
 {"".join(parts)}
+{page_figures.scripts_html()}
 </body></html>"""
     atomic_write_text(path, page)
     return Path(path)

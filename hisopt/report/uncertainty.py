@@ -14,6 +14,7 @@ import pandas as pd
 
 from hisopt.io import atomic_write_text, write_csv
 from hisopt.plotting.uncertainty import sensitivity_figure, tolerance_figure
+from hisopt.report.embed import PageFigures
 from hisopt.report.tables import REPORT_CSS, html_table
 from hisopt.units import format_quantity
 
@@ -24,15 +25,17 @@ SENSITIVITY_FILES = ("sensitivity.csv", "sensitivity.html")
 TOLERANCE_FILES = ("tolerance.csv", "violations.csv", "samples.parquet", "tolerance.html")
 
 
-def _page(title: str, meta: str, body: str) -> str:
+def _page(title: str, meta: str, body: str, figures: PageFigures) -> str:
+    """One offline page; its figures (drawn in ``body`` by :func:`_figure`) light: plotly.js
+    once, compressed, their arrays as float32 (:mod:`hisopt.report.embed`)."""
     return (
-        f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(title)}</title><style>{REPORT_CSS}</style></head>'
-        f'<body><h1>{html.escape(title)}</h1><p class="meta">{meta}</p>{body}</body></html>'
+        f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(title)}</title><style>{REPORT_CSS}</style>{figures.head_html()}</head>'
+        f'<body><h1>{html.escape(title)}</h1><p class="meta">{meta}</p>{body}{figures.scripts_html()}</body></html>'
     )
 
 
-def _figure(fig) -> str:
-    return '<div class="figure">' + fig.to_html(include_plotlyjs=True, full_html=False) + "</div>"
+def _figure(fig, figures: PageFigures, div_id: str) -> str:
+    return '<div class="figure">' + figures.div(fig, div_id) + "</div>"
 
 
 def sensitivity_shown(indices: pd.DataFrame) -> pd.DataFrame:
@@ -116,10 +119,11 @@ def write_sensitivity(result: SensitivityResult, out: Path, title: str, where: s
     meta = html.escape(f"{where} (SALib Saltelli sample, bootstrap 95 % half-widths)")
     notes = sensitivity_notes(result) + ([f"{result.dropped} sample blocks dropped where the model failed"] if result.dropped else [])
     meta += "".join(f"<br>{html.escape(line)}" for line in notes)
-    body = _figure(sensitivity_figure(frame, "Sobol indices: total (ST) and first order (S1)"))
+    figures = PageFigures()
+    body = _figure(sensitivity_figure(frame, "Sobol indices: total (ST) and first order (S1)"), figures, "indices")
     body += html_table(total_indices_shown(frame), "Total Sobol index ST of each input on each quantity (± 95 % half-width)", text_columns=("input",))
     body += html_table(sensitivity_shown(frame), "Every index, with the input's distribution", text_columns=("quantity", "input", "distribution"))
-    page = atomic_write_text(out / SENSITIVITY_FILES[1], _page(title, meta, body))
+    page = atomic_write_text(out / SENSITIVITY_FILES[1], _page(title, meta, body, figures))
     return [csv, page]
 
 
@@ -178,8 +182,9 @@ def write_tolerance(result: ToleranceResult, out: Path, title: str, where: str, 
     if len(result.violations):
         body += html_table(violations_shown(result.violations), "Probability of violating each constraint (Wilson 95 % interval)", text_columns=("constraint",))
     nominal = dict(zip(summary["quantity"], summary["nominal"], strict=True))
-    body += _figure(
-        tolerance_figure(result.values, quantities, units, limits, nominal, "Spread of each quantity (dashed: the nominal design; red: the constraint's limit)")
-    )
-    page = atomic_write_text(out / TOLERANCE_FILES[3], _page(title, meta, body))
+    figures = PageFigures()
+    title_spread = "Spread of each quantity (dashed: the nominal design; red: the constraint's limit)"
+    spread = tolerance_figure(result.values, quantities, units, limits, nominal, title_spread)
+    body += _figure(spread, figures, "spread")
+    page = atomic_write_text(out / TOLERANCE_FILES[3], _page(title, meta, body, figures))
     return [csv, viol, samples, page]
