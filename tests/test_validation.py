@@ -12,6 +12,7 @@ import pytest
 import hisopt
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.specification.designs import read_designs
+from hisopt.specification.text_files import read_text
 from hisopt.specification.validation import (
     STATUS_INVALID,
     STATUS_OK,
@@ -21,7 +22,6 @@ from hisopt.specification.validation import (
     design_parameters,
     parameter_rule,
     parse_assignments,
-    read_text,
 )
 
 BASE = [2e6, 10e-4, 0.5, 8e5]

@@ -33,7 +33,8 @@ import pandas as pd
 
 from hisopt.errors import ConfigError
 from hisopt.quantities import has_unit, scaled, unit_factor
-from hisopt.specification.validation import match_columns, read_text
+from hisopt.specification.text_files import read_text
+from hisopt.specification.validation import match_columns
 
 DELIMITERS = (",", ";", "\t")
 
