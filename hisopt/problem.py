@@ -37,6 +37,28 @@ class Problem(DesignSpace):
         statistics over ``[[uncertain]]`` samples)."""
         return evaluator_for(self)
 
+    def model(self, designs: Any = None, his: bool = True, inputs: Any = None) -> Any:
+        """The coupled model of :meth:`DesignSpace.model`; with physical damper valves whose RMS
+        flows are solved (docs/model.md §3.3), each valve linearised at the fixed point on this
+        problem's road (:func:`hisopt.evaluation.valve_flows.solve_valve_flows`) unless
+        ``inputs`` give the flows. A design without a fixed point raises :class:`ModelError`."""
+        from hisopt.errors import ModelError
+        from hisopt.evaluation.valve_flows import solve_valve_flows, valve_flow_names_of
+        from hisopt.hydraulics.network import solved_flow_name
+
+        names = [solved_flow_name(k) for k, _, _ in self.network().solved_valves()]
+        given = dict(inputs or {})
+        if not his or not names or all(n in given for n in names):
+            return super().model(designs, his, inputs)
+        x = self.design_matrix(self.baseline if designs is None else designs)
+        if "flow_evaluator" not in self._cache:
+            self._cache["flow_evaluator"] = Evaluator(self, names=(), rms_outputs=valve_flow_names_of(self))
+        flows, converged, _ = solve_valve_flows(self._cache["flow_evaluator"], x, {k: np.asarray(v) for k, v in given.items()})
+        if not converged.all():
+            row = int(np.flatnonzero(~converged)[0])
+            raise ModelError(f"design {row}: the damper valves' RMS flows have no fixed point on this road (the model is unstable or singular there)")
+        return super().model(x, his, given | flows)
+
     def results_frame(self, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
         """Designs plus evaluated quantities as the docs/model.md §8.1 DataFrame."""
         return results_frame(self, designs, quantities)

@@ -165,25 +165,55 @@ class CoupledModel:
         from the motion ``h_x = X / z_g`` (:meth:`frequency_response`) by direct solve, either
         pipe fidelity: the compliance times the node pressure the port flows ``s N G X`` raise
         (docs/model.md §16.9)."""
+        n_acc = 0 if self.his is None else len(self.his.network.accumulators())
+        return self.hydraulic_response(s, h_x)[..., :n_acc, :]
+
+    def hydraulic_response(self, s: ArrayLike, h_x: np.ndarray) -> np.ndarray:
+        """The hydraulic outputs per wheel input by direct solve, either pipe fidelity,
+        ``B + (F, n_accumulators + n_damper_valves, 4)``: each accumulator's oil volume
+        [m^3/m], then the flow through each damper valve [m^3/s/m] (in element order,
+        :meth:`~hisopt.hydraulics.network.Network.damper_valves`), from the motion
+        ``h_x = X / z_g``: the network's response to the port flows ``s N G X``."""
         if self.his is None:
             return np.zeros(np.shape(h_x)[:-2] + (0, 4), dtype=complex)
         s = np.asarray(s, dtype=complex)
+        net = self.his.network
         g = at_frequencies(stroke_matrix(self.vehicle), self.vehicle)
         flows = s[..., None, None] * (np.asarray(self.his.incidence)[..., None, :, :] @ g @ h_x)  # (.., F, ports, 4)
-        pressure = self.his.accumulator_pressures(s) @ flows
-        return self.his.accumulator_compliances()[..., None, :, None] * pressure
+        rows = [row for _, _, row in net.accumulators()] + [rows[2] for _, _, rows in net.damper_valves()]
+        unknowns = self.his.unknowns_per_port_flow(s, rows) @ flows
+        n_acc = len(net.accumulators())
+        volumes = self.his.accumulator_compliances()[..., None, :, None] * unknowns[..., :n_acc, :]
+        return np.concatenate([volumes, unknowns[..., n_acc:, :]], axis=-2)
 
     def accumulator_states(self, ss: StateSpace) -> np.ndarray:
         """[m^3] Each accumulator's oil volume from the states of ``ss`` (this model's
         :meth:`state_space`), ``B + (n_accumulators, n_states)``: its compliance times its
         node pressure's row of the realisation's map back to the unknowns (docs/model.md §16.9)."""
+        n_acc = 0 if self.his is None else len(self.his.network.accumulators())
+        return self.hydraulic_states(ss)[..., :n_acc, :]
+
+    def hydraulic_states(self, ss: StateSpace) -> np.ndarray:
+        """The hydraulic outputs from the states of ``ss`` (this model's :meth:`state_space`),
+        ``B + (n_accumulators + n_damper_valves, n_states)``, rows of the realisation's map back
+        to the unknowns: each accumulator's oil volume [m^3] (its compliance times its node
+        pressure, docs/model.md §16.9), then each damper valve's flow [m^3/s] (0 for a valve
+        a short leaves joining a node to itself: no pressure drives it)."""
         if self.his is None or ss.realisation is None:
             return np.zeros(ss.a.shape[:-2] + (0, ss.a.shape[-1]))
         lumped = self if self.pipe_model == "lumped" else CoupledModel(self.vehicle, self.his.lumped())
         his = lumped.groups()[0][1].his  # the network the realisation was built on (lumped, shorts merged)
         assert his is not None
+        full = ss.realisation.full_map()
         rows = [14 + row for _, _, row in his.network.accumulators()]
-        return his.accumulator_compliances()[..., :, None] * ss.realisation.full_map()[..., rows, :]
+        volumes = his.accumulator_compliances()[..., :, None] * full[..., rows, :]
+        origin = his.origin if his.origin is not None else tuple(range(len(his.network.elements)))
+        where = {k: i for i, k in enumerate(origin)}
+        flows = [
+            full[..., 14 + his.network.element_rows[where[k]][2], :] if k in where else np.zeros(full.shape[:-2] + (full.shape[-1],))
+            for k, _, _ in self.his.network.damper_valves()
+        ]
+        return np.concatenate([volumes, *(f[..., None, :] for f in flows)], axis=-2)
 
     def descriptor(self) -> Descriptor:
         """The coupled lumped model ``diag(e) dz/dt = A z + B0 u + B1 du/dt``, ``z = [X, V, h]``.

@@ -97,3 +97,16 @@ def accumulator_outputs(n_accumulators: int) -> dict[str, Output]:
         c[0, 7 + j] = 1.0
         out[f"oil_volume_{j}"] = Output(f"oil_volume_{j}", "m^3", c, np.zeros((1, 4)))
     return out
+
+
+def valve_flow_outputs(n_accumulators: int, n_valves: int) -> dict[str, Output]:
+    """The flow through each physical damper valve [m^3/s], in the network's element order
+    (:meth:`~hisopt.hydraulics.network.Network.damper_valves`), keyed ``valve_flow_<j>``: an
+    output over ``[X, V_acc, Q_valve]`` (its ``c`` has ``7 + n_accumulators + n_valves``
+    columns), read from the hydraulic unknowns like the accumulators' oil volumes."""
+    out = {}
+    for j in range(n_valves):
+        c = np.zeros((1, 7 + n_accumulators + n_valves))
+        c[0, 7 + n_accumulators + j] = 1.0
+        out[f"valve_flow_{j}"] = Output(f"valve_flow_{j}", "m^3/s", c, np.zeros((1, 4)))
+    return out

@@ -122,7 +122,7 @@ class ModalChannels:
         feed = channel_feedthrough(outs) if feed is None else feed
         halves = split(ss, state_mirror(model, ss))
         # outputs over [X, V_acc]: the accumulators' oil volumes are rows of the states too
-        volumes = model.accumulator_states(ss) if any(o.c.shape[1] > 7 for o in outs) else None
+        volumes = model.hydraulic_states(ss)[..., : max(o.c.shape[1] for o in outs) - 7, :] if any(o.c.shape[1] > 7 for o in outs) else None
         if halves is not None:
             self.forms = {name: PoleResidue(h.a, h.inputs, _with_volumes(h.positions, volumes, h.basis), outs, feed[name]) for name, h in halves.items()}
             self.lam = np.concatenate([f.lam for f in self.forms.values()], axis=1)
@@ -195,8 +195,8 @@ class DirectOutputs:
         h_x = self.model.frequency_response(s)
         outputs = list(self.outputs.values())
         chosen = outputs if output is None else [outputs[output]]
-        if any(o.c.shape[1] > 7 for o in chosen):  # outputs over [X, V_acc]
-            h_x = np.concatenate([h_x, self.model.accumulator_response(s, h_x)], axis=-2)
+        if any(o.c.shape[1] > 7 for o in chosen):  # outputs over [X, V_acc, Q_valve]
+            h_x = np.concatenate([h_x, self.model.hydraulic_response(s, h_x)], axis=-2)
         wheels = np.stack([o.frf(h_x, s) for o in chosen], axis=-1)  # (n, F, 4, n_out)
         fl, fr, rl, rr = (wheels[..., k, :] for k in range(4))
         sym, anti = np.stack([fl + fr, rl + rr], axis=-2), np.stack([fl - fr, rl - rr], axis=-2)

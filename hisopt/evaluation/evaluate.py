@@ -21,7 +21,7 @@ import pandas as pd
 
 from hisopt.arguments import integer, of_type, problem_argument
 from hisopt.coupled.operating_point import accumulator_quantities, accumulator_rooms
-from hisopt.coupled.response import Output, accumulator_outputs, standard_outputs
+from hisopt.coupled.response import Output, accumulator_outputs, standard_outputs, valve_flow_outputs
 from hisopt.errors import ModelError
 from hisopt.evaluation import psd as psd_kernels
 from hisopt.evaluation.channels import (
@@ -49,6 +49,8 @@ from hisopt.evaluation.quadrature import (
     split_nodes,
 )
 from hisopt.evaluation.transient import transient_quantities
+from hisopt.evaluation.valve_flows import solve_valve_flows, valve_flow_names_of
+from hisopt.hydraulics.network import solved_flow_name
 from hisopt.linalg import one_blas_thread
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS, Metric
 from hisopt.road.spectra import isotropic_coherence
@@ -97,6 +99,8 @@ class Evaluator:
         order: int = 4,
         peak_steps: int = 2,
         tolerance: float = 1e-4,
+        names: Sequence[str] | None = None,
+        rms_outputs: Sequence[str] = (),
     ):
         problem_argument(problem)
         chunk_size = integer(chunk_size, "chunk_size", minimum=1)
@@ -109,11 +113,16 @@ class Evaluator:
         # The plain quantities, not problem.objective_names: on a problem with [[scenarios]] this
         # evaluator is its default load case (its [road], no scenario payload; as modes and
         # sweeps), whose quantities are never "<quantity>@<scenario>" columns (per_scenario).
-        self.names = tuple(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints]))
+        self.names = tuple(dict.fromkeys(spec.objectives + [c.name for c in spec.constraints])) if names is None else tuple(names)
         self.metrics = [METRICS[n] for n in self.names]
-        self.n_accumulators = len(problem.network().accumulators())
-        self.all_outputs = standard_outputs(problem.vehicle) | accumulator_outputs(self.n_accumulators)
-        wanted: list[str] = []
+        network = problem.network()
+        self.n_accumulators = len(network.accumulators())
+        self.all_outputs = (
+            standard_outputs(problem.vehicle) | accumulator_outputs(self.n_accumulators) | valve_flow_outputs(self.n_accumulators, len(network.damper_valves()))
+        )
+        self.rms_outputs = tuple(rms_outputs)
+        """Outputs whose band RMS :meth:`output_rms` integrates besides the metrics' (the valves' flows)."""
+        wanted: list[str] = list(self.rms_outputs)
         for m in self.metrics:
             if m.kind == "comfort":
                 wanted += list(COMFORT_OUTPUTS.values())
@@ -121,6 +130,9 @@ class Evaluator:
                 wanted += list(accumulator_outputs(self.n_accumulators))
             elif m.output is not None:
                 wanted.append(m.output)
+        self._flow_evaluator: Evaluator | None = None
+        if network.solved_valves() and not self.rms_outputs:  # the damper valves' RMS flows: solved per chunk on this road
+            self._flow_evaluator = Evaluator(problem, chunk_size, order, peak_steps, tolerance, names=(), rms_outputs=valve_flow_names_of(problem))
         wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
         self.outputs: dict[str, Output] = {n: self.all_outputs[n] for n in dict.fromkeys(wanted)}
         self.output_index = {name: i for i, name in enumerate(self.outputs)}
@@ -147,6 +159,7 @@ class Evaluator:
         forced = np.unique(self.forced_edges)
         self._forced = forced[(forced > self.f_lo) & (forced < self.f_hi)]
         self.integrals = _integral_keys(self.metrics, spec.comfort, self.outputs, self.n_accumulators)
+        self.integrals += [(o, None) for o in self.rms_outputs if (o, None) not in self.integrals]
         self.weightings = sorted({wt for _, wt in self.integrals if wt})
         self._gain_polynomials = _padded_polynomials(self.weightings if spec.comfort.method == "filter" else [])
         derived = [self.derived[output] for output, _ in self.integrals]
@@ -186,9 +199,17 @@ class Evaluator:
         if not valid.any():
             return [out | {"valid": valid} for out in outs]
         idx = np.flatnonzero(valid)
-        oks = [valid.copy() for _ in evaluators]
         with np.errstate(all="ignore"):
             given = {k: v[valid] for k, v in inputs.items()}
+            if self._flow_evaluator is not None and not all(k in given for k in self._flow_names):
+                flows, converged, _ = solve_valve_flows(self._flow_evaluator, x[valid], given)
+                given = {k: v[converged] for k, v in given.items()} | {k: v[converged] for k, v in flows.items()}
+                valid[idx[~converged]] = False  # no fixed point: the design fails (failure_reason)
+                idx = idx[converged]
+        oks = [valid.copy() for _ in evaluators]
+        if not valid.any():
+            return [out | {"valid": valid} for out in outs]
+        with np.errstate(all="ignore"):
             for rows, model in self.problem.model(x[valid], inputs=given).groups():
                 try:
                     solved = self._solve(model, evaluators)
@@ -199,6 +220,21 @@ class Evaluator:
                         out[name][idx[rows]] = np.where(ok, values[name], np.nan)
                     ok_all[idx[rows]] = ok
         return [out | {"valid": ok} for out, ok in zip(outs, oks, strict=True)]
+
+    @property
+    def _flow_names(self) -> list[str]:
+        return [solved_flow_name(k) for k, _, _ in self.problem.network().solved_valves()]
+
+    def output_rms(self, model: CoupledModel, outputs: Sequence[str]) -> np.ndarray:
+        """Band RMS ``(n, len(outputs))`` on this evaluator's road of outputs among its
+        :attr:`rms_outputs`, for a batch of models sharing one state space (NaN where a
+        design's model is unstable or its poles are not trusted)."""
+        lam, channels, repaired = self._channels(model)
+        scale = np.abs(lam).max(axis=1)
+        stable = np.all(lam.real <= 1e-9 * scale[:, None], axis=1) & np.all(np.isfinite(lam), axis=1) & repaired
+        totals = self._sample(lam, channels).totals
+        cols = [self.integrals.index((o, None)) for o in outputs]
+        return np.where(stable[:, None], np.sqrt(np.maximum(totals[:, cols], 0.0)), np.nan)
 
     def _one_by_one(self, x: np.ndarray, evaluators: list[Evaluator], inputs: Inputs) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
         out = [({name: np.full(len(x), np.nan) for name in ev.names}, np.zeros(len(x), dtype=bool)) for ev in evaluators]
@@ -617,7 +653,8 @@ def failure_reason(problem: DesignSpace) -> str:
     or, on a charged HIS, an accumulator holds no oil at rest (its static solve gives NaN,
     :func:`hisopt.coupled.operating_point.charged_static_pressure`)."""
     dry = ", or an accumulator holds no oil at rest" if problem.spec.his.charge is not None else ""
-    return f"the model is unstable or singular here{dry} (NaN results)"
+    valves = ", or the damper valves' RMS flows found no fixed point" if problem.network().solved_valves() else ""
+    return f"the model is unstable or singular here{dry}{valves} (NaN results)"
 
 
 def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:

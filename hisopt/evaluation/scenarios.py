@@ -34,10 +34,11 @@ class ScenarioEvaluator:
         self.weights = [sc.weight for sc in spec.scenarios]
         self.evaluators = [Evaluator(problem.scenario_space(name)) for name in self.scenarios]
         groups: dict[Any, list[int]] = {}
+        solved = bool(problem.network().solved_valves())  # the valves' flows, so the models, differ by road
         for i, sc in enumerate(spec.scenarios):
             laden = sc.payload is not None and sc.payload.active  # a 0 kg payload is no payload (§13)
             temperature = sc.temperature if sc.temperature is not None else spec.temperature
-            groups.setdefault((sc.payload if laden else None, temperature), []).append(i)
+            groups.setdefault((sc.payload if laden else None, temperature, i if solved else None), []).append(i)
         self.groups = list(groups.values())
         """Scenarios sharing a model (the same payload and temperature), by index, in file order."""
         for group in self.groups:  # a step steer constrained in the laden case only: not computed empty

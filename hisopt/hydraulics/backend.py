@@ -123,6 +123,20 @@ def fmax(a: Any, b: Any) -> Any:
     return np.maximum(a, b)
 
 
+def fmin(a: Any, b: Any) -> Any:
+    """The smaller of two real arguments (elementwise)."""
+    if is_casadi(a) or is_casadi(b):
+        return _ca().fmin(a, b)
+    return np.minimum(a, b)
+
+
+def exp(x: Any) -> Any:
+    """Exponential of a real argument."""
+    if is_casadi(x):
+        return _ca().exp(x)
+    return np.exp(x)
+
+
 def fabs(x: Any) -> Any:
     """Absolute value of a real argument."""
     if is_casadi(x):

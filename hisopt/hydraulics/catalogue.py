@@ -39,10 +39,11 @@ from hisopt.hydraulics.layout import (
     Port,
     field_rule_problem,
     parameter_uses,
+    with_damper_valves,
 )
 from hisopt.hydraulics.layout_file import CircuitSpec, build_layout, check_circuits, element_label, parameter_fields
-from hisopt.hydraulics.network import FLUID_PARAMETERS, compile_network, element_values, total_compliance
-from hisopt.hydraulics.roll_plane import RollPlaneHIS, parameter_values, roll_plane_layout
+from hisopt.hydraulics.network import FLUID_PARAMETERS, compile_network, element_values, solved_flow_name, total_compliance
+from hisopt.hydraulics.roll_plane import DAMPER_REAR_TIED, RollPlaneHIS, parameter_values, roll_plane_layout
 from hisopt.plausibility import rule_reason
 from hisopt.quantities import field_unit
 
@@ -68,7 +69,7 @@ PIPE_PARAMETERS = ("pipe_diameter", "pipe_length_front", "pipe_length_rear")
 CYLINDER_PARAMETERS = ("dA", "lam", "dA_rear", "lam_rear", "bore", "rod", "bore_rear", "rod_rear")
 """Parameters every layout reads through the cylinders (not through its elements)."""
 
-REAR_TIED = ("dA", "lam", "Rv")
+REAR_TIED = ("dA", "lam", "Rv", *DAMPER_REAR_TIED)
 """``[his]`` values whose rear counterpart (``Rv_rear``) follows them unless given
 (:func:`hisopt.hydraulics.roll_plane.parameter_values`)."""
 
@@ -217,8 +218,12 @@ def his_layout(his: RollPlaneHIS) -> Layout:
     """
     pipes, chamber = his.pipes is not None, his.chamber_volume > 0
     if his.layout == CUSTOM:
-        return with_chamber_lines(build_layout(his.circuits or [], CUSTOM), pipes, chamber)
-    return catalogue()[his.layout].layout(pipes, chamber)
+        layout = with_chamber_lines(build_layout(his.circuits or [], CUSTOM), pipes, chamber)
+    else:
+        layout = catalogue()[his.layout].layout(pipes, chamber)
+    if his.orifice_diameter is not None:
+        layout = with_damper_valves(layout, his.cracking_pressure is not None, his.valve_flow_rms is not None)
+    return layout
 
 
 def his_parameter_values(his: RollPlaneHIS, overrides: Mapping[str, Any] | None = None, temperature: float | np.ndarray | None = None) -> dict[str, Any]:
@@ -294,7 +299,8 @@ def layout_problem(his: RollPlaneHIS) -> str | None:
 def _zero_compliance(layout: Layout, values: Mapping[str, Any]) -> str | None:
     """A circuit whose every compliance is zero at ``values`` (None: none)."""
     network = compile_network(layout, "lumped")
-    resolved = element_values(network, values)
+    unsolved = {solved_flow_name(k): 0.0 for k, _, _ in network.solved_valves()}  # the flows do not change a compliance
+    resolved = element_values(network, {**values, **unsolved})
     for c, circuit in enumerate(layout.circuits):
         if not float(total_compliance(network, resolved, c)) > 0.0:
             return (

@@ -67,6 +67,9 @@ class HydraulicSystem:
     ``B + (n_circuits,)`` or a CasADi column; :mod:`hisopt.coupled.charge`): the accumulators
     are linearised there, each holding its gas at the oil's temperature. ``None``: the
     accumulators at their precharge (plus ``static_rise``)."""
+    origin: tuple[int, ...] | None = None
+    """Per element of :attr:`network`, its element index in the network this one was
+    contracted from (:meth:`contracted`); None: this network is the original."""
 
     @cached_property
     def values(self) -> ElementValues:
@@ -99,14 +102,19 @@ class HydraulicSystem:
         accumulators' rows (numpy, either pipe fidelity): ``B + (F, n_accumulators, n_ports)``,
         zero on other circuits' ports, NaN where ``M(s)`` is singular. Times the accumulator's
         compliance it is its oil volume per port flow (docs/model.md §16.9)."""
+        return self.unknowns_per_port_flow(s, [row for _, _, row in self.network.accumulators()])
+
+    def unknowns_per_port_flow(self, s: np.ndarray, rows: list[int]) -> np.ndarray:
+        """The network unknowns ``rows`` (pressures [Pa s m^-3], flows [-]) per port flow,
+        ``M(s)^-1 P`` at those rows (numpy, either pipe fidelity): ``B + (F, len(rows), n_ports)``,
+        zero on other circuits' ports, NaN where ``M(s)`` is singular."""
         net = self.network
         m = nw.network_matrix(net, self.values, s)
-        accumulators = net.accumulators()
-        out = np.zeros(m.shape[:-2] + (len(accumulators), len(net.ports)), dtype=complex)
-        for rows, ports, sol in nw.circuit_solutions(net, m):
-            for j, (_, _, row) in enumerate(accumulators):
-                if row in rows:
-                    out[..., j, ports] = sol[..., int(np.flatnonzero(rows == row)[0]), :]
+        out = np.zeros(m.shape[:-2] + (len(rows), len(net.ports)), dtype=complex)
+        for circuit_rows, ports, sol in nw.circuit_solutions(net, m):
+            for j, row in enumerate(rows):
+                if row in circuit_rows:
+                    out[..., j, ports] = sol[..., int(np.flatnonzero(circuit_rows == row)[0]), :]
         return out
 
     def accumulator_compliances(self) -> np.ndarray:
@@ -158,16 +166,17 @@ class HydraulicSystem:
         pressure = self.static_pressure
         if pressure is not None and np.ndim(pressure) > 1:
             pressure = np.asarray(pressure)[rows]
-        return HydraulicSystem(self.network, params, rise, pressure)
+        return HydraulicSystem(self.network, params, rise, pressure, self.origin)
 
     def contracted(self, shorted: frozenset[int]) -> HydraulicSystem:
         """The same designs with the valves ``shorted`` (element indices) merged away."""
-        layout = nw.contract_shorts(self.network.layout, shorted)
-        return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params, self.static_rise, self.static_pressure)
+        layout, kept = nw.contracted_layout(self.network.layout, shorted)
+        origin = kept if self.origin is None else tuple(self.origin[k] for k in kept)
+        return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params, self.static_rise, self.static_pressure, origin)
 
     def lumped(self) -> HydraulicSystem:
         """The same designs with lumped (pi-section) pipes: the rational model whose state
         space places the frequency nodes of a distributed-pipe problem."""
         if self.network.fidelity == "lumped":
             return self
-        return HydraulicSystem(nw.compile_network(self.network.layout, "lumped"), self.params, self.static_rise, self.static_pressure)
+        return HydraulicSystem(nw.compile_network(self.network.layout, "lumped"), self.params, self.static_rise, self.static_pressure, self.origin)

@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 from typing import Any, Literal
 
+import numpy as np
+
 from hisopt.constants import P_ATM_PA
 from hisopt.hydraulics import backend as bk
 
@@ -201,6 +203,101 @@ def orifice_equivalent_resistance(r: Any, kq: Any, q_rms: Any) -> Any:
         [m^3/s] RMS flow through the orifice at which to linearise
     """
     return r + 2.0 * math.sqrt(2.0 / math.pi) * kq * q_rms
+
+
+# --- physical damper valves -----------------------------------------------------------------
+def orifice_coefficient(diameter: Any, discharge_coefficient: Any, rho: Any) -> Any:
+    """[Pa s^2 m^-6] ``K = rho / (2 C_d^2 A^2)`` of a sharp-edged orifice of ``diameter`` [m]
+    and discharge coefficient [-] in oil of density ``rho`` [kg/m^3]: ``dp = K q |q|``
+    (Bernoulli through the vena contracta, ``q = C_d A sqrt(2 dp / rho)``)."""
+    area = 0.25 * math.pi * diameter * diameter
+    return rho / (2.0 * discharge_coefficient * discharge_coefficient * area * area)
+
+
+def _blowoff_drop(aq: Any, kq: Any, cracking: Any, blowoff: Any) -> Any:
+    """[Pa] The valve's drop at a flow ``aq = |q|`` past cracking: the bleed and the open
+    blow-off share one drop ``P``, ``|q| = sqrt(P / K) + (P - p_c) / R_b``, a quadratic in
+    ``u = sqrt(P)``, solved in the form that stays exact as ``1 / R_b -> 0``."""
+    a = 1.0 / blowoff
+    b = 1.0 / bk.sqrt(kq)
+    c = aq + cracking * a
+    u = 2.0 * c / (b + bk.sqrt(b * b + 4.0 * a * c))
+    return u * u
+
+
+def damper_valve_pressure_drop(q: Any, kq: Any, cracking: Any = None, blowoff: Any = None, r: Any = 0.0) -> Any:
+    """[Pa] Physical damper valve (docs/model.md §3.3): a bleed orifice ``dp = K q |q|`` in
+    parallel with a spring-loaded blow-off that opens at the cracking pressure ``p_c`` and
+    then passes ``(dp - p_c) / R_b`` more, the pair in series with a laminar part ``r q``.
+
+    Below the crossover flow ``q_c = sqrt(p_c / K)`` only the bleed passes oil; above it the
+    drop is :func:`_blowoff_drop`, which is below the bleed's ``K q^2`` there and above it below
+    ``q_c``, so the drop is the smaller of the two, ``dp = r q + q min(K |q|, P_open / |q|)``:
+    one expression in numpy and CasADi, continuous, with a kink in its slope at ``q_c``.
+
+    Parameters
+    ----------
+    q : Any
+        [m^3/s] flow in the direction of the drop
+    kq : Any
+        [Pa s^2 m^-6] the bleed orifice's :func:`orifice_coefficient`, > 0
+    cracking, blowoff : Any, optional
+        [Pa] cracking pressure >= 0 and [Pa s m^-3] the blow-off's resistance once open
+        (the slope of its added flow), > 0; None: no blow-off (the bleed alone)
+    r : Any, optional
+        [Pa s m^-3] laminar part in series
+    """
+    aq = bk.fabs(q)
+    if cracking is None:
+        return r * q + kq * q * aq
+    with np.errstate(divide="ignore"):  # at q = 0 the open branch is infinite and the bleed's 0 wins
+        open_share = _blowoff_drop(aq, kq, cracking, blowoff) / aq
+    return r * q + q * bk.fmin(kq * aq, open_share)
+
+
+TAIL_NODES = 48
+TAIL_SPAN = 12.0
+"""Gauss-Legendre nodes over ``y = (|q| - q_c) / s`` in ``[0, TAIL_SPAN]`` for the blow-off's
+share of the expected slope: the Gaussian weight beyond 12 standard deviations is below
+1e-31 of the whole (error budget and check: tests/test_damper_valve.py)."""
+_TAIL_Y, _TAIL_W = np.polynomial.legendre.leggauss(TAIL_NODES)
+_TAIL_Y, _TAIL_W = 0.5 * TAIL_SPAN * (_TAIL_Y + 1.0), 0.5 * TAIL_SPAN * _TAIL_W
+_INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
+
+
+def damper_valve_equivalent_resistance(q_rms: Any, kq: Any, cracking: Any = None, blowoff: Any = None, r: Any = 0.0) -> Any:
+    """[Pa s m^-3] Equivalent linear resistance of :func:`damper_valve_pressure_drop` under a
+    zero-mean Gaussian flow of RMS ``q_rms`` [m^3/s] (statistical linearisation, docs/model.md
+    §3.3): the expected slope ``E[d(dp)/dq]``, which for a Gaussian flow is also the
+    mean-square-error gain ``E[q dp] / E[q^2]`` (Stein's lemma), so the two criteria agree.
+
+    With ``s = q_rms`` and ``x_c = q_c / s``, the bleed's share below the crossover ``q_c`` is
+    closed,
+
+        2 / sqrt(2 pi) K s (2 - (x_c^2 + 2) exp(-x_c^2 / 2))
+
+    (``2 sqrt(2 / pi) K s``, the orifice's, without a blow-off), and the blow-off's share above
+    it, ``2 / s^2 int_qc^inf q P_open(q) phi_s(q) dq``, is a fixed :data:`TAIL_NODES`-node
+    Gauss-Legendre sum over ``y = (q - q_c) / s`` in ``[0, TAIL_SPAN]``: the same arithmetic in
+    numpy (any batch shape) and CasADi. ``q_rms = 0`` gives ``r``.
+    """
+    if cracking is None:
+        return r + 2.0 * math.sqrt(2.0 / math.pi) * kq * q_rms
+    s = bk.fmax(q_rms, 1e-30)  # a zero flow: the bleed's share 0, the blow-off's weight exp(-inf) = 0
+    q_c = bk.sqrt(cracking / kq)
+    x_c = q_c / s
+    bleed = kq * s * (2.0 - (x_c * x_c + 2.0) * bk.exp(-0.5 * x_c * x_c))
+    if bk.is_casadi(s) or bk.is_casadi(kq) or bk.is_casadi(cracking) or bk.is_casadi(blowoff):
+        total = 0.0
+        for y, w in zip(_TAIL_Y, _TAIL_W, strict=True):
+            q = q_c + s * float(y)
+            total = total + float(w) * (q / s) * _blowoff_drop(q, kq, cracking, blowoff) * bk.exp(-0.5 * (x_c + float(y)) ** 2)
+    else:  # the same sum with the nodes on a trailing axis
+        at = lambda v: np.asarray(v, dtype=float)[..., None]  # noqa: E731
+        q = at(q_c) + at(s) * _TAIL_Y
+        terms = (q / at(s)) * _blowoff_drop(q, at(kq), at(cracking), at(blowoff)) * np.exp(-0.5 * (at(x_c) + _TAIL_Y) ** 2)
+        total = terms @ _TAIL_W
+    return r + 2.0 * _INV_SQRT_2PI * (bleed + total / s)
 
 
 # --- pipes -------------------------------------------------------------------------------------

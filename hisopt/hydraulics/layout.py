@@ -90,8 +90,31 @@ class Orifice(Valve):
     flow_rms: ParamRef = dc_field(default=0.0, metadata=si("m^3/s"))
 
 
-Element = Accumulator | ChamberCompliance | Valve | Orifice | Pipe
-SeriesElement = Valve | Orifice | Pipe
+@dataclass(frozen=True)
+class DamperValve(Valve):
+    """Physical damper valve from node ``a`` to node ``b`` (docs/model.md §3.3): a bleed
+    orifice (``orifice_diameter``, ``discharge_coefficient``) in parallel with an optional
+    spring-loaded blow-off (``cracking_pressure``, and ``blowoff_resistance``, the slope of
+    the flow it adds once open), the pair in series with a laminar part ``resistance``
+    (:func:`hisopt.hydraulics.laws.damper_valve_pressure_drop`).
+
+    The linear engines use its equivalent linear resistance under a Gaussian flow of RMS
+    ``flow_rms`` (:func:`hisopt.hydraulics.laws.damper_valve_equivalent_resistance`); left
+    out (None), that RMS flow is the one the road drives through the valve, solved with the
+    response as a fixed point per design and load case
+    (:mod:`hisopt.evaluation.valve_flows`). The nonlinear time domain uses the law itself.
+    """
+
+    resistance: ParamRef = dc_field(default=0.0, metadata=si("Pa s m^-3"))
+    orifice_diameter: ParamRef = dc_field(default="orifice_diameter", metadata=si("m"))
+    discharge_coefficient: ParamRef = dc_field(default="discharge_coefficient", metadata=si("-"))
+    cracking_pressure: ParamRef | None = dc_field(default=None, metadata=si("Pa"))
+    blowoff_resistance: ParamRef | None = dc_field(default=None, metadata=si("Pa s m^-3"))
+    flow_rms: ParamRef | None = dc_field(default=None, metadata=si("m^3/s"))
+
+
+Element = Accumulator | ChamberCompliance | Valve | Orifice | DamperValve | Pipe
+SeriesElement = Valve | Orifice | DamperValve | Pipe
 ShuntElement = Accumulator | ChamberCompliance
 
 
@@ -100,6 +123,7 @@ PARAMETER_FIELDS: dict[type, tuple[str, ...]] = {
     ChamberCompliance: ("volume",),
     Valve: ("resistance",),
     Orifice: ("resistance", "kq", "flow_rms"),
+    DamperValve: ("resistance", "orifice_diameter", "discharge_coefficient", "cracking_pressure", "blowoff_resistance", "flow_rms"),
     Pipe: ("length", "diameter"),
 }
 """The fields of each element type that hold a :data:`ParamRef`."""
@@ -116,6 +140,12 @@ FIELD_LOWER: dict[tuple[type, str], tuple[float, bool]] = {
     (Orifice, "resistance"): (0.0, True),
     (Orifice, "kq"): (0.0, True),
     (Orifice, "flow_rms"): (0.0, True),
+    (DamperValve, "resistance"): (0.0, True),
+    (DamperValve, "orifice_diameter"): (0.0, False),
+    (DamperValve, "discharge_coefficient"): (0.0, False),
+    (DamperValve, "cracking_pressure"): (0.0, True),
+    (DamperValve, "blowoff_resistance"): (0.0, False),
+    (DamperValve, "flow_rms"): (0.0, True),
     (Pipe, "length"): (0.0, False),
     (Pipe, "diameter"): (0.0, False),
 }
@@ -125,6 +155,7 @@ Upper ends are in :data:`FIELD_UPPER`."""
 
 FIELD_UPPER: dict[tuple[type, str], tuple[float, bool]] = {
     (Accumulator, "gamma"): (GAMMA_RANGE[1], True),
+    (DamperValve, "discharge_coefficient"): (1.0, True),
 }
 """The fields whose rule has an upper end too: ``(upper end, closed)`` (a polytropic exponent
 ``<= 2``, :data:`hisopt.plausibility.GAMMA_RANGE`)."""
@@ -147,6 +178,7 @@ ELEMENT_KINDS: dict[type, str] = {
     ChamberCompliance: "compliance",
     Valve: "valve",
     Orifice: "orifice",
+    DamperValve: "damper_valve",
     Pipe: "pipe",
 }
 """The ``type`` of each element in a layout file (docs/model.md §12.2)."""
@@ -227,3 +259,30 @@ class Layout:
                     if isinstance(value, str):
                         names.setdefault(value)
         return tuple(names)
+
+
+def with_damper_valves(layout: Layout, blowoff: bool, flow_given: bool) -> Layout:
+    """``layout`` with every linear valve that reads ``Rv`` or ``Rv_rear`` made a physical
+    damper valve reading the axle's ``orifice_diameter``, ``discharge_coefficient``,
+    ``laminar_resistance`` and (``blowoff``) ``cracking_pressure``, ``blowoff_resistance``
+    (``_rear`` for a valve reading ``Rv_rear``); its RMS flow is ``valve_flow_rms`` if
+    ``flow_given``, else solved (docs/model.md §3.3). Any catalogue, custom or synthesised
+    layout takes physical valves this way."""
+    circuits = []
+    for circuit in layout.circuits:
+        elements: list[Element] = []
+        for e in circuit.elements:
+            if type(e) is Valve and e.resistance in ("Rv", "Rv_rear"):
+                axle = "_rear" if e.resistance == "Rv_rear" else ""
+                e = DamperValve(
+                    e.a,
+                    e.b,
+                    resistance="laminar_resistance",
+                    orifice_diameter=f"orifice_diameter{axle}",
+                    cracking_pressure=f"cracking_pressure{axle}" if blowoff else None,
+                    blowoff_resistance=f"blowoff_resistance{axle}" if blowoff else None,
+                    flow_rms="valve_flow_rms" if flow_given else None,
+                )
+            elements.append(e)
+        circuits.append(Circuit(circuit.name, tuple(elements), circuit.ports))
+    return Layout(tuple(circuits), layout.name)

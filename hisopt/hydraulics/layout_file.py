@@ -50,7 +50,7 @@ from hisopt.hydraulics.layout import (
 )
 from hisopt.plausibility import rule_reason
 
-ElementKind = Literal["accumulator", "compliance", "valve", "orifice", "pipe"]
+ElementKind = Literal["accumulator", "compliance", "valve", "orifice", "damper_valve", "pipe"]
 
 ELEMENT_TYPES: dict[str, type] = {kind: cls for cls, kind in ELEMENT_KINDS.items()}
 """Element class of each ``type`` of the file syntax."""
@@ -60,13 +60,28 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
     "compliance": ("node", "volume"),
     "valve": ("from", "to", "resistance"),
     "orifice": ("from", "to", "kq"),
+    "damper_valve": ("from", "to", "orifice_diameter"),
     "pipe": ("from", "to", "length", "diameter"),
 }
 """Keys each element type needs; the others of its :data:`PARAMETER_FIELDS` have defaults
 (an accumulator's ``volume = "V0"``, ``precharge = "p0"``, ``gamma = "gamma"``; an orifice's
-``resistance = 0``, ``flow_rms = 0``)."""
+``resistance = 0``, ``flow_rms = 0``; a damper valve's ``discharge_coefficient =
+"discharge_coefficient"``, ``resistance = 0``, no blow-off, its RMS flow solved)."""
 
-_PARAM_KEYS = ("volume", "precharge", "gamma", "resistance", "kq", "flow_rms", "length", "diameter")
+_PARAM_KEYS = (
+    "volume",
+    "precharge",
+    "gamma",
+    "resistance",
+    "kq",
+    "flow_rms",
+    "orifice_diameter",
+    "discharge_coefficient",
+    "cracking_pressure",
+    "blowoff_resistance",
+    "length",
+    "diameter",
+)
 
 
 class ElementSpec(BaseModel):
@@ -84,6 +99,10 @@ class ElementSpec(BaseModel):
     resistance: float | str | None = None
     kq: float | str | None = None
     flow_rms: float | str | None = None
+    orifice_diameter: float | str | None = None
+    discharge_coefficient: float | str | None = None
+    cracking_pressure: float | str | None = None
+    blowoff_resistance: float | str | None = None
     length: float | str | None = None
     diameter: float | str | None = None
 
@@ -109,6 +128,11 @@ class ElementSpec(BaseModel):
         missing = [k for k in _REQUIRED[self.type] if self.value(k) is None]
         if missing:
             raise ValueError(f"{with_article(self.type)} needs {', '.join(missing)} (it takes {', '.join(allowed)})")
+        if self.type == "damper_valve" and (self.cracking_pressure is None) != (self.blowoff_resistance is None):
+            one, other = ("cracking_pressure", "blowoff_resistance") if self.blowoff_resistance is None else ("blowoff_resistance", "cracking_pressure")
+            raise ValueError(
+                f"a damper valve's blow-off needs {other} with {one} (the pressure it opens at and the resistance of its opening law); give both or neither"
+            )
         for key in PARAMETER_FIELDS[cls]:
             value = self.value(key)
             broken = field_rule_problem(cls, key, value) if isinstance(value, float) else None

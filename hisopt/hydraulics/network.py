@@ -35,6 +35,7 @@ from hisopt.hydraulics.layout import (
     Accumulator,
     ChamberCompliance,
     Circuit,
+    DamperValve,
     Element,
     Layout,
     Orifice,
@@ -114,6 +115,16 @@ class Network:
     def accumulators(self) -> list[tuple[int, Accumulator, int]]:
         """``(element index, accumulator, node row)`` of every accumulator, in element order."""
         return [(k, e, self.element_rows[k][0]) for k, (_, e) in enumerate(self.elements) if isinstance(e, Accumulator)]
+
+    def damper_valves(self) -> list[tuple[int, DamperValve, tuple[int, ...]]]:
+        """``(element index, valve, (a, b, q) rows)`` of every physical damper valve, in
+        element order: the valves whose flows are hydraulic outputs (docs/model.md §3.3)."""
+        return [(k, e, rows) for k, e, rows in self.valves() if isinstance(e, DamperValve)]
+
+    def solved_valves(self) -> list[tuple[int, DamperValve, tuple[int, ...]]]:
+        """``(element index, valve, (a, b, q) rows)`` of every damper valve whose RMS flow is
+        solved with the response (no ``flow_rms`` given), in element order."""
+        return [(k, e, rows) for k, e, rows in self.valves() if isinstance(e, DamperValve) and e.flow_rms is None]
 
     def valves(self) -> list[tuple[int, Valve, tuple[int, ...]]]:
         """``(element index, valve, (a, b, q) rows)`` of every valve (orifices included), in
@@ -199,6 +210,13 @@ def compile_network(layout: Layout, fidelity: PipeModel = "lumped") -> Network:
 
 
 # --- parameter values --------------------------------------------------------------------------
+def solved_flow_name(k: int) -> str:
+    """The parameter holding the solved RMS flow [m^3/s] of the damper valve at element index
+    ``k`` (:meth:`Network.solved_valves`), set by the fixed point of
+    :mod:`hisopt.evaluation.valve_flows`."""
+    return f"valve_flow_rms_{k}"
+
+
 def resolve(ref: ParamRef, params: Mapping[str, Any], where: str = "") -> Any:
     """The value of a parameter reference: ``params[ref]`` for a name, the number itself."""
     if isinstance(ref, str):
@@ -218,8 +236,8 @@ class ElementValues:
     ``(R', L', C', length)`` of each pipe; ``gas``: ``(V, p_abs, gamma)`` of each accumulator at
     its operating point; ``orifice``: ``(R, K_q)`` of each orifice, its laminar resistance
     [Pa s m^-3] and quadratic coefficient [Pa s^2 m^-6] for the nonlinear law (its
-    ``resistance`` entry is the equivalent linear resistance). Keys are element indices of
-    :attr:`Network.elements`.
+    ``resistance`` entry is the equivalent linear resistance); ``damper``: each damper
+    valve's law. Keys are element indices of :attr:`Network.elements`.
     """
 
     shunt: dict[int, Any]
@@ -229,6 +247,12 @@ class ElementValues:
     line: dict[int, tuple[Any, Any, Any, Any]]
     gas: dict[int, tuple[Any, Any, Any]]
     orifice: dict[int, tuple[Any, Any]] = field(default_factory=dict)
+    damper: dict[int, tuple[Any, Any, Any, Any]] = field(default_factory=dict)
+    """``(r, K, p_c, R_b)`` of each damper valve at the oil's temperature: its laminar part
+    [Pa s m^-3], bleed orifice coefficient [Pa s^2 m^-6], cracking pressure [Pa] and blow-off
+    resistance [Pa s m^-3] (``p_c``, ``R_b`` None without a blow-off), the arguments of
+    :func:`hisopt.hydraulics.laws.damper_valve_pressure_drop`; its ``resistance`` entry is
+    the equivalent linear resistance."""
 
 
 def element_values(network: Network, params: Mapping[str, Any], static_rise: Any = None, static_pressure: Any = None) -> ElementValues:
@@ -254,7 +278,7 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
     """
     rho, mu, beta = (resolve(name, params) for name in FLUID_PARAMETERS)
     thermal = (params.get("valve_laminar_fraction", 1.0), params.get("viscosity_ratio", 1.0), params.get("density_ratio", 1.0))
-    out = ElementValues({}, {}, {}, {}, {}, {}, {})
+    out = ElementValues({}, {}, {}, {}, {}, {}, {}, {})
     for k, (c, e) in enumerate(network.elements):
         where = f" (circuit {network.layout.circuits[c].name!r})"
         if isinstance(e, Accumulator):
@@ -277,6 +301,11 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
             r, kq = laws.viscous_resistance(r, 1.0, thermal[1], thermal[2]), laws.viscous_resistance(kq, 0.0, thermal[1], thermal[2])
             out.orifice[k] = (r, kq)
             out.resistance[k] = laws.orifice_equivalent_resistance(r, kq, resolve(e.flow_rms, params, where))
+        elif isinstance(e, DamperValve):
+            law = damper_law(e, params, rho, thermal[1:], where)
+            out.damper[k] = law
+            flow = resolve(e.flow_rms if e.flow_rms is not None else solved_flow_name(k), params, where)
+            out.resistance[k] = laws.damper_valve_equivalent_resistance(flow, law[1], law[2], law[3], law[0])
         elif isinstance(e, Valve):
             out.resistance[k] = laws.viscous_resistance(resolve(e.resistance, params, where), *thermal)
         else:
@@ -287,6 +316,18 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
             out.line[k] = (r_m, l_m, c_m, length)
             out.resistance[k], out.inertance[k], out.compliance[k] = r_m * length, l_m * length, c_m * length
     return out
+
+
+def damper_law(e: DamperValve, params: Mapping[str, Any], rho: Any, thermal: tuple[Any, Any], where: str = "") -> tuple[Any, Any, Any, Any]:
+    """``(r, K, p_c, R_b)`` of a damper valve (see :class:`ElementValues`) in oil of density
+    ``rho`` (at its temperature): the laminar part follows the viscosity ratio ``thermal[0]``,
+    the bleed orifice the density; the blow-off's spring and opening law are the oil's
+    temperature's alike (``p_c``, ``R_b`` as given)."""
+    r = laws.viscous_resistance(resolve(e.resistance, params, where), 1.0, *thermal)
+    kq = laws.orifice_coefficient(resolve(e.orifice_diameter, params, where), resolve(e.discharge_coefficient, params, where), rho)
+    if e.cracking_pressure is None or e.blowoff_resistance is None:
+        return r, kq, None, None
+    return r, kq, resolve(e.cracking_pressure, params, where), resolve(e.blowoff_resistance, params, where)
 
 
 def circuit_entry(per_circuit: Any, c: int) -> Any:
@@ -664,24 +705,32 @@ def contract_shorts(layout: Layout, shorted: frozenset[int]) -> Layout:
 
     Element indices count across circuits, as :attr:`Network.elements`.
     """
+    return contracted_layout(layout, shorted)[0]
+
+
+def contracted_layout(layout: Layout, shorted: frozenset[int]) -> tuple[Layout, tuple[int, ...]]:
+    """:func:`contract_shorts` and, per element of the contracted layout, the element index
+    it had in ``layout`` (a valve left joining a node to itself is dropped: it carries no flow)."""
     out = []
+    origin: list[int] = []
     k = 0
     for circuit in layout.circuits:
         alias: dict[str, str] = {}  # merged node -> the node it joined
-        kept: list[Element] = []
+        kept: list[tuple[int, Element]] = []
         for element in circuit.elements:
             if k in shorted and isinstance(element, Valve):
                 a, b = _root(alias, element.a), _root(alias, element.b)
                 if a != b:
                     alias[b] = a
             else:
-                kept.append(element)
+                kept.append((k, element))
             k += 1
-        renamed = [_rename(e, alias) for e in kept]
-        renamed = [e for e in renamed if not (isinstance(e, Valve) and e.a == e.b)]
+        renamed = [(i, _rename(e, alias)) for i, e in kept]
+        renamed = [(i, e) for i, e in renamed if not (isinstance(e, Valve) and e.a == e.b)]
+        origin += [i for i, _ in renamed]
         ports = tuple(replace(p, node=_root(alias, p.node)) for p in circuit.ports)
-        out.append(Circuit(circuit.name, tuple(renamed), ports))
-    return Layout(tuple(out), layout.name)
+        out.append(Circuit(circuit.name, tuple(e for _, e in renamed), ports))
+    return Layout(tuple(out), layout.name), tuple(origin)
 
 
 def _root(alias: dict[str, str], name: str) -> str:

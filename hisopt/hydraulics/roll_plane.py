@@ -74,6 +74,25 @@ class RollPlaneHIS(BaseModel):
     valve_laminar_fraction: float = Field(
         1.0, ge=0, le=1, description="laminar share of the valves' coefficient at the reference temperature (the rest is orifice)", json_schema_extra=si("-")
     )
+    orifice_diameter: float | None = Field(
+        None, gt=0, description="bleed orifice of physical damper valves in place of the linear Rv valves (None: linear valves)", json_schema_extra=si("m")
+    )
+    orifice_diameter_rear: float | None = Field(None, gt=0, description="rear orifice_diameter (None: = orifice_diameter)", json_schema_extra=si("m"))
+    discharge_coefficient: float = Field(0.7, gt=0, le=1, description="the bleed orifices' discharge coefficient", json_schema_extra=si("-"))
+    cracking_pressure: float | None = Field(
+        None, ge=0, description="the damper valves' blow-off cracking pressure (None: no blow-off)", json_schema_extra=si("Pa")
+    )
+    cracking_pressure_rear: float | None = Field(None, ge=0, description="rear cracking_pressure (None: = cracking_pressure)", json_schema_extra=si("Pa"))
+    blowoff_resistance: float | None = Field(
+        None, gt=0, description="the blow-off's resistance once open: pressure per flow it adds (its opening law)", json_schema_extra=si("Pa s m^-3")
+    )
+    blowoff_resistance_rear: float | None = Field(
+        None, gt=0, description="rear blowoff_resistance (None: = blowoff_resistance)", json_schema_extra=si("Pa s m^-3")
+    )
+    laminar_resistance: float = Field(0.0, ge=0, description="the damper valves' laminar part in series (0: none)", json_schema_extra=si("Pa s m^-3"))
+    valve_flow_rms: float | None = Field(
+        None, ge=0, description="RMS flow to linearise the damper valves at (None: solved with the road's response)", json_schema_extra=si("m^3/s")
+    )
     separator: Literal["diaphragm", "bladder"] = Field("diaphragm", description="[-] the accumulators' gas separator (sets their default pressure_rating)")
     pressure_rating: float | None = Field(
         None,
@@ -117,10 +136,42 @@ class RollPlaneHIS(BaseModel):
         return self
 
     @model_validator(mode="after")
+    def _damper_valves_complete(self) -> RollPlaneHIS:
+        valve_keys = [k for k in DAMPER_KEYS if getattr(self, k) is not None and k != "orifice_diameter"]
+        if self.orifice_diameter is None and valve_keys:
+            raise ValueError(f"{valve_keys[0]}: a damper valve value without orifice_diameter, which turns the valves into physical damper valves; give it too")
+        for axle in ("", "_rear"):
+            crack, slope = getattr(self, f"cracking_pressure{axle}"), getattr(self, f"blowoff_resistance{axle}")
+            front = (self.cracking_pressure, self.blowoff_resistance)
+            if (crack is None and front[0] is None) != (slope is None and front[1] is None):
+                given, absent = (
+                    ("cracking_pressure", "blowoff_resistance") if slope is None and front[1] is None else ("blowoff_resistance", "cracking_pressure")
+                )
+                raise ValueError(
+                    f"{given}{axle}: a blow-off needs {absent}{axle} too (the pressure it opens at and the resistance of its opening law); give both or neither"
+                )
+        return self
+
+    @model_validator(mode="after")
     def _distributed_needs_pipes(self) -> RollPlaneHIS:
         if self.pipe_model == "distributed" and self.pipes is None:
             raise ValueError("pipe_model = 'distributed' needs a [his.pipes] layout")
         return self
+
+
+DAMPER_KEYS = (
+    "orifice_diameter",
+    "orifice_diameter_rear",
+    "cracking_pressure",
+    "cracking_pressure_rear",
+    "blowoff_resistance",
+    "blowoff_resistance_rear",
+    "valve_flow_rms",
+)
+"""[his] values of the physical damper valves (docs/model.md §3.3)."""
+
+DAMPER_REAR_TIED = ("orifice_diameter", "cracking_pressure", "blowoff_resistance")
+"""Damper valve values whose rear one follows the front one unless given."""
 
 
 def roll_plane_layout(pipes: bool = False, chamber: bool = False) -> Layout:
@@ -196,7 +247,7 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
     for axle in ("", "_rear"):  # hardware sizes, where given, set the paper's dA and lam
         if values.get(f"bore{axle}") is not None and values.get(f"rod{axle}") is not None:
             values[f"dA{axle}"], values[f"lam{axle}"] = laws.bore_and_rod_parameters(values[f"bore{axle}"], values[f"rod{axle}"])
-    for key in ("dA", "lam", "Rv"):
+    for key in ("dA", "lam", "Rv", *DAMPER_REAR_TIED):
         if values.get(f"{key}_rear") is None:
             values[f"{key}_rear"] = values[key]
     if values.get("pressure_rating") is None:
