@@ -1,0 +1,74 @@
+"""Where each physical damper valve works on a problem's road: its RMS flow and equivalent
+resistance per design (docs/model.md §3.3), for the design sheet, the decision room and the
+console."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hisopt.evaluation.evaluate import Evaluator
+from hisopt.evaluation.valve_flows import solve_valve_flows, valve_flow_names_of
+from hisopt.hydraulics.network import Network
+from hisopt.specification.design_space import DesignSpace
+
+
+@dataclass(frozen=True)
+class ValveStates:
+    """The damper valves of a batch of designs on one road.
+
+    Attributes
+    ----------
+    labels : tuple[str, ...]
+        [-] ``"<circuit>:<from>-><to>"`` of each damper valve, in element order
+    flow_rms : np.ndarray
+        [m^3/s] RMS flow through each valve over the band, ``(n, n_valves)``
+    resistance : np.ndarray
+        [Pa s m^-3] each valve's equivalent linear resistance there, ``(n, n_valves)``
+    converged : np.ndarray
+        [-] whether each design's fixed point converged (NaN rows where not), ``(n,)``
+    """
+
+    labels: tuple[str, ...]
+    flow_rms: np.ndarray
+    resistance: np.ndarray
+    converged: np.ndarray
+
+
+def valve_labels(network: Network) -> tuple[str, ...]:
+    """[-] ``"<circuit>:<from>-><to>"`` of each damper valve of ``network``, in element order."""
+    names = [c.name for c in network.layout.circuits]
+    return tuple(f"{names[network.elements[k][0]]}:{e.a}->{e.b}" for k, e, _ in network.damper_valves())
+
+
+def valve_states(space: DesignSpace, designs: Any) -> ValveStates:
+    """Each damper valve's RMS flow and equivalent resistance for ``designs`` on ``space``'s road
+    (a load case's: :meth:`~hisopt.specification.design_space.DesignSpace.scenario_space`):
+    solved as the evaluator solves them (:func:`~hisopt.evaluation.valve_flows.solve_valve_flows`),
+    or at the given ``flow_rms``. A problem without damper valves gives empty tables."""
+    x = space.design_matrix(designs)
+    network = space.network()
+    labels = valve_labels(network)
+    n = len(x)
+    if not labels:
+        return ValveStates(labels, np.zeros((n, 0)), np.zeros((n, 0)), np.ones(n, dtype=bool))
+    flows: dict[str, np.ndarray] = {}
+    converged = np.ones(n, dtype=bool)
+    if network.solved_valves():
+        evaluator = Evaluator(space, names=(), rms_outputs=valve_flow_names_of(space))
+        flows, converged, _ = solve_valve_flows(evaluator, x, {})
+    flow = np.full((n, len(labels)), np.nan)
+    resistance = np.full((n, len(labels)), np.nan)
+    if converged.any():
+        rows = np.flatnonzero(converged)
+        model = space.model(x[rows], inputs={k: v[rows] for k, v in flows.items()})
+        his = model.his
+        assert his is not None
+        measured = Evaluator(space, names=(), rms_outputs=[f"valve_flow_{j}" for j in range(len(labels))])
+        for group_rows, group in model.groups():
+            flow[rows[group_rows]] = measured.output_rms(group, [f"valve_flow_{j}" for j in range(len(labels))])
+        for j, (k, _, _) in enumerate(network.damper_valves()):
+            resistance[rows, j] = np.broadcast_to(np.asarray(his.values.resistance[k], dtype=float), (len(rows),))
+    return ValveStates(labels, flow, resistance, converged)
