@@ -49,7 +49,7 @@ from hisopt.evaluation.quadrature import (
     split_nodes,
 )
 from hisopt.evaluation.transient import transient_quantities
-from hisopt.evaluation.valve_flows import solve_valve_flows, valve_flow_names_of
+from hisopt.evaluation.valve_flows import FlowStart, solve_valve_flows, valve_flow_names_of
 from hisopt.hydraulics.network import solved_flow_name
 from hisopt.linalg import one_blas_thread
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS, Metric
@@ -131,6 +131,7 @@ class Evaluator:
             elif m.output is not None:
                 wanted.append(m.output)
         self._flow_evaluator: Evaluator | None = None
+        self._start: FlowStart | None = None
         if network.solved_valves() and not self.rms_outputs:  # the damper valves' RMS flows: solved per chunk on this road
             self._flow_evaluator = Evaluator(problem, chunk_size, order, peak_steps, tolerance, names=(), rms_outputs=valve_flow_names_of(problem))
         wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
@@ -185,6 +186,7 @@ class Evaluator:
         x = self.problem.design_matrix(designs)
         given = dict(inputs or {})
         with one_blas_thread():
+            given |= self._solved_flows(x, given)
             results = [
                 self._chunk(x[i : i + self.chunk_size], evaluators, {k: v[i : i + self.chunk_size] for k, v in given.items()})
                 for i in range(0, max(len(x), 1), self.chunk_size)
@@ -201,10 +203,10 @@ class Evaluator:
         idx = np.flatnonzero(valid)
         with np.errstate(all="ignore"):
             given = {k: v[valid] for k, v in inputs.items()}
-            if self._flow_evaluator is not None and not all(k in given for k in self._flow_names):
-                flows, converged, _ = solve_valve_flows(self._flow_evaluator, x[valid], given)
-                given = {k: v[converged] for k, v in given.items()} | {k: v[converged] for k, v in flows.items()}
-                valid[idx[~converged]] = False  # no fixed point: the design fails (failure_reason)
+            if self._flow_evaluator is not None:  # a design without a fixed point fails (failure_reason)
+                converged = np.all([np.isfinite(given[k]) for k in self._flow_names], axis=0)
+                given = {k: v[converged] for k, v in given.items()}
+                valid[idx[~converged]] = False
                 idx = idx[converged]
         oks = [valid.copy() for _ in evaluators]
         if not valid.any():
@@ -220,6 +222,30 @@ class Evaluator:
                         out[name][idx[rows]] = np.where(ok, values[name], np.nan)
                     ok_all[idx[rows]] = ok
         return [out | {"valid": ok} for out, ok in zip(outs, oks, strict=True)]
+
+    def _solved_flows(self, x: np.ndarray, given: Inputs) -> dict[str, np.ndarray]:
+        """The damper valves' RMS flows of every admissible design of ``x`` on this road (NaN
+        where there is no fixed point, and for the others), solved for the whole batch at once
+        so that the iterations' tails share their calls; none if the inputs give them or the
+        problem has no solved valves."""
+        if self._flow_evaluator is None or all(k in given for k in self._flow_names):
+            return {}
+        out = {k: np.full(len(x), np.nan) for k in self._flow_names}
+        valid = admissible(self.problem, x)
+        if valid.any():
+            with np.errstate(all="ignore"):
+                flows, _, _ = solve_valve_flows(self._flow_evaluator, x[valid], {k: v[valid] for k, v in given.items()}, self._flow_start(x[valid]))
+            for k, v in flows.items():
+                out[k][valid] = v
+        return out
+
+    def _flow_start(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The fixed point's first guess for designs ``x`` (:class:`~hisopt.evaluation.valve_flows.FlowStart`,
+        fitted on this load case once)."""
+        assert self._flow_evaluator is not None
+        if self._start is None:
+            self._start = FlowStart(self._flow_evaluator)
+        return self._start(x, len(self._flow_names))
 
     @property
     def _flow_names(self) -> list[str]:

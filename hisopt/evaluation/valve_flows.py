@@ -17,7 +17,7 @@ quantities NaN: the design fails with that reason).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Protocol
 
@@ -40,9 +40,10 @@ class Evaluator(Protocol):
     def output_rms(self, model: CoupledModel, outputs: Sequence[str]) -> np.ndarray: ...
 
 
-FLOW_TOLERANCE = 1e-7
-"""Relative change of the RMS flows at which the fixed point stops (a resistance that far
-from its fixed point moves the quantities by less than the evaluator's 1e-4 tolerance)."""
+FLOW_TOLERANCE = 1e-6
+"""Relative residual of the RMS flows at which the fixed point stops: ten times the noise of
+the flows' adaptive quadrature (about 1e-7), and a resistance that far from its fixed point
+moves the quantities by less than 1e-6, far below the evaluator's 1e-4 tolerance."""
 MAX_ITERATIONS = 30
 INITIAL_FLOW = 1e-4
 """[m^3/s] The first RMS flow tried: 0.1 L/s, a passenger car's damper on a C road."""
@@ -58,47 +59,140 @@ def valve_flow_names_of(problem: DesignSpace) -> list[str]:
     return [f"valve_flow_{damper.index(k)}" for k, _, _ in net.solved_valves()]
 
 
-def solve_valve_flows(evaluator: Evaluator, x: np.ndarray, inputs: Inputs) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
+def solve_valve_flows(
+    evaluator: Evaluator, x: np.ndarray, inputs: Inputs, start: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """The solved RMS flows [m^3/s] of ``x``'s designs (admissible rows), as model inputs
     (:func:`~hisopt.hydraulics.network.solved_flow_name`), each ``(n,)``; whether each design
     converged; and the iterations each took.
 
     ``evaluator``: an evaluator that integrates the valves' flows (``rms_outputs``
-    :func:`valve_flow_names_of`) on the load case's road."""
+    :func:`valve_flow_names_of`) on the load case's road; ``start``: ``log`` of the first
+    flows tried and the slope of ``log F`` to take the first step with, each ``(n, n_valves)``
+    (None: :data:`INITIAL_FLOW` and :data:`FIRST_SLOPE` for all; :class:`FlowStart`). Once a design's
+    residual is within :data:`FLOW_TOLERANCE` it takes one more step (no new evaluation): the
+    secant's superlinear convergence puts that step's error orders of magnitude below the
+    tolerance, so the result does not hinge on the path the iteration took."""
     net = evaluator.problem.network()
     names = [solved_flow_name(k) for k, _, _ in net.solved_valves()]
     outputs = valve_flow_names_of(evaluator.problem)
     n, m = len(x), len(names)
-    y = np.full((n, m), np.log(INITIAL_FLOW))
-    y_prev, g_prev = np.full((n, m), np.nan), np.full((n, m), np.nan)
-    converged = np.zeros(n, dtype=bool)
-    failed = np.zeros(n, dtype=bool)
-    iterations = np.zeros(n, dtype=np.int64)
+    y = np.full((n, m), np.log(INITIAL_FLOW)) if start is None else np.array(start[0], dtype=float)
+    first = np.full((n, m), FIRST_SLOPE) if start is None else np.clip(start[1], -20.0, 0.5)
     try:  # the static operating point once: the flows change only the valves' resistances
         base = evaluator.problem.model(x, inputs=dict(inputs) | {name: np.exp(y[:, j]) for j, name in enumerate(names)})
     except (ModelError, np.linalg.LinAlgError, ValueError):
-        return {name: np.full(n, np.nan) for name in names}, converged, iterations
+        return {name: np.full(n, np.nan) for name in names}, np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64)
+    y, ok, iterations = log_fixed_point(
+        lambda rows, y_rows: np.log(_flow_rms(evaluator, _at_flows(base.subset(rows), names, np.exp(y_rows)), outputs)), y, first
+    )
+    flows = {name: np.where(ok, np.exp(y[:, j]), np.nan) for j, name in enumerate(names)}
+    return flows, ok, iterations
+
+
+def log_fixed_point(
+    response: Callable[[np.ndarray, np.ndarray], np.ndarray], y: np.ndarray, first: np.ndarray, tolerance: float = FLOW_TOLERANCE
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Solve ``y = G(y)`` per row (design) by each column's secant (module docstring).
+
+    Parameters
+    ----------
+    response : Callable
+        ``response(rows, y[rows])`` -> ``G`` at those rows, ``(len(rows), m)`` (NaN: no answer)
+    y, first : np.ndarray
+        the start and the slope of ``G`` to take the first step with, each ``(n, m)``
+    tolerance : float
+        [-] the largest ``|G(y) - y|`` accepted
+
+    Returns
+    -------
+    y, converged, iterations : np.ndarray
+        ``(n, m)`` the solution (one more step past the accepted iterate), ``(n,)`` whether it
+        converged, ``(n,)`` the evaluations of ``G`` it took
+    """
+    y = np.array(y, dtype=float)
+    n = len(y)
+    y_prev, g_prev = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
+    converged, failed = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    iterations = np.zeros(n, dtype=np.int64)
     active = np.arange(n)
     for _ in range(MAX_ITERATIONS):
         if not len(active):
             break
-        g = np.log(_flow_rms(evaluator, _at_flows(base.subset(active), names, np.exp(y[active])), outputs))
+        g = response(active, y[active])
         iterations[active] += 1
         bad = ~np.all(np.isfinite(g), axis=1)
         failed[active[bad]] = True
-        step = g - y[active]
-        done = ~bad & np.all(np.abs(step) <= FLOW_TOLERANCE, axis=1)
-        converged[active[done]] = True
-        slope = (g - g_prev[active]) / (y[active] - y_prev[active])
-        slope = np.where(np.isfinite(slope), np.clip(slope, -20.0, 0.5), FIRST_SLOPE)
-        keep = ~bad & ~done
+        residual = g - y[active]
+        slope = (g - g_prev[active]) / (y[active] - y_prev[active])  # each column's own secant
+        slope = np.where(np.isfinite(slope), np.clip(slope, -20.0, 0.5), np.clip(first[active], -20.0, 0.5))
+        keep = ~bad
         rows = active[keep]
         y_prev[rows], g_prev[rows] = y[rows], g[keep]
-        y[rows] = y[rows] + step[keep] / (1.0 - slope[keep])
-        active = rows
-    ok = converged & ~failed
-    flows = {name: np.where(ok, np.exp(y[:, j]), np.nan) for j, name in enumerate(names)}
-    return flows, ok, iterations
+        y[rows] = y[rows] + residual[keep] / (1.0 - slope[keep])
+        done = keep & np.all(np.abs(residual) <= tolerance, axis=1)
+        converged[active[done]] = True
+        active = active[keep & ~done]
+    return y, converged & ~failed, iterations
+
+
+def _slopes(evaluator: Evaluator, x: np.ndarray, inputs: Inputs, y: np.ndarray, step: float = 0.05) -> np.ndarray:
+    """The slope of each valve's ``log F`` in its own ``log s`` at ``y`` (the others held), by
+    a forward difference of ``step``: ``(n, n_valves)``."""
+    net = evaluator.problem.network()
+    names = [solved_flow_name(k) for k, _, _ in net.solved_valves()]
+    outputs = valve_flow_names_of(evaluator.problem)
+    base = evaluator.problem.model(x, inputs=dict(inputs) | {name: np.exp(y[:, j]) for j, name in enumerate(names)})
+    g0 = np.log(_flow_rms(evaluator, _at_flows(base, names, np.exp(y)), outputs))
+    g1 = np.log(_flow_rms(evaluator, _at_flows(base, names, np.exp(y + step)), outputs))
+    return (g1 - g0) / step
+
+
+class FlowStart:
+    """A first guess of the valves' log RMS flows from the design alone: a least-squares
+    quadratic in the scaled variables (log-scaled where positive) through the fixed points of a fixed 64-point Sobol' sample of the
+    box (solved once per load case). A better start saves iterations; the answer is the fixed
+    point whatever the start (to far below :data:`FLOW_TOLERANCE`)."""
+
+    def __init__(self, evaluator: Evaluator, inputs: Inputs | None = None):
+        from scipy.stats import qmc
+
+        space = evaluator.problem
+        self.lower, self.upper = space.lower, space.upper
+        unit = qmc.Sobol(len(self.lower), scramble=False).random(64)
+        x = self.lower + unit * (self.upper - self.lower)
+        given = dict(inputs or {})
+        y = np.log(np.array(list(solve_valve_flows(evaluator, x, given)[0].values())).T)
+        good = np.all(np.isfinite(y), axis=1)
+        self.coefficients = self.slope_coefficients = None
+        self.fallback = np.log(INITIAL_FLOW)
+        features = self._features(x[good])
+        if good.sum() > features.shape[1]:
+            slopes = _slopes(evaluator, x[good], given, y[good])
+            fit = np.all(np.isfinite(slopes), axis=1)
+            self.coefficients = np.linalg.lstsq(features, y[good], rcond=None)[0]
+            if fit.sum() > features.shape[1]:
+                self.slope_coefficients = np.linalg.lstsq(features[fit], slopes[fit], rcond=None)[0]
+
+    def _features(self, x: np.ndarray) -> np.ndarray:
+        positive = (self.lower > 0) & (self.upper > self.lower)  # sizes and pressures act through powers: log scale
+        lo = np.where(positive, np.log(np.where(positive, self.lower, 1.0)), self.lower)
+        hi = np.where(positive, np.log(np.where(positive, self.upper, 1.0)), self.upper)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v = np.where(positive, np.log(np.where(positive, x, 1.0)), x)
+        u = (v - lo) / np.where(hi > lo, hi - lo, 1.0)
+        pairs = [u[:, i] * u[:, j] for i in range(u.shape[1]) for j in range(i, u.shape[1])]
+        return np.column_stack([np.ones(len(x)), u, *pairs])
+
+    def __call__(self, x: np.ndarray, n_valves: int) -> tuple[np.ndarray, np.ndarray]:
+        """``log`` of the first flows to try and the slopes to step with, each ``(n, n_valves)``."""
+        shape = (len(x), n_valves)
+        if self.coefficients is None:
+            return np.full(shape, self.fallback), np.full(shape, FIRST_SLOPE)
+        features = self._features(x)
+        guess = features @ self.coefficients
+        slope = features @ self.slope_coefficients if self.slope_coefficients is not None else np.full(shape, FIRST_SLOPE)
+        return np.where(np.isfinite(guess), guess, self.fallback), np.where(np.isfinite(slope), slope, FIRST_SLOPE)
 
 
 def _at_flows(model: CoupledModel, names: list[str], flows: np.ndarray) -> CoupledModel:

@@ -250,8 +250,8 @@ def damper_valve_pressure_drop(q: Any, kq: Any, cracking: Any = None, blowoff: A
     aq = bk.fabs(q)
     if cracking is None:
         return r * q + kq * q * aq
-    with np.errstate(divide="ignore"):  # at q = 0 the open branch is infinite and the bleed's 0 wins
-        open_share = _blowoff_drop(aq, kq, cracking, blowoff) / aq
+    # at q = 0 the open branch's share is huge (or 0 without a cracking pressure) and the bleed's 0 wins
+    open_share = _blowoff_drop(aq, kq, cracking, blowoff) / bk.fmax(aq, 1e-300)
     return r * q + q * bk.fmin(kq * aq, open_share)
 
 
