@@ -99,7 +99,7 @@ def test_fixed_point_on_a_one_dof_system(pc):
         r = laws.damper_valve_equivalent_resistance(np.exp(y), kq, pc, None if pc is None else rb)
         return np.log(_one_dof_flow(r, area, mass, s0))
 
-    y, ok, it = log_fixed_point(response, np.full((1, 1), math.log(1e-4)), np.full((1, 1), -0.25))
+    y, ok, _, _ = log_fixed_point(response, np.full((1, 1), math.log(1e-4)), np.full((1, 1), -0.25))
     assert ok.all()
     if pc is None:  # by hand: s^2 = pi s0 / (m sqrt(8/pi) K s), a cube root
         expected = (math.pi * s0 / (mass * math.sqrt(8 / math.pi) * kq)) ** (1 / 3)

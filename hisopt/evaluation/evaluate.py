@@ -49,7 +49,15 @@ from hisopt.evaluation.quadrature import (
     split_nodes,
 )
 from hisopt.evaluation.transient import transient_quantities
-from hisopt.evaluation.valve_flows import FlowStart, solve_valve_flows, valve_flow_names_of
+from hisopt.evaluation.valve_flows import (
+    FLOW_TOLERANCE,
+    FlowStart,
+    first_steps,
+    flow_residual,
+    secant_step,
+    solve_valve_flows,
+    valve_flow_names_of,
+)
 from hisopt.hydraulics.network import solved_flow_name
 from hisopt.linalg import one_blas_thread
 from hisopt.metrics import COMFORT_OUTPUTS, METRICS, Metric
@@ -63,6 +71,20 @@ if TYPE_CHECKING:
     from hisopt.coupled.model import CoupledModel
     from hisopt.specification.config import Comfort
     from hisopt.specification.design_space import DesignSpace, Inputs
+
+
+MEASURED = "measured:"
+"""Prefix of an evaluation's band RMS of an output among :attr:`Evaluator.rms_outputs` (the
+damper valves' flows a design was evaluated at), dropped before :meth:`Evaluator.shared` returns."""
+
+
+def _rows(given: Inputs, rows: np.ndarray) -> dict[str, np.ndarray]:
+    return {k: v[rows] for k, v in given.items()}
+
+
+def _flows(names: list[str], y: np.ndarray) -> dict[str, np.ndarray]:
+    """The solved valves' RMS flows [m^3/s] as model inputs, from their logs ``(n, n_valves)``."""
+    return {name: np.exp(y[:, j]) for j, name in enumerate(names)}
 
 
 class Evaluator:
@@ -120,8 +142,11 @@ class Evaluator:
         self.all_outputs = (
             standard_outputs(problem.vehicle) | accumulator_outputs(self.n_accumulators) | valve_flow_outputs(self.n_accumulators, len(network.damper_valves()))
         )
-        self.rms_outputs = tuple(rms_outputs)
-        """Outputs whose band RMS :meth:`output_rms` integrates besides the metrics' (the valves' flows)."""
+        solved = bool(network.solved_valves()) and names is None  # this load case's evaluator: it measures the flows it is built at
+        self.rms_outputs = tuple(rms_outputs) or (tuple(valve_flow_names_of(problem)) if solved else ())
+        """Outputs whose band RMS this evaluator integrates besides the metrics' (the valves'
+        flows): :meth:`output_rms`, and each evaluation's ``"measured:<output>"`` columns."""
+        self.columns = self.names + tuple(MEASURED + o for o in self.rms_outputs)
         wanted: list[str] = list(self.rms_outputs)
         for m in self.metrics:
             if m.kind == "comfort":
@@ -132,8 +157,8 @@ class Evaluator:
                 wanted.append(m.output)
         self._flow_evaluator: Evaluator | None = None
         self._start: FlowStart | None = None
-        if network.solved_valves() and not self.rms_outputs:  # the damper valves' RMS flows: solved per chunk on this road
-            self._flow_evaluator = Evaluator(problem, chunk_size, order, peak_steps, tolerance, names=(), rms_outputs=valve_flow_names_of(problem))
+        if solved:  # the damper valves' RMS flows, solved on this road
+            self._flow_evaluator = Evaluator(problem, chunk_size, order, peak_steps, tolerance, names=(), rms_outputs=self.rms_outputs)
         wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
         self.outputs: dict[str, Output] = {n: self.all_outputs[n] for n in dict.fromkeys(wanted)}
         self.output_index = {name: i for i, name in enumerate(self.outputs)}
@@ -186,17 +211,65 @@ class Evaluator:
         x = self.problem.design_matrix(designs)
         given = dict(inputs or {})
         with one_blas_thread():
-            given |= self._solved_flows(x, given)
-            results = [
-                self._chunk(x[i : i + self.chunk_size], evaluators, {k: v[i : i + self.chunk_size] for k, v in given.items()})
-                for i in range(0, max(len(x), 1), self.chunk_size)
-            ]
+            if self._flow_evaluator is not None and not all(k in given for k in self._flow_names):
+                results = self._solving_flows(x, evaluators, given)
+            else:
+                results = self._evaluate(x, evaluators, given)
+        return [{k: v for k, v in r.items() if not k.startswith(MEASURED)} for r in results]
+
+    def _evaluate(self, x: np.ndarray, evaluators: list[Evaluator], given: Inputs) -> list[dict[str, np.ndarray]]:
+        """:meth:`shared`'s work, chunk by chunk, with the measured valve flows (``rms_outputs``) kept."""
+        results = [
+            self._chunk(x[i : i + self.chunk_size], evaluators, {k: v[i : i + self.chunk_size] for k, v in given.items()})
+            for i in range(0, max(len(x), 1), self.chunk_size)
+        ]
         return [{k: np.concatenate([r[j][k] for r in results]) for k in results[0][j]} for j in range(len(evaluators))]
+
+    def _solving_flows(self, x: np.ndarray, evaluators: list[Evaluator], given: Inputs) -> list[dict[str, np.ndarray]]:
+        """:meth:`_evaluate` with the damper valves' RMS flows solved on this road (docs/model.md
+        §3.3): :func:`~hisopt.evaluation.valve_flows.first_steps` for the whole batch, then the
+        evaluation, which measures each design's flows; a design whose residual is above
+        :data:`~hisopt.evaluation.valve_flows.FLOW_TOLERANCE` is solved on and evaluated again,
+        and fails if it still is (no fixed point)."""
+        assert self._flow_evaluator is not None and evaluators == [self]  # load cases with solved valves share no model
+        names, measured = self._flow_names, [MEASURED + o for o in self.rms_outputs]
+        valid = admissible(self.problem, x)
+        y = np.full((len(x), len(names)), np.nan)
+        rows = np.flatnonzero(valid)
+        start = self._flow_start(x)
+        last = (np.full(y[rows].shape, np.nan), np.full(y[rows].shape, np.nan))
+        if len(rows):
+            y[rows], last = first_steps(self._flow_evaluator, x[rows], _rows(given, rows), (start[0][rows], start[1][rows]))
+        (result,) = self._evaluate(x, evaluators, dict(given) | _flows(names, y))
+        g = np.log(np.column_stack([result[k] for k in measured]))
+        residual = flow_residual(y, np.exp(g))
+        for again in (True, False):  # a free secant step from the evaluation's own flows; then the fixed point to the end
+            rows = np.flatnonzero(valid & ~(residual <= FLOW_TOLERANCE) & np.all(np.isfinite(y), axis=1) & np.all(np.isfinite(g), axis=1))
+            if again and len(rows):
+                mine = np.searchsorted(np.flatnonzero(valid), rows)
+                y[rows] = secant_step(y[rows], g[rows], (last[0][mine], last[1][mine]), start[1][rows])
+            else:
+                rows = np.flatnonzero(valid & ~(residual <= FLOW_TOLERANCE))
+                if not len(rows):
+                    break
+                guess = np.where(np.isfinite(y[rows]), y[rows], start[0][rows])
+                flows, _, _ = solve_valve_flows(self._flow_evaluator, x[rows], _rows(given, rows), (guess, start[1][rows]))
+                y[rows] = np.log(np.column_stack([flows[k] for k in names]))
+            if not len(rows):
+                continue
+            (redone,) = self._evaluate(x[rows], evaluators, _rows(given, rows) | _flows(names, y[rows]))
+            g[rows] = np.log(np.column_stack([redone[k] for k in measured]))
+            residual[rows] = flow_residual(y[rows], np.exp(g[rows]))
+            for k, v in redone.items():
+                result[k][rows] = v
+        failed = valid & ~(residual <= FLOW_TOLERANCE)  # no fixed point: the design fails (failure_reason)
+        result = {k: np.where(failed, np.nan, v) if k != "valid" else v & ~failed for k, v in result.items()}
+        return [result]
 
     # --- internals -----------------------------------------------------------------------
     def _chunk(self, x: np.ndarray, evaluators: list[Evaluator], inputs: Inputs) -> list[dict[str, np.ndarray]]:
         n = len(x)
-        outs = [{name: np.full(n, np.nan) for name in ev.names} for ev in evaluators]
+        outs = [{name: np.full(n, np.nan) for name in ev.columns} for ev in evaluators]
         valid = admissible(self.problem, x)  # finite and within every parameter's rule
         if not valid.any():
             return [out | {"valid": valid} for out in outs]
@@ -218,26 +291,10 @@ class Evaluator:
                 except (np.linalg.LinAlgError, ModelError):
                     solved = self._one_by_one(x[valid][rows], evaluators, {k: v[rows] for k, v in given.items()})
                 for out, ok_all, ev, (values, ok) in zip(outs, oks, evaluators, solved, strict=True):
-                    for name in ev.names:
+                    for name in ev.columns:
                         out[name][idx[rows]] = np.where(ok, values[name], np.nan)
                     ok_all[idx[rows]] = ok
         return [out | {"valid": ok} for out, ok in zip(outs, oks, strict=True)]
-
-    def _solved_flows(self, x: np.ndarray, given: Inputs) -> dict[str, np.ndarray]:
-        """The damper valves' RMS flows of every admissible design of ``x`` on this road (NaN
-        where there is no fixed point, and for the others), solved for the whole batch at once
-        so that the iterations' tails share their calls; none if the inputs give them or the
-        problem has no solved valves."""
-        if self._flow_evaluator is None or all(k in given for k in self._flow_names):
-            return {}
-        out = {k: np.full(len(x), np.nan) for k in self._flow_names}
-        valid = admissible(self.problem, x)
-        if valid.any():
-            with np.errstate(all="ignore"):
-                flows, _, _ = solve_valve_flows(self._flow_evaluator, x[valid], {k: v[valid] for k, v in given.items()}, self._flow_start(x[valid]))
-            for k, v in flows.items():
-                out[k][valid] = v
-        return out
 
     def _flow_start(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The fixed point's first guess for designs ``x`` (:class:`~hisopt.evaluation.valve_flows.FlowStart`,
@@ -263,7 +320,7 @@ class Evaluator:
         return np.where(stable[:, None], np.sqrt(np.maximum(totals[:, cols], 0.0)), np.nan)
 
     def _one_by_one(self, x: np.ndarray, evaluators: list[Evaluator], inputs: Inputs) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
-        out = [({name: np.full(len(x), np.nan) for name in ev.names}, np.zeros(len(x), dtype=bool)) for ev in evaluators]
+        out = [({name: np.full(len(x), np.nan) for name in ev.columns}, np.zeros(len(x), dtype=bool)) for ev in evaluators]
         for i, row in enumerate(x):
             try:
                 ((_, model),) = self.problem.model(row[None, :], inputs={k: v[i : i + 1] for k, v in inputs.items()}).groups()
@@ -271,7 +328,7 @@ class Evaluator:
             except (np.linalg.LinAlgError, ValueError):
                 continue
             for (values, ok), (v, good), ev in zip(out, solved, evaluators, strict=True):
-                for name in ev.names:
+                for name in ev.columns:
                     values[name][i] = v[name][0]
                 ok[i] = good[0]
         return out
@@ -461,7 +518,8 @@ class Evaluator:
             spectra = np.stack([self._derive(name, f, values[j]) for j, name in enumerate(peaks)])
             maxima = self._refined_maxima(peaks, f, spectra, frf)
         steps = self._transient(model, len(lam)) if steps is None else steps
-        return reduce_metrics(
+        measured = {MEASURED + o: np.sqrt(np.maximum(integral(o, None), 0.0)) for o in self.rms_outputs}
+        return measured | reduce_metrics(
             self.metrics,
             self.problem.spec.comfort,
             lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]

@@ -1,0 +1,95 @@
+"""Cost of physical damper valves: the RMS-flow fixed point against linear valves.
+
+A damper valve is linearised at the RMS flow the road drives through it, solved with the
+response per design and load case (docs/model.md §3.3): each iteration builds the model at
+the valves' equivalent resistances and integrates their flows' PSDs. This benchmark times, in
+one process with one BLAS thread (best of ``--repeats``), on random designs of the same box:
+
+- **linear valves** (the baseline): ``problems/roll_plane_his_valves.toml`` with its damper
+  valves replaced by linear valves whose resistance ``Rv`` is a design variable over
+  1e8-1e10 Pa s/m^3 (the equivalent resistances the damper valves reach), so the same charged
+  model, roads, objectives and number of variables;
+- **damper valves**: the shipped problem as it is, the fixed point included;
+- the fixed point's iterations per design (mean and spread), and its one-off start per load
+  case (a fit over a fixed Sobol' sample of the box, amortised over a run).
+
+It prints designs per second per core for each and their ratio (the goal: the valves problem
+at most 3x the linear cost per load case).
+
+    python benchmarks/bench_valves.py [--designs 1024] [--repeats 3] [--batch 100]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+import tomllib
+from collections.abc import Callable
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+VALVE_KEYS = ("orifice_diameter", "discharge_coefficient", "cracking_pressure", "blowoff_resistance")
+
+
+def problems():  # -> (damper valves, linear valves)
+    from hisopt.problem import problem_from_dict
+
+    data = tomllib.loads((ROOT / "problems" / "roll_plane_his_valves.toml").read_text())
+    valves = problem_from_dict(data, "roll_plane_his_valves.toml")
+    linear = {**data, "his": {k: v for k, v in data["his"].items() if k not in VALVE_KEYS} | {"Rv": 2e9}}
+    linear["variables"] = {k: v for k, v in data["variables"].items() if k not in VALVE_KEYS} | {"Rv": {"lower": 1e8, "upper": 1e10, "unit": "Pa s m^-3"}}
+    # as many variables as the valves problem: the cracking pressure's place is taken by Rv_rear
+    linear["variables"]["Rv_rear"] = {"lower": 1e8, "upper": 1e10, "unit": "Pa s m^-3"}
+    return valves, problem_from_dict(linear, "linear valves")
+
+
+def best_time(fn: Callable[[], object], repeats: int) -> float:
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--designs", type=int, default=1024)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--batch", type=int, default=100, help="designs per call, as the optimiser sends a generation")
+    args = parser.parse_args()
+    from hisopt.evaluation.valve_flows import FlowStart, solve_valve_flows
+
+    valves, linear = problems()
+    rng = np.random.default_rng(0)
+    unit = rng.random((args.designs, len(valves.lower)))
+    x_valves = valves.lower + unit * (valves.upper - valves.lower)
+    x_linear = linear.lower + unit * (linear.upper - linear.lower)
+    ev_valves, ev_linear = valves.evaluator(), linear.evaluator()
+
+    def run(evaluator, x):
+        return lambda: [evaluator(x[i : i + args.batch]) for i in range(0, len(x), args.batch)]
+
+    t_linear = best_time(run(ev_linear, x_linear), args.repeats)
+    t_valves = best_time(run(ev_valves, x_valves), args.repeats)
+    t0 = time.perf_counter()
+    start = FlowStart(ev_valves._flow_evaluator)  # noqa: SLF001
+    t_start = time.perf_counter() - t0
+    _, ok, iterations = solve_valve_flows(ev_valves._flow_evaluator, x_valves, {}, start(x_valves, 4))  # noqa: SLF001
+    n = args.designs
+    print(f"{n} random designs of roll_plane_his_valves, {args.batch} per call, one BLAS thread, best of {args.repeats}")
+    print(f"  linear valves (Rv over 1e8-1e10): {n / t_linear:8.0f} designs/s per core")
+    print(f"  damper valves (fixed point):      {n / t_valves:8.0f} designs/s per core")
+    print(f"  cost ratio damper / linear:       {t_valves / t_linear:8.2f}x  (goal <= 3x)")
+    print(f"  fixed point: {iterations.mean():.2f} iterations per design (min {iterations.min()}, max {iterations.max()}), {ok.mean():.1%} converged")
+    print(f"  start per load case (once): {t_start * 1e3:.0f} ms")
+
+
+if __name__ == "__main__":
+    main()
