@@ -16,7 +16,8 @@ import numpy as np
 import pandas as pd
 
 from hisopt.arguments import of_type
-from hisopt.evaluation.evaluate import Evaluator, results_frame
+from hisopt.evaluation.evaluate import Evaluator
+from hisopt.evaluation.results_frame import results_frame
 from hisopt.evaluation.robust_evaluator import RobustEvaluator, evaluator_for
 from hisopt.evaluation.scenarios import ScenarioEvaluator
 from hisopt.specification.config import parse_problem, read_problem_file

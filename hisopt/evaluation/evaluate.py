@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from hisopt.arguments import integer, of_type, problem_argument
 from hisopt.coupled.operating_point import accumulator_quantities, accumulator_rooms
@@ -34,6 +33,7 @@ from hisopt.evaluation.channels import (
     repair_poles,
     road_channels,
 )
+from hisopt.evaluation.integrals import derived_psd, integral_keys, padded_polynomials, share_outputs
 from hisopt.evaluation.peaks import refine_maximum
 from hisopt.evaluation.psd import comfort_gain_squared, reduce_metrics
 from hisopt.evaluation.quadrature import (
@@ -60,16 +60,14 @@ from hisopt.evaluation.valve_flows import (
 )
 from hisopt.hydraulics.network import solved_flow_name
 from hisopt.linalg import one_blas_thread
-from hisopt.metrics import COMFORT_OUTPUTS, METRICS, Metric
+from hisopt.metrics import COMFORT_OUTPUTS, METRICS
 from hisopt.road.spectra import isotropic_coherence
-from hisopt.specification.validation import STATUS_FAILED, STATUS_OK, DesignCheck, admissible, check_designs
+from hisopt.specification.validation import admissible
 from hisopt.standards import iso_2631_1_1997 as iso2631
 from hisopt.standards.iso_8608_2016 import class_gd_n0, temporal_power_law, temporal_psd
-from hisopt.units import NO_UNIT, attach_units
 
 if TYPE_CHECKING:
     from hisopt.coupled.model import CoupledModel
-    from hisopt.specification.config import Comfort
     from hisopt.specification.design_space import DesignSpace, Inputs
 
 
@@ -162,7 +160,7 @@ class Evaluator:
         wanted = wanted or ["roll"]  # the poles need one output (a problem of static/transient quantities only)
         self.outputs: dict[str, Output] = {n: self.all_outputs[n] for n in dict.fromkeys(wanted)}
         self.output_index = {name: i for i, name in enumerate(self.outputs)}
-        self.bases, self.derived = _share_outputs(self.outputs)
+        self.bases, self.derived = share_outputs(self.outputs)
         self.base_index = {name: i for i, name in enumerate(self.bases)}
         self._feed = channel_feedthrough(list(self.bases.values()))
         self.f_lo, self.f_hi = spec.band.f_min_hz, spec.band.f_max_hz
@@ -184,10 +182,10 @@ class Evaluator:
         self.fixed_singularities = np.unique(np.round(fixed.real, 12) + 1j * np.round(np.abs(fixed.imag), 12))
         forced = np.unique(self.forced_edges)
         self._forced = forced[(forced > self.f_lo) & (forced < self.f_hi)]
-        self.integrals = _integral_keys(self.metrics, spec.comfort, self.outputs, self.n_accumulators)
+        self.integrals = integral_keys(self.metrics, spec.comfort, self.outputs, self.n_accumulators)
         self.integrals += [(o, None) for o in self.rms_outputs if (o, None) not in self.integrals]
         self.weightings = sorted({wt for _, wt in self.integrals if wt})
-        self._gain_polynomials = _padded_polynomials(self.weightings if spec.comfort.method == "filter" else [])
+        self._gain_polynomials = padded_polynomials(self.weightings if spec.comfort.method == "filter" else [])
         derived = [self.derived[output] for output, _ in self.integrals]
         self._sums = (  # the integrals for hisopt.evaluation.kernels.weighted_sums
             np.array([self.base_index[b] for b, _, _ in derived], dtype=np.int64),
@@ -537,15 +535,15 @@ class Evaluator:
         from the channels the evaluator integrates (:func:`~hisopt.evaluation.channels.road_channels`,
         its compiled kernel; the direct solve where a design's form is not trusted), an output
         ``s^p c^T X`` from its displacement's as the evaluator derives it."""
-        bases, derived = _share_outputs({name: self.all_outputs[name] for name in names})
+        bases, derived = share_outputs({name: self.all_outputs[name] for name in names})
         _, channels, _ = road_channels(model, bases)
         psd = self.psd(np.ascontiguousarray(f_hz, dtype=float), channels)
         place = {base: i for i, base in enumerate(bases)}
-        return np.stack([_derived_psd(derived[name], f_hz, psd[place[derived[name][0]]]) for name in names], axis=-1)
+        return np.stack([derived_psd(derived[name], f_hz, psd[place[derived[name][0]]]) for name in names], axis=-1)
 
     def _derive(self, name: str, f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
         """PSD of output ``name`` from its base: ``scale^2 omega^(2p) S_base``."""
-        return _derived_psd(self.derived[name], f_hz, base_psd)
+        return derived_psd(self.derived[name], f_hz, base_psd)
 
     def _refined_maxima(self, names: list[str], f: np.ndarray, spectra: np.ndarray, frf: Channels) -> dict[str, np.ndarray]:
         """Continuous maxima of the outputs ``names``' PSDs (``spectra``: ``(k, n, F)`` at the
@@ -611,39 +609,6 @@ class Samples:
     psd_all: np.ndarray
 
 
-def _integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, Output], n_accumulators: int) -> list[tuple[str, str | None]]:
-    """The ``(output, weighting)`` integrals :func:`hisopt.evaluation.psd.reduce_metrics` asks for (found
-    by running it once on placeholders, so the dispatch stays in one place)."""
-    keys: list[tuple[str, str | None]] = []
-
-    def record(output: str, weighting: str | None) -> float:
-        keys.append((output, weighting))
-        return 0.0
-
-    reduce_metrics(
-        metrics,
-        comfort,
-        lambda name: outputs[name].weighting,  # type: ignore[arg-type,return-value]
-        record,
-        lambda o: 0.0,
-        lambda n: 0.0,
-        lambda n: 0.0,
-        lambda: [1.0] * n_accumulators,
-    )
-    return list(dict.fromkeys(keys))
-
-
-def _padded_polynomials(weightings: list[str]) -> tuple[np.ndarray, np.ndarray]:
-    """The weightings' ``|W|^2`` numerators and denominators in ``f^2``, zero-padded to common
-    lengths, ``(W, D)`` each (``(0, 1)`` for none)."""
-    pairs = [iso2631.weighting_gain_polynomials(wt) for wt in weightings]  # type: ignore[arg-type]
-    out = []
-    for part in (0, 1):
-        width = max([len(p[part]) for p in pairs], default=1)
-        out.append(np.array([np.pad(p[part], (0, width - len(p[part]))) for p in pairs]).reshape(len(pairs), width))
-    return out[0], out[1]
-
-
 _PRIMED: list[bool] = []
 
 
@@ -660,51 +625,6 @@ def _prime_allocator(block_bytes: int = 16 << 20) -> None:
     if not _PRIMED:
         np.ones(block_bytes // 8)
         _PRIMED.append(True)
-
-
-def _total(terms: np.ndarray) -> np.ndarray:
-    """Row sums in sequential order (zero-weight padding nodes add exact zeros)."""
-    return np.cumsum(terms, axis=1)[:, -1]
-
-
-def _derived_psd(rule: tuple[str, float, int], f_hz: np.ndarray, base_psd: np.ndarray) -> np.ndarray:
-    """PSD of an output from its base's by its ``rule`` ``(base, scale, p)`` of
-    :func:`_share_outputs`: ``scale^2 omega^(2p) S_base``."""
-    _, scale, power = rule
-    if power == 0 and scale == 1.0:
-        return base_psd
-    factor = np.full(f_hz.shape, scale**2)
-    omega2 = np.square(2 * np.pi * f_hz)
-    for _ in range(power):
-        factor *= omega2
-    return factor * base_psd
-
-
-def _share_outputs(outputs: dict[str, Output]) -> tuple[dict[str, Output], dict[str, tuple[str, float, int]]]:
-    """Evaluate fewer FRFs: an output ``s^p (c . X)`` is a multiple of a displacement output.
-
-    Returns the base outputs to evaluate and, per output, ``(base, scale, p)`` with
-    ``S_y = scale^2 omega^(2p) S_base`` (e.g. ``acc_y = -h_0s phi''`` from ``roll``).
-    """
-    bases: dict[str, Output] = {}
-    derived: dict[str, tuple[str, float, int]] = {}
-    pure: dict[str, np.ndarray] = {}  # base name -> displacement vector of a pure (p = 0, no road term) base
-    for name, out in outputs.items():
-        rows = np.flatnonzero(np.any(out.c != 0, axis=1))
-        if len(rows) != 1 or np.any(out.d):
-            bases[name], derived[name] = out, (name, 1.0, 0)
-            continue
-        p, vec = int(rows[0]), out.c[rows[0]]
-        k = int(np.flatnonzero(vec)[0])
-        for bname, bvec in pure.items():
-            if bvec.shape == vec.shape and np.allclose(vec * bvec[k], bvec * vec[k], rtol=0, atol=0):
-                derived[name] = (bname, float(vec[k] / bvec[k]), p)
-                break
-        else:
-            bases[name] = Output(name, out.unit, vec[None, :], np.zeros((1, 4)), out.weighting)
-            pure[name] = vec
-            derived[name] = (name, 1.0, p)
-    return bases, derived
 
 
 def poles(model: CoupledModel) -> np.ndarray:
@@ -730,41 +650,3 @@ def roll_gradient(model: CoupledModel) -> np.ndarray:
 
     of_type(model, CoupledModel, "model", "a CoupledModel (a problem's model())")
     return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
-
-
-def failure_reason(problem: DesignSpace) -> str:
-    """Why a design the rules admit has NaN results: the model is unstable or singular there,
-    or, on a charged HIS, an accumulator holds no oil at rest (its static solve gives NaN,
-    :func:`hisopt.coupled.operating_point.charged_static_pressure`)."""
-    dry = ", or an accumulator holds no oil at rest" if problem.spec.his.charge is not None else ""
-    valves = ", or the damper valves' RMS flows found no fixed point" if problem.network().solved_valves() else ""
-    return f"the model is unstable or singular here{dry}{valves} (NaN results)"
-
-
-def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.ndarray]) -> pd.DataFrame:
-    """Designs and their quantities as a DataFrame.
-
-    Columns: the variable names, the objective names, the constraint names (physical units,
-    each quantity once; in a scenario problem also every ``"<quantity>@<scenario>"``), ``feasible`` (all constraints met, the model valid and the row
-    ``ok``), ``status`` (``ok``, ``out_of_bounds``, ``invalid``, or ``failed`` for a model
-    that is unstable or singular there) and ``reason`` (empty when ``ok``); their units in
-    ``attrs["units"]``.
-    """
-    x = problem.design_matrix(designs)
-    check: DesignCheck = check_designs(problem, x)
-    df = pd.DataFrame(x, columns=list(problem.variable_names))
-    for name in problem.result_columns:
-        df[name] = quantities[name]
-    valid = np.asarray(quantities["valid"], dtype=bool)
-    feasible = valid & check.ok
-    for c in problem.spec.constraints:
-        feasible &= quantities[c.name] <= c.limit
-    df["feasible"] = feasible
-    status, reason = check.status.copy(), check.reason.copy()
-    failed = check.evaluable & ~valid
-    status[failed & (status == STATUS_OK)] = STATUS_FAILED
-    for i in np.flatnonzero(failed):
-        reason[i] = "; ".join(r for r in (reason[i], failure_reason(problem)) if r)
-    df["status"] = status.astype(str)
-    df["reason"] = reason.astype(str)
-    return attach_units(df, problem, {"reason": NO_UNIT})

@@ -133,7 +133,7 @@ def unevaluable_reasons(problem: Problem, x: np.ndarray, valid: np.ndarray, show
     count: a rule a design breaks (:func:`hisopt.specification.validation.check_designs`,
     e.g. a rod not thinner than its bore) or the model's NaN results there
     (:func:`hisopt.evaluation.evaluate.failure_reason`)."""
-    from hisopt.evaluation.evaluate import failure_reason
+    from hisopt.evaluation.results_frame import failure_reason
     from hisopt.specification.validation import check_designs
 
     check = check_designs(problem, x)
