@@ -18,8 +18,9 @@ from hisopt.constants import DOF_NAMES
 from hisopt.errors import ModelError
 from hisopt.hydraulics import backend as bk
 from hisopt.hydraulics.coupling import HydraulicSystem
-from hisopt.hydraulics.network import PipeModel, singular_shorts
+from hisopt.hydraulics.network import PipeModel
 from hisopt.hydraulics.realisation import Descriptor, Realisation, realise
+from hisopt.hydraulics.shorts import singular_shorts
 from hisopt.linalg import bsum
 from hisopt.vehicle import (
     VehicleParams,

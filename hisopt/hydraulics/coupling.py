@@ -23,6 +23,7 @@ from hisopt.hydraulics import backend as bk
 from hisopt.hydraulics import laws
 from hisopt.hydraulics import network as nw
 from hisopt.hydraulics.network import ElementValues, Network
+from hisopt.hydraulics.shorts import contracted_layout
 
 AXLE_OF_WHEEL = ("front", "front", "rear", "rear")
 
@@ -170,7 +171,7 @@ class HydraulicSystem:
 
     def contracted(self, shorted: frozenset[int]) -> HydraulicSystem:
         """The same designs with the valves ``shorted`` (element indices) merged away."""
-        layout, kept = nw.contracted_layout(self.network.layout, shorted)
+        layout, kept = contracted_layout(self.network.layout, shorted)
         origin = kept if self.origin is None else tuple(self.origin[k] for k in kept)
         return HydraulicSystem(nw.compile_network(layout, self.network.fidelity), self.params, self.static_rise, self.static_pressure, origin)
 

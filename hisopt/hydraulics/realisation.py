@@ -9,7 +9,7 @@ state space:
 1. **Algebraic elimination.** The algebraic rows ``0 = A_aa z_a + A_ad z_d`` (no input enters
    them) give ``z_a = S z_d`` with ``S = -A_aa^-1 A_ad``, a Schur complement
    ``A_dd + A_da S``; a zero-resistance valve between two storage nodes would make ``A_aa``
-   singular and is contracted beforehand (:func:`hisopt.hydraulics.network.contract_shorts`).
+   singular and is contracted beforehand (:func:`hisopt.hydraulics.shorts.contract_shorts`).
 2. **Invariant elimination.** A closed circuit conserves its oil: ``c^T z_d = 0`` with ``c``
    the compliances on its pressures and minus the volume its ports displace per unit
    position. Each invariant's pivot state ``z_r = -(1/c_r) sum_{j != r} c_j z_j`` is
