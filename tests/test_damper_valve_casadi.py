@@ -11,25 +11,34 @@
 - The CasADi model of a problem whose damper valves' RMS flow is given agrees with the numpy
   evaluator on every quantity within the rounding budget of their solves (as tests/test_core.py
   does for the other problems).
+- With the RMS flows solved (the shipped valves problem), the SLP refinement works on the
+  evaluator's fixed point, and the IPOPT one refuses in one line (exit 2, nothing written).
 """
 
 from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 import pytest
 
 import hisopt
+from hisopt.errors import RunError
 from hisopt.hydraulics import laws
 from hisopt.metrics import METRICS
 from hisopt.optim.gradient.casadi_model import CasadiModel
+from hisopt.optim.gradient.refine import refine_run
+from hisopt.optim.run import optimize
+from hisopt.optim.rundir import read_front
 from hisopt.problem import problem_from_dict
+from tests.cli_inprocess import run_cli
 from tests.conftest import ROOT, random_designs
 from tests.error_budget import assert_discriminating, assert_within, solve_budget
 from tests.test_core import ALL_QUANTITIES, evaluator_nodes, numpy_on_nodes
+from tests.test_refine import check_refined
 
 EPS = np.finfo(float).eps
 RHO = 850.0  # [kg/m^3] oil
@@ -200,3 +209,36 @@ def test_casadi_model_with_given_valve_flow_agrees_with_numpy_within_their_round
             # 4.5673 Hz, which one of these nodes hits), where tests/test_core.py sees 1e-5
             rel = 2e-4 if METRICS[name].kind == "max" else 1e-6
             assert q[i] == pytest.approx(evaluated[name][k], rel=rel), (name, q[i], evaluated[name][k])
+
+
+# --- refinement with solved valve flows --------------------------------------------------------------
+@pytest.fixture(scope="module")
+def valves_run(tmp_path_factory) -> tuple[hisopt.Problem, Path]:
+    """A short run of the shipped valves problem (RMS flows solved with the response)."""
+    problem = hisopt.load_problem(VALVES_PROBLEM)
+    run_dir = tmp_path_factory.mktemp("valves") / "run"
+    optimize(problem, out=run_dir, seed=3, pop_size=12, generations=3, algorithm="nsga2")
+    return problem, run_dir
+
+
+def test_slp_refines_the_valves_problem_on_its_solved_flows(valves_run):
+    """SLP works on the evaluator, which solves the valves' RMS flows per design: every kept
+    design, evaluated again (its flows solved anew, in another batch), shows the values written
+    and weakly dominates its start (tests/test_refine.py's invariants)."""
+    problem, run_dir = valves_run
+    result = refine_run(run_dir, max_points=4)
+    check_refined(problem, read_front(run_dir / "front.csv"), result)
+    assert result.points["accepted"].any()
+
+
+def test_ipopt_refinement_refuses_solved_valve_flows_in_one_line(valves_run):
+    """The CasADi model has no fixed point for the RMS flows: ``--method ipopt`` says so in one
+    line naming the way out (``--method slp``), exit 2, and writes nothing."""
+    problem, run_dir = valves_run
+    with pytest.raises(RunError, match="--method slp"):
+        CasadiModel(problem, compile=False)
+    before = sorted(p.name for p in run_dir.iterdir())
+    result = run_cli("refine", str(run_dir), "--method", "ipopt", "--max-points", "2")
+    assert result.code == 2 and len(result.error_lines) == 1, result.stderr
+    assert "damper valves" in result.stderr and "--method slp" in result.stderr and "valve_flow_rms" in result.stderr
+    assert sorted(p.name for p in run_dir.iterdir()) == before
