@@ -30,7 +30,7 @@ from hisopt.errors import RunError
 from hisopt.hydraulics import laws
 from hisopt.metrics import METRICS
 from hisopt.optim.gradient.casadi_model import CasadiModel
-from hisopt.optim.gradient.refine import refine_run
+from hisopt.optim.gradient.refine import refine_front, refine_run
 from hisopt.optim.run import optimize
 from hisopt.optim.rundir import read_front
 from hisopt.problem import problem_from_dict
@@ -173,12 +173,13 @@ def test_equivalent_resistance_ad_gradient_equals_finite_differences(kind):
 
 
 # --- the CasADi model with damper valves ------------------------------------------------------------
-def valves_problem_with_given_flow(flow: float) -> hisopt.Problem:
+def valves_problem_with_given_flow(flow: float, every_quantity: bool = True) -> hisopt.Problem:
     """The shipped valves problem with every valve linearised at ``flow`` [m^3/s] (``[his]
-    valve_flow_rms``), asking for every quantity."""
+    valve_flow_rms``), asking for every quantity (else for its own objectives)."""
     data = json.loads(json.dumps(hisopt.load_problem(VALVES_PROBLEM).spec.model_dump(by_alias=True)))
     data["his"]["valve_flow_rms"] = flow
-    data["objectives"] = ALL_QUANTITIES
+    if every_quantity:
+        data["objectives"] = ALL_QUANTITIES
     return problem_from_dict(data, "roll_plane_his_valves_given_flow")
 
 
@@ -242,3 +243,15 @@ def test_ipopt_refinement_refuses_solved_valve_flows_in_one_line(valves_run):
     assert result.code == 2 and len(result.error_lines) == 1, result.stderr
     assert "damper valves" in result.stderr and "--method slp" in result.stderr and "valve_flow_rms" in result.stderr
     assert sorted(p.name for p in run_dir.iterdir()) == before
+
+
+@pytest.mark.slow  # about 15 s: IPOPT on CasADi's virtual machine
+def test_ipopt_refines_the_valves_problem_with_a_given_flow(monkeypatch):
+    """With the flow given, the valves are resistances of the design variables like any other:
+    IPOPT's refined designs, evaluated again, weakly dominate their starts."""
+    monkeypatch.setenv("HISOPT_COMPILE", "0")  # CasADi's virtual machine: the same numbers, no C compiler run
+    problem = valves_problem_with_given_flow(5e-5, every_quantity=False)
+    run = optimize(problem, seed=3, pop_size=12, generations=3, algorithm="nsga2")
+    result = refine_front(problem, run.front, max_points=3, method="ipopt")
+    check_refined(problem, run.front, result)
+    assert result.points["accepted"].any()
