@@ -264,6 +264,10 @@ def refine_with_progress(run_dir: Path, max_points: int, method: str, workers: i
     problem = run_problem(run_dir)[0]
     front = read_front(run_dir / FRONT_CSV)
     start_designs(problem, front, str(run_dir / FRONT_CSV))
+    if method == "ipopt":
+        from hisopt.optim.gradient.casadi_model import check_valve_flows_given
+
+        check_valve_flows_given(problem)
     bar = Progress(
         TextColumn("[bold]refining"), BarColumn(), TextColumn("{task.completed}/{task.total} designs"), TimeElapsedColumn(), console=Console(stderr=True)
     )

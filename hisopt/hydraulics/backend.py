@@ -5,7 +5,7 @@ Every law (:mod:`hisopt.hydraulics.laws`) and every network assembly
 serves floats, numpy arrays batched over designs and frequencies, and CasADi symbols. What
 arithmetic cannot spell is here, dispatched on the argument's type:
 
-- elementary functions (``sqrt``, ``cosh``, ``sinh``, ``fabs``), which numpy would apply to a
+- elementary functions (``sqrt``, ``cosh``, ``sinh``, ``fabs``, ``sign``), which numpy would apply to a
   CasADi value only with a warning;
 - complex numbers: numpy has them; CasADi does not, so a complex CasADi value is a
   :class:`Complex` pair of real expressions with the arithmetic operators and the principal
@@ -142,6 +142,13 @@ def fabs(x: Any) -> Any:
     if is_casadi(x):
         return _ca().fabs(x)
     return np.abs(x)
+
+
+def sign(x: Any) -> Any:
+    """``-1``, ``0`` or ``1`` by the sign of a real argument (its derivative is 0 everywhere)."""
+    if is_casadi(x):
+        return _ca().sign(x)
+    return np.sign(x)
 
 
 def jomega(omega: Any) -> Any:

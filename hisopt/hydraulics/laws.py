@@ -232,8 +232,9 @@ def damper_valve_pressure_drop(q: Any, kq: Any, cracking: Any = None, blowoff: A
 
     Below the crossover flow ``q_c = sqrt(p_c / K)`` only the bleed passes oil; above it the
     drop is :func:`_blowoff_drop`, which is below the bleed's ``K q^2`` there and above it below
-    ``q_c``, so the drop is the smaller of the two, ``dp = r q + q min(K |q|, P_open / |q|)``:
-    one expression in numpy and CasADi, continuous, with a kink in its slope at ``q_c``.
+    ``q_c``, so the drop is the smaller of the two, ``dp = r q + sign(q) min(K q^2, P_open)``:
+    one expression in numpy and CasADi, continuous, with a kink in its slope at ``q_c``, and
+    no division, so ``q = 0`` gives ``dp = 0`` and (CasADi's AD) the slope ``r`` there.
 
     Parameters
     ----------
@@ -250,9 +251,7 @@ def damper_valve_pressure_drop(q: Any, kq: Any, cracking: Any = None, blowoff: A
     aq = bk.fabs(q)
     if cracking is None:
         return r * q + kq * q * aq
-    # at q = 0 the open branch's share is huge (or 0 without a cracking pressure) and the bleed's 0 wins
-    open_share = _blowoff_drop(aq, kq, cracking, blowoff) / bk.fmax(aq, 1e-300)
-    return r * q + q * bk.fmin(kq * aq, open_share)
+    return r * q + bk.sign(q) * bk.fmin(kq * aq * aq, _blowoff_drop(aq, kq, cracking, blowoff))
 
 
 TAIL_NODES = 48

@@ -147,6 +147,25 @@ def _ldlt_solve(a_re: Any, a_im: Any, b_re: Any, b_im: Any) -> tuple[Any, Any]:
 
 
 # --- the model -----------------------------------------------------------------------------
+def check_valve_flows_given(problem: Problem) -> None:
+    """Refuse damper valves whose RMS flows are solved with the response (no ``[his]
+    valve_flow_rms``): they are a fixed point of the spectra (docs/model.md §3.3), which the
+    CasADi model does not solve; with the flow given, a valve is a resistance like any other.
+
+    Raises
+    ------
+    RunError
+        Naming the valves and the way out (``--method slp``, or a given ``valve_flow_rms``).
+    """
+    solved = problem.network().solved_valves()
+    if solved:
+        raise RunError(
+            f"--method ipopt: the CasADi model does not solve the RMS flows of the {len(solved)} damper valves "
+            "([his] valve_flow_rms not given: a fixed point of the response, docs/model.md §3.3); "
+            "expected --method slp (the default), which refines on the evaluator, or a given [his] valve_flow_rms"
+        )
+
+
 class CasadiModel:
     """Objectives and constraints of a problem as CasADi expressions (module docstring).
 
@@ -177,6 +196,7 @@ class CasadiModel:
                 f"--method ipopt: the CasADi model has no accumulator oil volumes for {swing[0]}; "
                 "expected --method slp (the default), which refines on the evaluator"
             )
+        check_valve_flows_given(problem)
         self.outputs: dict[str, Output] = dict(ev.outputs)
         self.output_index = dict(ev.output_index)
         self.names: tuple[str, ...] = ev.names

@@ -461,6 +461,9 @@ def refine_front(
     ConfigError
         ``max_points < 1``, an unknown method or settings of another method, the front lacks a
         variable or objective column, or a row is not a valid start (:func:`start_designs`).
+    RunError
+        ``method="ipopt"`` on damper valves whose RMS flows are solved
+        (:func:`~hisopt.optim.gradient.casadi_model.check_valve_flows_given`).
     """
     from hisopt.evaluation.parallel import Backend
     from hisopt.optim.decision import hypervolume, reference_point
@@ -470,6 +473,10 @@ def refine_front(
     of_type(front, pd.DataFrame, "front", "a DataFrame of the front (hisopt.read_csv of front.csv)")
     check_max_points(max_points)
     settings = method_settings(method, settings)
+    if method == "ipopt":  # before any task, not once per worker
+        from hisopt.optim.gradient.casadi_model import check_valve_flows_given
+
+        check_valve_flows_given(problem)
     names = list(problem.objective_names)
     var_names = list(problem.variable_names)
     missing = [c for c in var_names + names if c not in front.columns]
