@@ -33,13 +33,13 @@ from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.plausibility import cylinder_box_problem, given_warnings, rule_reason, speed_problem, warn
 from hisopt.quantities import field_unit, has_unit, si
-from hisopt.units import format_quantity
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.text_files import read_file
 from hisopt.specification.tolerances import parse_tolerances
 from hisopt.specification.uncertain import UncertainInput, resolve_uncertain
-from hisopt.specification.valve_checks import damper_valve_problem
 from hisopt.specification.validation import bounds_problem, design_parameters, implausible_number, switched_off
+from hisopt.specification.valve_checks import damper_valve_problem
+from hisopt.units import format_quantity
 from hisopt.vehicle import VehicleParams
 
 OBJECTIVE_NAMES = tuple(METRICS)
