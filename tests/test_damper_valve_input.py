@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import re
 import tomllib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -53,6 +52,7 @@ def custom_valves_text(front: str = '"d_front"', crack: str = '"p_crack"') -> st
     his = without_valve_keys(TEXT.split("[his]\n")[1].split("[his.charge]")[0])
     rest = "[his.charge]" + TEXT.split("[his.charge]")[1]
     rest = edited(rest, ('orifice_diameter = { lower = "1 mm"', 'd_front = { lower = "1 mm"'), ("cracking_pressure = { lower", "p_crack = { lower"))
+    rear_law = f"discharge_coefficient = 0.7, cracking_pressure = {crack}, blowoff_resistance = 2e9"
     circuits = "\n".join(
         f"""[[his.circuits]]
 name = "{c}"
@@ -61,10 +61,13 @@ chambers = {{ {chambers} }}
 elements = [
     {{ type = "accumulator", node = "{c}" }},
     {{ type = "damper_valve", from = "{c}.{f}", to = "{c}", orifice_diameter = {front}, cracking_pressure = {crack}, blowoff_resistance = "2e9 Pa s/m^3" }},
-    {{ type = "damper_valve", from = "{c}.{r}", to = "{c}", orifice_diameter = "d_rear", discharge_coefficient = 0.7, cracking_pressure = {crack}, blowoff_resistance = 2e9 }},
+    {{ type = "damper_valve", from = "{c}.{r}", to = "{c}", orifice_diameter = "d_rear", {rear_law} }},
 ]
 """
-        for c, f, r, chambers in (("A", "2b", "4b", '1t = "A", 2b = "A.2b", 3t = "A", 4b = "A.4b"'), ("B", "1b", "3b", '1b = "B.1b", 2t = "B", 3b = "B.3b", 4t = "B"'))
+        for c, f, r, chambers in (
+            ("A", "2b", "4b", '1t = "A", 2b = "A.2b", 3t = "A", 4b = "A.4b"'),
+            ("B", "1b", "3b", '1b = "B.1b", 2t = "B", 3b = "B.3b", 4t = "B"'),
+        )
     )
     parameters = '[his.parameters]\nd_front = "3 mm"\nd_rear = "3 mm"\n' + ('p_crack = "1.5 MPa"\n\n' if crack == '"p_crack"' else "\n")
     return f'{head}[his]\nlayout = "custom"\n{his}{parameters}{circuits}\n{rest}'
@@ -77,7 +80,12 @@ BAD = {
     "Cd zero": (TEXT, [("discharge_coefficient = 0.7", "discharge_coefficient = 0")], "his.discharge_coefficient", "vena contracta"),
     "Cd above 1": (TEXT, [("discharge_coefficient = 0.7", "discharge_coefficient = 1.2")], "his.discharge_coefficient", "less than or equal to 1"),
     "cracking negative": (TEXT, [('cracking_pressure = "1.5 MPa"', 'cracking_pressure = "-1 MPa"')], "his.cracking_pressure", "got -1 MPa"),
-    "cracking above rating": (TEXT, [('cracking_pressure = "1.5 MPa"', 'cracking_pressure = "40 MPa"')], "his.cracking_pressure", "rated working pressure 16.71 MPa"),
+    "cracking above rating": (
+        TEXT,
+        [('cracking_pressure = "1.5 MPa"', 'cracking_pressure = "40 MPa"')],
+        "his.cracking_pressure",
+        "rated working pressure 16.71 MPa",
+    ),
     "cracking bound above rating": (
         TEXT,
         [('upper = "4 MPa", description = "damper valve blow-off', 'upper = "40 MPa", description = "damper valve blow-off')],
@@ -85,7 +93,12 @@ BAD = {
         "rated working pressure 32.71 MPa",
     ),
     "cracking without its law": (TEXT, [('blowoff_resistance = "2e9 Pa s/m^3"', "")], "his.cracking_pressure", "needs blowoff_resistance"),
-    "law without cracking": (TEXT, [('cracking_pressure = "1.5 MPa"', ""), ("cracking_pressure = { lower", "# ")], "his.blowoff_resistance", "needs cracking_pressure"),
+    "law without cracking": (
+        TEXT,
+        [('cracking_pressure = "1.5 MPa"', ""), ("cracking_pressure = { lower", "# ")],
+        "his.blowoff_resistance",
+        "needs cracking_pressure",
+    ),
     "Rv beside damper valves": (TEXT, [("[variables]\n", "[variables]\nRv = { lower = 0, upper = 1.6e6 }\n")], "variables.Rv", "physical damper valves"),
     "valve variable without valves": (without_valve_keys(TEXT), [], "variables.orifice_diameter", "has no damper valves"),
     "blow-off variable without blow-off": (
@@ -95,8 +108,13 @@ BAD = {
         "have no blow-off",
     ),
     "element cracking above rating": (custom_valves_text(crack='"30 MPa"'), [("p_crack = { lower", "# ")], "cracking_pressure", "rated working pressure"),
-    "parameter cracking above rating": (custom_valves_text(), [('p_crack = "1.5 MPa"', 'p_crack = "30 MPa"')], "his.parameters.p_crack", "rated working pressure"),
-    "element blow-off by half": (custom_valves_text(), [(', blowoff_resistance = 2e9 }', " }")], "his.circuits", "needs blowoff_resistance"),
+    "parameter cracking above rating": (
+        custom_valves_text(),
+        [('p_crack = "1.5 MPa"', 'p_crack = "30 MPa"')],
+        "his.parameters.p_crack",
+        "rated working pressure",
+    ),
+    "element blow-off by half": (custom_valves_text(), [(", blowoff_resistance = 2e9 }", " }")], "his.circuits", "needs blowoff_resistance"),
     "element orifice zero": (custom_valves_text(), [('d_rear = "3 mm"', "d_rear = 0")], "his.parameters.d_rear", "bleed orifice"),
 }
 
@@ -205,7 +223,6 @@ def test_synthesis_screens_damper_valves_at_the_baseline_resistance(valves, resi
     assert rear_valve.sum() == 2 and front != rear
     assert frame.loc[roll_plane, "c_roll"] == pytest.approx(bore_area(valves) ** 2 * 2 * (front + rear), rel=1e-9)
     assert frame.loc[roll_plane, "description"].count(":damper(3 mm, 1.5 MPa)") == 4
-
 
 
 def test_a_tiny_synthesis_optimises_a_layout_with_damper_valves(tmp_path):
