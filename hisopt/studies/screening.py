@@ -15,6 +15,11 @@ front extends). "Per unit modal stroke" means per metre of the pattern's amplitu
 ``C_lf = lim_{s->0} (D(s) - K_his) / s`` (:func:`hisopt.hydraulics.network.low_frequency_damping`).
 ``stiffness_coupling`` is the largest ``|U^T K U|_ij / sqrt(|U^T K U|_ii |U^T K U|_jj)`` between two
 patterns (0: the patterns stay uncoupled statically).
+
+Physical damper valves (``[his] orifice_diameter``, or ``damper_valve`` elements) damp as hard
+as the road drives them: each layout is screened with its valves held at their equivalent
+resistance at the problem's baseline design on the problem's road
+(:func:`baseline_valve_resistance`), and ``damper_valves`` names them (:func:`damper_valve_note`).
 """
 
 from __future__ import annotations
@@ -132,9 +137,10 @@ def damper_valve_note(his: RollPlaneHIS, resistance: np.ndarray) -> str:
         return ""
     values = his_parameter_values(his)
 
-    def spread(refs: list[Any], unit: str) -> str:
+    def spread(refs: list[Any], unit: str) -> str:  # "3 mm", or "2.5 mm to 3 mm" where the valves differ
         numbers = sorted({float(values[r]) if isinstance(r, str) else float(r) for r in refs})
-        return " to ".join(format_quantity(v, unit) for v in (numbers[0], numbers[-1])[: 1 if len(numbers) == 1 else 2])
+        ends = [format_quantity(v, unit) for v in (numbers[0], numbers[-1])]
+        return ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]}"
 
     cracking = [e.cracking_pressure for e in valves if e.cracking_pressure is not None]
     some = "" if len(cracking) in (0, len(valves)) else f" on {len(cracking)} of them"
@@ -142,8 +148,7 @@ def damper_valve_note(his: RollPlaneHIS, resistance: np.ndarray) -> str:
     head = f"{len(valves)} damper valve{'s' if len(valves) > 1 else ''} ({', '.join(parts)})"
     if not np.all(np.isfinite(resistance)):
         return f"{head}, no fixed point of their flows at the baseline (its damping is not screened)"
-    low, high = float(np.min(resistance)), float(np.max(resistance))
-    ends = [format_quantity(v, RESISTANCE_UNIT) for v in (low, high)]
+    ends = [format_quantity(v, RESISTANCE_UNIT) for v in (float(np.min(resistance)), float(np.max(resistance)))]
     text = ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]}"
     return f"{head}, equivalent resistance {text} on the baseline road"
 
@@ -179,7 +184,9 @@ def mode_stiffness(problem: DesignSpace | None = None) -> pd.DataFrame:
 
     One row per catalogue layout, plus the problem's own layout when it is custom; columns
     ``layout``, ``k_bounce``, ``k_roll``, ``k_pitch``, ``k_warp`` [N/m], ``c_bounce``, ...
-    [N s/m], ``stiffness_coupling`` [-] and ``summary``; units in ``attrs["units"]``.
+    [N s/m], ``stiffness_coupling`` [-] and ``summary``, and ``damper_valves`` when a layout
+    has physical damper valves (:func:`damper_valve_note`; its damping at their equivalent
+    resistance on the problem's road); units in ``attrs["units"]``.
 
     Parameters
     ----------
