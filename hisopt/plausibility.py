@@ -63,6 +63,10 @@ it below 2. Outside the range no gas behaves so (``[his] gamma``, a layout's ``g
 RULE_REASONS = {
     "gamma": "a gas's polytropic exponent lies between 1, isothermal, and its adiabatic exponent: "
     "1.4 for nitrogen, 1.67 for a monatomic gas, below 2 at a HIS's pressures",
+    "orifice_diameter": "the bore of a damper valve's bleed orifice: 0 would close it and lock the strut",
+    "discharge_coefficient": "the share of the orifice's area the jet fills at its vena contracta: above 0 and at most 1, about 0.6 to 0.8 for a sharp edge",
+    "cracking_pressure": "the pressure drop at which a damper valve's blow-off opens: 0 opens it at once",
+    "blowoff_resistance": "the slope of the blow-off's opening law, pressure per flow once open: 0 would pass any flow at the cracking pressure",
 }
 """The physical reason of a parameter's rule, added to the messages that refuse a value."""
 
@@ -264,7 +268,7 @@ def cylinder_box_warnings(spec: Any, given: Mapping[str, Any]) -> list[tuple[str
 
 def rule_reason(name: str) -> str:
     """``" (<reason>)"`` for a parameter whose rule has a physical reason to state, else ``""``."""
-    reason = RULE_REASONS.get(name)
+    reason = RULE_REASONS.get(name) or RULE_REASONS.get(name.removesuffix("_rear"))
     return f" ({reason})" if reason else ""
 
 

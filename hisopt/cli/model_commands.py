@@ -39,6 +39,7 @@ def layouts(
     pattern's amplitude), its low-frequency damping and the largest static coupling between
     patterns (docs/model.md §12.4). Select a layout with [his] layout = "NAME".
     """
+    import pandas as pd
     from rich.console import Console
     from rich.table import Table
     from rich.text import Text
@@ -48,7 +49,8 @@ def layouts(
 
     p = load(problem, set_) if problem is not None else None
     frame = mode_stiffness(p)
-    shown = display_frame(frame.drop(columns="summary"))
+    notes = frame["damper_valves"] if "damper_valves" in frame.columns else pd.Series("", index=frame.index)
+    shown = display_frame(frame.drop(columns=["summary", "damper_valves"], errors="ignore"))
     source = p.name if p is not None else "the paper's problem"
     table = Table(title=Text(f"HIS layouts at the baseline of {source}: added stiffness and low-frequency damping per unit stroke pattern"))
     for col in shown.columns:
@@ -57,8 +59,8 @@ def layouts(
         table.add_row(*[Text(v) for v in row])
     console = Console(width=170)
     console.print(table)
-    for name, summary in zip(frame["layout"], frame["summary"], strict=True):
-        console.print(Text(f"{name}: {summary}"))
+    for name, summary, note in zip(frame["layout"], frame["summary"], notes, strict=True):
+        console.print(Text(f"{name}: {summary}" + (f"; {note}" if note else "")))
     console.print(Text('select one with [his] layout = "NAME"; descriptions and sources: docs/model.md §12.3'))
 
 

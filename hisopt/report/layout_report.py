@@ -188,11 +188,11 @@ def table_html(result: LayoutStudyResult) -> str:
         "handling_least",
         "at_limit",
     ]
-    second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c == "stiffness_coupling"]
+    second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c in ("stiffness_coupling", "damper_valves")]
     first = [c for c in first if c in t]  # a table of an older hisopt lacks handling_least and at_limit
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
     shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
-    labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]")
+    labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]", "damper_valves [-]")
     return (
         '<div style="overflow-x:auto">'
         + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)

@@ -3,9 +3,10 @@
 The car is seen from above, front at the top: a cylinder at each wheel (1 FL, 2 FR, 3 RL,
 4 RR) with its top (``t``, annulus) and bottom (``b``, bore) chamber ports on the inner side.
 Every circuit has its own colour: a thin line from each chamber to the node it feeds, the
-series elements between nodes (valve: a bow-tie marker at its middle, orifice: a diamond,
-pipe: a thick line), the shunt elements at their node (accumulator: a circle, oil volume: a
-square). Hovering a marker shows the element and its parameters (with values when given).
+series elements between nodes (valve, linear or a physical damper valve: a bow-tie marker
+at its middle, orifice: a diamond, pipe: a thick line), the shunt elements at their node
+(accumulator: a circle, oil volume: a square). Hovering a marker shows the element and its
+parameters (with values when given).
 
 Node positions are the weighted mean of their neighbours (chamber ports fixed, and a pull
 toward a centre per circuit so that circuits sit side by side): one linear solve per layout,
@@ -25,6 +26,7 @@ from hisopt.hydraulics.layout import (
     PARAMETER_FIELDS,
     Accumulator,
     ChamberCompliance,
+    DamperValve,
     Layout,
     Orifice,
     Pipe,
@@ -97,7 +99,9 @@ def _hover(element: Any, values: Mapping[str, float] | None) -> str:
     for field in PARAMETER_FIELDS[type(element)]:
         ref = getattr(element, field)
         unit = FIELD_UNITS[(type(element), field)]
-        if isinstance(ref, str):
+        if ref is None:  # a damper valve's optional part: no blow-off, or its RMS flow solved on the road
+            shown = "solved on the road" if field == "flow_rms" else "none"
+        elif isinstance(ref, str):
             shown = ref
             if values is not None and ref in values:
                 shown += f" = {format_quantity(float(values[ref]), unit)}"
@@ -178,7 +182,7 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
                 else:
                     xs += [ax, bx, None]
                     ys += [ay, by, None]
-                kind = "orifice" if isinstance(e, Orifice) else "valve" if isinstance(e, Valve) else "pipe"
+                kind = "damper valve" if isinstance(e, DamperValve) else "orifice" if isinstance(e, Orifice) else "valve" if isinstance(e, Valve) else "pipe"
                 at = MARKER_AT  # off the middle: mirrored circuits do not stack their markers
                 marker(kind, ax + at * (bx - ax), ay + at * (by - ay), f"{_hover(e, values)}<br>{e.a} -> {e.b}", colour)
         fig.add_scatter(x=xs, y=ys, mode="lines", line={"color": colour, "width": 2}, name=f"circuit {circuit.name}", hoverinfo="skip")
@@ -209,6 +213,7 @@ def layout_schematic(layout: Layout, values: Mapping[str, Any] | None = None, ti
     symbols = {
         "chamber": ("circle", 8),
         "valve": ("bowtie", 14),
+        "damper valve": ("bowtie", 14),  # a valve, named apart in the legend: its hover gives the orifice and blow-off
         "orifice": ("diamond", 12),
         "pipe": ("line-ns-open", 12),
         "accumulator": ("circle", 15),

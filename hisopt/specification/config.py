@@ -32,12 +32,14 @@ from hisopt.hydraulics.layout import Accumulator, parameter_uses
 from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.plausibility import cylinder_box_problem, given_warnings, rule_reason, speed_problem, warn
-from hisopt.quantities import has_unit, si
+from hisopt.quantities import field_unit, has_unit, si
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.text_files import read_file
 from hisopt.specification.tolerances import parse_tolerances
 from hisopt.specification.uncertain import UncertainInput, resolve_uncertain
 from hisopt.specification.validation import bounds_problem, design_parameters, implausible_number, switched_off
+from hisopt.specification.valve_checks import damper_valve_problem
+from hisopt.units import format_quantity
 from hisopt.vehicle import VehicleParams
 
 OBJECTIVE_NAMES = tuple(METRICS)
@@ -401,6 +403,9 @@ class ProblemSpec(_Strict):
             raise ValueError(
                 "variables: expected at least one design variable, e.g. [variables] p0 = { lower = 0.0, upper = 4.0e6 } (see problems/roll_plane_his.toml)"
             )
+        problem = damper_valve_problem(self.his, self.variables, layout)  # before "not read": it says why
+        if problem:
+            raise ValueError(problem)
         for name, var in self.variables.items():
             if name not in allowed:
                 raise ValueError(f"variables.{name}: not a design parameter of [his]; expected one of {', '.join(allowed)}")
@@ -546,6 +551,9 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     msg = msg.replace("Input should be ", "expected ", 1)
     if err["type"] in ("greater_than", "greater_than_equal", "less_than", "less_than_equal") and err["loc"]:
         msg += rule_reason(str(err["loc"][-1]))  # a rule with a physical reason says it (hisopt.plausibility)
+        unit = field_unit(RollPlaneHIS, str(err["loc"][-1])) if tuple(err["loc"][:1]) == ("his",) and len(err["loc"]) == 2 else None
+        if unit and unit != "-" and isinstance(value, (int, float)) and not isinstance(value, bool):
+            msg += f", got {format_quantity(value, unit) if value else f'0 {unit}'}"  # in the unit the user thinks in, as written
     if "input" in err and not isinstance(err["input"], dict) and not any(g in msg for g in (", got ", "; got ")):  # a validator may name it
         msg = f"{msg}, got {_short(err['input'])}"
     return key, msg

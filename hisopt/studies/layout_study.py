@@ -13,7 +13,9 @@ objectives and constraints with the same budget per layout and seed, then compar
    (``sigma_aw``) among every feasible design its runs evaluated that meets the limit, and
    the epsilon-constraint NLP (:func:`hisopt.optim.gradient.refine.refine_constrained`: minimise
    ``sigma_aw`` subject to the constraints and ``handling <= limit``) started from each
-   seed's best such design (kept only if the evaluator confirms it); the best of these, and
+   seed's best such design (kept only if the evaluator confirms it; not for a layout with
+   damper valves whose RMS flows are solved per design, which the NLP's model cannot hold:
+   its sampled designs stand); the best of these, and
    its gain over the roll-plane
    layout at the same limit, ``gain_vs_roll_plane_pct = 100 (1 - sigma_layout / sigma_roll_plane)``
    (positive: better comfort). The trade-off curve of best comfort against the limit is the
@@ -80,7 +82,9 @@ name), handling_limit, sigma_aw_at_limit (best comfort meeting it), handling_at_
 refined (the NLP improved the best sampled design), gain_vs_roll_plane_pct; handling_least
 (the least handling of the layout's feasible designs), at_limit ("met", or why the layout has
 no design at the limit: its sigma_aw_at_limit and gain are then empty); k_bounce ...
-c_warp, stiffness_coupling (hisopt layouts, at the layout's baseline); best_<variable>: the
+c_warp, stiffness_coupling (hisopt layouts, at the layout's baseline); damper_valves (a
+layout with physical damper valves: their orifice, cracking pressure and equivalent
+resistance on the baseline road, as hisopt layouts says); best_<variable>: the
 design of sigma_aw_at_limit (empty where a layout lacks the variable)."""
 
 

@@ -82,17 +82,20 @@ def assemble(
     # ---- refinements: from each seed's best design at the limit, then points along each curve ------
     tasks: list[tuple[str, np.ndarray, float]] = []
     best_row: dict[str, int | None] = {}
+    # the NLP's CasADi model holds each valve at one resistance: damper valves whose RMS flows
+    # are solved per design (docs/model.md §3.3) keep their layout's sampled designs unrefined
+    refinable = {c.name: not c.problem.network().solved_valves() for c in cases}
     for c in cases:
         pool, names = pools[c.name], list(c.problem.variable_names)
         best_row[c.name] = best_at_limit(pool[COMFORT].to_numpy(), pool[handling].to_numpy(), limit) if len(pool) else None
-        for _, part in pool.groupby("seed", sort=True):  # several starts: the NLP finds local optima
+        for _, part in pool.groupby("seed", sort=True) if refinable[c.name] else ():  # several starts: the NLP finds local optima
             i = best_at_limit(part[COMFORT].to_numpy(), part[handling].to_numpy(), limit)
             if i is not None:
                 tasks.append((c.name, part.iloc[i][names].to_numpy(dtype=float), limit))
     n_equal = len(tasks)
     for c in cases:
         pool, names = pools[c.name], list(c.problem.variable_names)
-        for i in _curve_starts(pool, handling, curve_refined) if len(pool) else []:
+        for i in _curve_starts(pool, handling, curve_refined) if len(pool) and refinable[c.name] else []:
             tasks.append((c.name, pool.loc[i, names].to_numpy(dtype=float), float(pool.loc[i, handling])))
     refined = backend.map(_refine_task, tasks, problems, handling)
 
@@ -237,12 +240,12 @@ def _limit_status(pool: pd.DataFrame, handling: str, limit: float, unit: str) ->
 
 def _with_stiffness_and_designs(table: pd.DataFrame, cases: list[LayoutCase], designs: dict[str, np.ndarray | None]) -> pd.DataFrame:
     """The mode stiffness columns (``hisopt layouts``) and ``best_<variable>`` columns."""
-    from hisopt.studies.screening import layout_system, pattern_properties
+    from hisopt.studies.screening import screened_properties
 
     units: dict[str, str] = {}
     stiffness, rows = [], []
     for c in cases:
-        stiffness.append(pattern_properties(layout_system(c.problem.spec.his)))
+        stiffness.append(screened_properties(c.problem.spec.his, c.problem))
         names = list(c.problem.variable_names)
         units |= {f"best_{n}": u for n, u in variable_units(c.problem).items()}
         x = designs[c.name]
@@ -250,6 +253,10 @@ def _with_stiffness_and_designs(table: pd.DataFrame, cases: list[LayoutCase], de
     extra = pd.DataFrame(stiffness)
     units |= {k: "N/m" for k in extra.columns if k.startswith("k_")} | {k: "N s/m" for k in extra.columns if k.startswith("c_")}
     units["stiffness_coupling"] = NO_UNIT
+    if extra["damper_valves"].astype(bool).any():
+        units["damper_valves"] = NO_UNIT
+    else:
+        extra = extra.drop(columns="damper_valves")
     columns = list(dict.fromkeys(f"best_{n}" for c in cases for n in c.problem.variable_names))
     out = pd.concat([table, extra, pd.DataFrame(rows, columns=columns)], axis=1)
     out.attrs["units"] = units

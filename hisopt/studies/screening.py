@@ -15,20 +15,27 @@ front extends). "Per unit modal stroke" means per metre of the pattern's amplitu
 ``C_lf = lim_{s->0} (D(s) - K_his) / s`` (:func:`hisopt.hydraulics.network.low_frequency_damping`).
 ``stiffness_coupling`` is the largest ``|U^T K U|_ij / sqrt(|U^T K U|_ii |U^T K U|_jj)`` between two
 patterns (0: the patterns stay uncoupled statically).
+
+Physical damper valves (``[his] orifice_diameter``, or ``damper_valve`` elements) damp as hard
+as the road drives them: each layout is screened with its valves held at their equivalent
+resistance at the problem's baseline design on the problem's road
+(:func:`baseline_valve_resistance`), and ``damper_valves`` names them (:func:`damper_valve_note`).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from hisopt.arguments import problem_argument
+from hisopt.errors import ModelError
 from hisopt.hydraulics.catalogue import CUSTOM, catalogue, his_layout, his_parameter_values
 from hisopt.hydraulics.coupling import HydraulicSystem
+from hisopt.hydraulics.layout import Circuit, DamperValve, Layout, Valve
 from hisopt.hydraulics.network import compile_network
-from hisopt.units import NO_UNIT, with_units
+from hisopt.units import NO_UNIT, format_quantity, with_units
 
 if TYPE_CHECKING:
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
@@ -41,6 +48,8 @@ STROKE_PATTERNS: dict[str, tuple[float, float, float, float]] = {
     "warp": (1.0, -1.0, -1.0, 1.0),
 }
 """Unit stroke patterns (FL, FR, RL, RR; extension positive), see the module docstring."""
+
+RESISTANCE_UNIT = "Pa s m^-3"
 
 
 def pattern_matrix() -> np.ndarray:
@@ -58,9 +67,90 @@ def layout_his(his: RollPlaneHIS, name: str) -> RollPlaneHIS:
     return his.model_copy(update={"layout": name, "circuits": None, "parameters": params})
 
 
-def layout_system(his: RollPlaneHIS) -> HydraulicSystem:
-    """The HIS of a ``[his]`` table at its own values (lumped pipes), one design."""
-    return HydraulicSystem(compile_network(his_layout(his), "lumped"), his_parameter_values(his))
+def layout_system(his: RollPlaneHIS, space: DesignSpace | None = None) -> HydraulicSystem:
+    """The HIS of a ``[his]`` table at its own values (lumped pipes), one design.
+
+    Its physical damper valves are linear valves at their equivalent resistance for the
+    baseline design of ``space`` (a problem with this ``[his]``) on that problem's road
+    (:func:`baseline_valve_resistance`): the screening's damping is the one the road sees.
+
+    Raises
+    ------
+    ModelError
+        The layout has damper valves whose flows are solved and no ``space`` is given.
+    """
+    return screened_system(his, space)[0]
+
+
+def screened_system(his: RollPlaneHIS, space: DesignSpace | None = None) -> tuple[HydraulicSystem, np.ndarray]:
+    """:func:`layout_system` and its damper valves' equivalent resistances [Pa s m^-3] in
+    element order (empty without damper valves; NaN when their flows have no fixed point at
+    the baseline: the system then holds them at 1 Pa s m^-3, which no static value reads)."""
+    layout = his_layout(his)
+    resistance = np.zeros(0)
+    if compile_network(layout, "lumped").damper_valves():
+        if space is None:
+            raise ModelError("a layout with damper valves needs its problem to solve their flows on its road; pass space")
+        resistance = baseline_valve_resistance(space)
+        layout = with_equivalent_valves(layout, np.where(np.isfinite(resistance), resistance, 1.0))
+    return HydraulicSystem(compile_network(layout, "lumped"), his_parameter_values(his)), resistance
+
+
+def screened_properties(his: RollPlaneHIS, space: DesignSpace | None = None) -> dict[str, Any]:
+    """:func:`pattern_properties` of :func:`layout_system` and ``damper_valves``
+    (:func:`damper_valve_note`); the damping NaN where the damper valves' flows have no fixed
+    point at the baseline."""
+    system, resistance = screened_system(his, space)
+    properties: dict[str, Any] = pattern_properties(system)
+    if not np.all(np.isfinite(resistance)):
+        properties |= {f"c_{p}": np.nan for p in STROKE_PATTERNS}
+    return properties | {"damper_valves": damper_valve_note(his, resistance)}
+
+
+def baseline_valve_resistance(space: DesignSpace) -> np.ndarray:
+    """[Pa s m^-3] Each damper valve's equivalent linear resistance at ``space``'s baseline
+    design on its road, in element order (NaN all through when the flows have no fixed point
+    there; :func:`hisopt.evaluation.valve_states.valve_states`)."""
+    from hisopt.evaluation.valve_states import valve_states
+
+    return valve_states(space, space.baseline).resistance[0]
+
+
+def with_equivalent_valves(layout: Layout, resistance: np.ndarray) -> Layout:
+    """``layout`` with its damper valves, in element order, made linear valves of
+    ``resistance`` [Pa s m^-3] (their equivalent resistances)."""
+    values = iter(float(r) for r in resistance)
+    circuits = []
+    for circuit in layout.circuits:
+        elements = [Valve(e.a, e.b, next(values)) if isinstance(e, DamperValve) else e for e in circuit.elements]
+        circuits.append(Circuit(circuit.name, tuple(elements), circuit.ports))
+    return Layout(tuple(circuits), layout.name)
+
+
+def damper_valve_note(his: RollPlaneHIS, resistance: np.ndarray) -> str:
+    """[-] What a layout's damper valves are and how they damp on the baseline road, one
+    phrase (empty for a layout without them): ``4 damper valves (orifice 3 mm, cracking 1.5 MPa),
+    equivalent resistance 2.1e9 to 3.4e9 Pa s/m^3 on the baseline road``."""
+    layout = his_layout(his)
+    valves = [e for c in layout.circuits for e in c.elements if isinstance(e, DamperValve)]
+    if not valves:
+        return ""
+    values = his_parameter_values(his)
+
+    def spread(refs: list[Any], unit: str) -> str:  # "3 mm", or "2.5 mm to 3 mm" where the valves differ
+        numbers = sorted({float(values[r]) if isinstance(r, str) else float(r) for r in refs})
+        ends = [format_quantity(v, unit) for v in (numbers[0], numbers[-1])]
+        return ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]}"
+
+    cracking = [e.cracking_pressure for e in valves if e.cracking_pressure is not None]
+    some = "" if len(cracking) in (0, len(valves)) else f" on {len(cracking)} of them"
+    parts = [f"orifice {spread([e.orifice_diameter for e in valves], 'm')}", f"cracking {spread(cracking, 'Pa')}{some}" if cracking else "no blow-off"]
+    head = f"{len(valves)} damper valve{'s' if len(valves) > 1 else ''} ({', '.join(parts)})"
+    if not np.all(np.isfinite(resistance)):
+        return f"{head}, no fixed point of their flows at the baseline (its damping is not screened)"
+    ends = [format_quantity(v, RESISTANCE_UNIT) for v in (float(np.min(resistance)), float(np.max(resistance)))]
+    text = ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]}"
+    return f"{head}, equivalent resistance {text} on the baseline road"
 
 
 def pattern_properties(system: HydraulicSystem) -> dict[str, float]:
@@ -94,7 +184,9 @@ def mode_stiffness(problem: DesignSpace | None = None) -> pd.DataFrame:
 
     One row per catalogue layout, plus the problem's own layout when it is custom; columns
     ``layout``, ``k_bounce``, ``k_roll``, ``k_pitch``, ``k_warp`` [N/m], ``c_bounce``, ...
-    [N s/m], ``stiffness_coupling`` [-] and ``summary``; units in ``attrs["units"]``.
+    [N s/m], ``stiffness_coupling`` [-] and ``summary``, and ``damper_valves`` when a layout
+    has physical damper valves (:func:`damper_valve_note`; its damping at their equivalent
+    resistance on the problem's road); units in ``attrs["units"]``.
 
     Parameters
     ----------
@@ -111,8 +203,23 @@ def mode_stiffness(problem: DesignSpace | None = None) -> pd.DataFrame:
     names = list(catalogue()) + ([CUSTOM] if his.layout == CUSTOM else [])
     for name in names:
         summary = catalogue()[name].summary if name in catalogue() else "the problem's custom layout ([[his.circuits]])"
-        rows.append({"layout": name, **pattern_properties(layout_system(layout_his(his, name))), "summary": summary})
+        space = _layout_space(problem, name) if problem is not None else None
+        layout_table = layout_his(his, name) if space is None else space.spec.his
+        rows.append({"layout": name, **screened_properties(layout_table, space), "summary": summary})
     frame = pd.DataFrame(rows)
-    units = {"layout": NO_UNIT, "summary": NO_UNIT, "stiffness_coupling": NO_UNIT}
+    if not frame["damper_valves"].astype(bool).any():
+        frame = frame.drop(columns="damper_valves")
+    units = {"layout": NO_UNIT, "summary": NO_UNIT, "damper_valves": NO_UNIT, "stiffness_coupling": NO_UNIT}
     units |= {c: "N/m" for c in frame.columns if c.startswith("k_")} | {c: "N s/m" for c in frame.columns if c.startswith("c_")}
-    return with_units(frame, units)
+    return with_units(frame, {k: v for k, v in units.items() if k in frame.columns})
+
+
+def _layout_space(problem: DesignSpace, name: str) -> DesignSpace | None:
+    """The problem with layout ``name`` when its damper valves need a road to be screened on
+    (:mod:`hisopt.studies.layout_cases`), else None (:func:`layout_his` is enough)."""
+    from hisopt.studies.layout_cases import catalogue_case
+
+    his = problem.spec.his
+    if his.orifice_diameter is None and (his.layout != CUSTOM or not compile_network(his_layout(his), "lumped").damper_valves()):
+        return None
+    return problem if name == his.layout else catalogue_case(problem, name).problem  # type: ignore[arg-type]

@@ -105,6 +105,7 @@ def circuit_matrices(problem: Problem, graphs: Sequence[Any]) -> tuple[np.ndarra
 
     his = problem.spec.his
     values = his_parameter_values(his.model_copy(update={"layout": "custom", "parameters": {}}), synthesis_parameters())
+    values |= damper_valve_resistances(problem)
     pipes, chamber = his.pipes is not None, his.chamber_volume > 0
     k = np.zeros((len(graphs), 4, 4))
     c = np.zeros((len(graphs), 4, 4))
@@ -114,6 +115,39 @@ def circuit_matrices(problem: Problem, graphs: Sequence[Any]) -> tuple[np.ndarra
         k[i] = np.asarray(system.static_stiffness(), dtype=float).reshape(4, 4)
         c[i] = np.asarray(system.low_frequency_damping(), dtype=float).reshape(4, 4)
     return k, c
+
+
+def damper_valve_resistances(problem: Problem) -> dict[str, float]:
+    """[Pa s m^-3] ``{"Rv": ..., "Rv_rear": ...}``: with ``[his] orifice_diameter`` (every
+    candidate's ``Rv`` valves are physical damper valves), the mean equivalent resistance of
+    the front and of the rear damper valves at the problem's baseline on its road (of its
+    own layout, or of roll_plane's when its layout has no such valves), at which the
+    screening holds them linear; {} without. A candidate's own flows would differ a little:
+    the screening ranks, the layout study then solves each survivor's valves per design.
+
+    Raises
+    ------
+    ModelError
+        The valves' flows have no fixed point at the baseline.
+    """
+    from hisopt.errors import ModelError
+    from hisopt.hydraulics.layout import DamperValve
+    from hisopt.studies.layout_cases import REFERENCE_LAYOUT, catalogue_case
+    from hisopt.studies.screening import baseline_valve_resistance
+
+    if problem.spec.his.orifice_diameter is None:
+        return {}
+    axles = {"orifice_diameter": "Rv", "orifice_diameter_rear": "Rv_rear"}
+
+    def reads(space: Problem) -> list[str]:
+        return [axles.get(str(e.orifice_diameter), "") for _, e, _ in space.network().damper_valves() if isinstance(e, DamperValve)]
+
+    space = problem if any(reads(problem)) else catalogue_case(problem, REFERENCE_LAYOUT).problem
+    resistance = baseline_valve_resistance(space)
+    if not np.all(np.isfinite(resistance)):
+        raise ModelError("the damper valves' RMS flows have no fixed point at the baseline on this road, so the synthesis cannot screen their damping")
+    axle = np.array(reads(space))
+    return {name: float(np.mean(resistance[axle == name])) for name in axles.values() if np.any(axle == name)}
 
 
 def candidate_tables(problem: Problem, enumeration: topology.Enumeration) -> dict[str, np.ndarray]:
@@ -179,7 +213,7 @@ def screening_frame(problem: Problem, enumeration: topology.Enumeration) -> pd.D
             "elements": [c.elements for c in enumeration.candidates],
             "circuits": [len(c.circuits) for c in enumeration.candidates],
             "catalogue": [names.get(i, "") for i in range(len(enumeration.candidates))],
-            "description": [topology.describe(enumeration, c) for c in enumeration.candidates],
+            "description": [damper_valve_words(problem, topology.describe(enumeration, c)) for c in enumeration.candidates],
             **candidate_tables(problem, enumeration),
         }
     )
@@ -188,6 +222,31 @@ def screening_frame(problem: Problem, enumeration: topology.Enumeration) -> pd.D
     frame["status"] = screen_status(frame, screen)
     units = {"candidate": NO_UNIT, "elements": NO_UNIT, "circuits": NO_UNIT, "catalogue": NO_UNIT, "description": NO_UNIT, "status": NO_UNIT}
     return with_units(frame, units | SCREEN_UNITS | {"roll_selectivity": NO_UNIT})
+
+
+def damper_valve_words(problem: Problem, description: str) -> str:
+    """A candidate's description (:func:`hisopt.hydraulics.topology.describe`) with its ``Rv``
+    and ``Rv_rear`` valves named as the physical damper valves ``[his] orifice_diameter``
+    makes them: ``2b~A:damper(3 mm, 1.5 MPa)``, orifice and cracking pressure (``damper(3 mm)``
+    without a blow-off); unchanged without."""
+    import re
+
+    from hisopt.hydraulics.catalogue import his_parameter_values
+    from hisopt.units import format_quantity
+
+    his = problem.spec.his
+    if his.orifice_diameter is None:
+        return description
+    values = his_parameter_values(his)
+
+    def words(match: re.Match[str]) -> str:
+        axle = match.group(1) or ""
+        parts = [format_quantity(values[f"orifice_diameter{axle}"], "m")]
+        if his.cracking_pressure is not None:
+            parts.append(format_quantity(values[f"cracking_pressure{axle}"], "Pa"))
+        return f":damper({', '.join(parts)})"
+
+    return re.sub(r":Rv(_rear)?(?![A-Za-z0-9_])", words, description)
 
 
 def candidate_name(index: int) -> str:
@@ -231,12 +290,17 @@ def candidate_problem_data(problem: Problem, enumeration: topology.Enumeration, 
     """The problem file of candidate ``index``: the problem with the candidate's layout, its
     added valves' defaults in ``[his.parameters]`` and their bounds in ``[variables]``."""
     from hisopt.hydraulics.catalogue import used_parameters
+    from hisopt.hydraulics.layout import with_damper_valves
     from hisopt.studies.design_sheet import without_none
 
     name = candidate_name(index)
     layout = topology.candidate_layout(enumeration, enumeration.candidates[index], name)
     data = without_none(problem.spec.model_dump(mode="json", by_alias=True))
-    used = used_parameters(layout)
+    his = problem.spec.his
+    read = layout  # as loaded (his_layout): with [his] orifice_diameter, its Rv valves read the damper valves' values
+    if his.orifice_diameter is not None:
+        read = with_damper_valves(layout, his.cracking_pressure is not None, his.valve_flow_rms is not None)
+    used = used_parameters(read)
     extras = {k: v for k, v in synthesis_parameters().items() if k in used}
     data["his"] |= {"layout": "custom", "circuits": [circuit_table(c) for c in layout.circuits], "parameters": extras}
     variables = {**data.get("variables", {}), **{k: b for k, b in synthesis_bounds().items() if k in extras}}
