@@ -97,7 +97,9 @@ def _hover(element: Any, values: Mapping[str, float] | None) -> str:
     for field in PARAMETER_FIELDS[type(element)]:
         ref = getattr(element, field)
         unit = FIELD_UNITS[(type(element), field)]
-        if isinstance(ref, str):
+        if ref is None:  # an optional part left out: a damper valve's RMS flow is solved per load case, a blow-off may be absent
+            shown = "solved per load case" if field == "flow_rms" else "none"
+        elif isinstance(ref, str):
             shown = ref
             if values is not None and ref in values:
                 shown += f" = {format_quantity(float(values[ref]), unit)}"

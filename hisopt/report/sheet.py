@@ -10,8 +10,8 @@ import pandas as pd
 
 from hisopt.evaluation.valve_states import OUTSIDE_VALIDATED_RANGE
 from hisopt.plausibility import bound_labels
-from hisopt.studies.damper_valves import OUTSIDE, range_note
 from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.studies.damper_valves import OUTSIDE, range_note
 from hisopt.studies.design_sheet import DesignSheet, write_problem
 from hisopt.studies.envelope import CELSIUS_OFFSET, shown_envelope
 from hisopt.units import column_units, display_frame, format_quantity
@@ -96,7 +96,8 @@ def notes(sheet: DesignSheet) -> dict[str, str]:
         outside = int((sheet.valve_cases["validated_range"] == OUTSIDE).sum())
         count = f"{outside} of {len(sheet.valve_cases)} valve and load-case pairs are {OUTSIDE}. " if outside else ""
         out[VALVE_SECTIONS[1]] = (
-            f"flow_rms: the RMS flow the road drives through the valve; resistance: its equivalent linear resistance there (the fixed point). {count}{range_note()}"
+            "flow_rms: the RMS flow the road drives through the valve; resistance: its equivalent linear resistance there "
+            f"(the fixed point). {count}{range_note()}"
         )
         out[VALVE_SECTIONS[2]] = "The body's roll and bounce (heave) modes with each load case's equivalent valve resistances."
     return out
@@ -140,11 +141,15 @@ def html_page(sheet: DesignSheet) -> str:
     body = [f"<h1>{html.escape(title)}</h1>", f'<p class="meta">{html.escape(line)} The problem file <code>sheet.toml</code> reproduces it.</p>']
     said = notes(sheet)
     for name, table in tables(sheet):
-        text = tuple(c for c in table.columns if str(c).split(" [")[0] in ("item", "note", "quantity", "mode", "motion", "valve", "key", "load_case", "validated_range"))
+        text = tuple(c for c in table.columns if str(c).split(" [")[0] in TEXT_COLUMNS)
         body += [f"<h2>{html.escape(name)}</h2>", f'<div class="figure">{html_table(table, text_columns=text)}</div>']
         body += [f'<p class="meta">{html.escape(said[name])}</p>'] if name in said else []
     head = f'<meta charset="utf-8"><title>{html.escape(title)}</title><style>{REPORT_CSS}</style>'
     return f"<!DOCTYPE html><html><head>{head}</head><body>{''.join(body)}</body></html>\n"
+
+
+TEXT_COLUMNS = ("item", "note", "quantity", "mode", "motion", "valve", "key", "load_case", "validated_range")
+"""The columns of words, not numbers (set left in the HTML tables)."""
 
 
 def write_sheet(sheet: DesignSheet, folder: Path) -> list[Path]:
