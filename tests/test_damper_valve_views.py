@@ -100,6 +100,16 @@ def test_the_validated_range_follows_the_threshold(problem):
     assert "1 of 2 designs" in (damper_valves.outside_summary(cases, "here") or "")
 
 
+def test_a_row_breaking_a_rule_blanks_only_itself(problem):
+    x = problem.design_matrix([{}, {"p0": -1.0}, MODERATE])  # p0 >= 0 broken: not evaluated, as by evaluate
+    cases = damper_valves.load_case_valves(problem, x)
+    alone = [valve_states(problem, x[[i]]).resistance[0] for i in (0, 2)]
+    np.testing.assert_allclose(cases[0].states.resistance[[0, 2]], alone, rtol=FIXED_POINT_BUDGET)
+    ranges = damper_valves.valve_table(cases).groupby("design")["validated_range"].agg(set)
+    assert list(ranges) == [{damper_valves.OUTSIDE}, {damper_valves.NOT_EVALUATED}, {damper_valves.INSIDE}]
+    assert damper_valves.outside_summary(cases, "here") == f"here: 1 of 3 designs have a damper valve {OUTSIDE_VALIDATED_RANGE}; see --valves"
+
+
 def test_a_load_cases_damping_is_that_of_its_own_model(scenario_problem):
     x = _design(scenario_problem, MODERATE)[None, :]
     cases = damper_valves.load_case_valves(scenario_problem, x)

@@ -39,23 +39,29 @@ SETTING_NAMES = {"resistance": "laminar_resistance"}
 """The ``[his]`` key of a field whose name there differs from the element's."""
 DAMPED_MODES = ("roll", "bounce")
 """The body modes whose damping ratio the valves set: roll, and bounce (the body's heave)."""
+ANY_FLOW = 1e-4
+"""[m^3/s] The RMS flow a model is built at only to read its valves' settings."""
 INSIDE = "inside"
 OUTSIDE = "outside"
 NO_FIXED_POINT = "no fixed point"
-"""The values of a ``validated_range`` column: the last for a design whose valves' RMS flows
-have no fixed point in that load case (no resistance to judge)."""
+NOT_EVALUATED = "not evaluated"
+"""The values of a ``validated_range`` column: the last two for a design whose valves' RMS
+flows have no fixed point in that load case, and for one breaking a parameter's rule (no
+resistance to judge)."""
 
 
 @dataclass(frozen=True)
 class LoadCaseValves:
     """The damper valves of designs ``x`` [SI] ``(n, n_var)`` in one load case: ``name`` (a
-    scenario's, or :data:`ROAD_CASE`), its single-case problem ``space`` and the valves'
-    ``states``."""
+    scenario's, or :data:`ROAD_CASE`), its single-case problem ``space``, the valves'
+    ``states`` and which rows were ``evaluated`` (``(n,)``; not those breaking a parameter's
+    rule, as ``Problem.evaluate`` does not evaluate them)."""
 
     name: str
     space: Any
     x: np.ndarray
     states: ValveStates
+    evaluated: np.ndarray
 
     def model(self, design: int) -> Any:
         """The coupled model of design row ``design`` with its valves at this case's fixed point."""
@@ -93,7 +99,36 @@ def load_case_valves(problem: DesignSpace, designs: Any) -> list[LoadCaseValves]
     """Each load case's :class:`~hisopt.evaluation.valve_states.ValveStates` of ``designs``
     (any form :meth:`~hisopt.specification.design_space.DesignSpace.design_matrix` takes)."""
     x = problem.design_matrix(designs)
-    return [LoadCaseValves(name, space, x, valve_states(space, x)) for name, space in load_cases(problem)]
+    return [LoadCaseValves(name, space, x, *_states(space, x)) for name, space in load_cases(problem)]
+
+
+def _states(space: Any, x: np.ndarray) -> tuple[ValveStates, np.ndarray]:
+    """:func:`~hisopt.evaluation.valve_states.valve_states` of the rows of ``x`` that can be
+    evaluated (a row breaking a parameter's rule gets NaN, not converged); a batch whose model
+    cannot be built at all (one design the model refuses) is solved design by design, so that
+    one bad row does not blank the others. Also which rows were evaluated."""
+    from hisopt.specification.validation import STATUS_INVALID, check_designs
+
+    rows = np.flatnonzero(check_designs(space, x).status != STATUS_INVALID)
+    found = valve_states(space, x[rows])
+    if len(rows) > 1 and not found.converged.any():
+        each = [valve_states(space, x[[i]]) for i in rows]
+        found = ValveStates(
+            found.labels,
+            np.vstack([e.flow_rms for e in each]),
+            np.vstack([e.resistance for e in each]),
+            np.concatenate([e.converged for e in each]),
+            {k: np.concatenate([e.inputs.get(k, np.full(1, np.nan)) for e in each]) for k in found.inputs},
+        )
+    n, m = len(x), len(found.labels)
+    flow, resistance, converged = np.full((n, m), np.nan), np.full((n, m), np.nan), np.zeros(n, dtype=bool)
+    flow[rows], resistance[rows], converged[rows] = found.flow_rms, found.resistance, found.converged
+    inputs = {k: np.full(n, np.nan) for k in found.inputs}
+    for k, v in found.inputs.items():
+        inputs[k][rows] = v
+    evaluated = np.zeros(n, dtype=bool)
+    evaluated[rows] = True
+    return ValveStates(found.labels, flow, resistance, converged, inputs), evaluated
 
 
 def valve_settings(case: LoadCaseValves, design: int = 0) -> pd.DataFrame:
@@ -102,7 +137,9 @@ def valve_settings(case: LoadCaseValves, design: int = 0) -> pd.DataFrame:
     the valve has none), with ``key`` the parameters whose names differ from those
     (``orifice_diameter_rear, cracking_pressure_rear`` for a rear valve of its own)."""
     states = case.states
-    his = case.model(design).his
+    # the settings do not depend on the flows: a design without a fixed point is built at any flow
+    inputs = {k: np.where(np.isfinite(v[[design]]), v[[design]], ANY_FLOW) for k, v in states.inputs.items()}
+    his = case.space.model(case.x[[design]], inputs=inputs).his
     assert his is not None  # a model with HIS
     rows: list[dict[str, Any]] = []
     for label, (_, valve, _) in zip(states.labels, his.network.damper_valves(), strict=True):
@@ -125,13 +162,16 @@ def valve_table(cases: list[LoadCaseValves]) -> pd.DataFrame:
     """[SI] One row per design, load case and valve: ``design`` (row of the designs, from 0),
     ``load_case``, ``valve``, ``flow_rms`` [m^3/s], ``resistance`` [Pa s m^-3] (equivalent),
     ``validated_range`` (:data:`INSIDE` or :data:`OUTSIDE`, see
-    :data:`~hisopt.evaluation.valve_states.VALIDATED_RESISTANCE`; :data:`NO_FIXED_POINT`)
+    :data:`~hisopt.evaluation.valve_states.VALIDATED_RESISTANCE`; :data:`NO_FIXED_POINT`,
+    :data:`NOT_EVALUATED`)
     and ``converged``."""
     frames = []
     for case in cases:
         s = case.states
         n, m = s.resistance.shape
         outside = s.outside()
+        judged = np.where(outside, OUTSIDE, INSIDE)
+        missing = np.where(case.evaluated, NO_FIXED_POINT, NOT_EVALUATED)[:, None]
         frames.append(
             pd.DataFrame(
                 {
@@ -140,7 +180,7 @@ def valve_table(cases: list[LoadCaseValves]) -> pd.DataFrame:
                     "valve": np.tile(np.asarray(s.labels, dtype=object), n),
                     "flow_rms": s.flow_rms.ravel(),
                     "resistance": s.resistance.ravel(),
-                    "validated_range": np.where(np.isfinite(s.resistance), np.where(outside, OUTSIDE, INSIDE), NO_FIXED_POINT).ravel(),
+                    "validated_range": np.where(np.isfinite(s.resistance), judged, missing).ravel(),
                     "converged": np.repeat(s.converged, m),
                 }
             )
@@ -167,7 +207,7 @@ def outside_summary(cases: list[LoadCaseValves], source: str) -> str | None:
     without a fixed point in some load case (None if there are none)."""
     n = len(cases[0].x) if cases else 0
     outside = int(designs_outside(cases).sum()) if n else 0
-    failed = int(np.any([~case.states.converged for case in cases], axis=0).sum()) if n else 0
+    failed = int(np.any([case.evaluated & ~case.states.converged for case in cases], axis=0).sum()) if n else 0
     said = [f"{outside} of {n} designs have a damper valve {OUTSIDE_VALIDATED_RANGE}"] if outside else []
     said += [f"{failed} of {n} designs have no fixed point of their valves' RMS flows"] if failed else []
     return f"{source}: {'; '.join(said)}; see --valves" if said else None

@@ -98,8 +98,7 @@ def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str) -> D
     table = damper_valves.valve_table(cases)
     per_case = table.drop(columns=["design", "converged"])
     per_case.attrs = {"units": {k: v for k, v in table.attrs["units"].items() if k in per_case.columns}}
-    settings = damper_valves.valve_settings(cases[0]) if cases[0].states.converged[0] else pd.DataFrame()
-    return replace(sheet, valves=settings, valve_cases=per_case, valve_modes=damper_valves.mode_damping(cases))
+    return replace(sheet, valves=damper_valves.valve_settings(cases[0]), valve_cases=per_case, valve_modes=damper_valves.mode_damping(cases))
 
 
 def parts_table(problem: Problem) -> pd.DataFrame:
