@@ -17,6 +17,7 @@ SI unit                   shown as
 ``m``                     µm, mm from 0.1 mm, m from 1 m
 ``m^2``                   mm^2, cm^2 from 1 cm^2, m^2 from 1 m^2 (``12.8 cm^2``)
 ``m^3``                   cm^3, L from 0.1 L, m^3 from 1 m^3
+``m^3/s``                 L/s (a valve's RMS flow: ``0.12 L/s``)
 ``N``                     N, kN from 10 kN
 ``N/m``, ``N s/m``        N/m, kN/m from 10 kN/m (and N s/m, kN s/m likewise)
 ``rad``, ``rad/g``        deg, deg/g: roll angles and roll gradients as vehicle engineers
@@ -58,6 +59,7 @@ _STEPS: dict[str, tuple[tuple[float, str, float], ...]] = {
     "m": ((0.0, "µm", 1e6), (1e-4, "mm", 1e3), (1.0, "m", 1.0)),
     "m^2": ((0.0, "mm^2", 1e6), (1e-4, "cm^2", 1e4), (1.0, "m^2", 1.0)),
     "m^3": ((0.0, "cm^3", 1e6), (1e-4, "L", 1e3), (1.0, "m^3", 1.0)),
+    "m^3/s": ((0.0, "L/s", 1e3),),
     "N": ((0.0, "N", 1.0), (1e4, "kN", 1e-3)),
     "N/m": ((0.0, "N/m", 1.0), (1e4, "kN/m", 1e-3)),
     "N s/m": ((0.0, "N s/m", 1.0), (1e4, "kN s/m", 1e-3)),

@@ -228,16 +228,16 @@ def print_modes(p: Any) -> None:
     console.print(f"older names: {old} = {', '.join(MODE_ALIASES.values())}")
 
 
-def units_table(shown: Any, title: str) -> Any:
+def units_table(shown: Any, title: str, transposed_rows: int = 4) -> Any:
     """A rich table of :func:`hisopt.units.display_frame` strings (headers ``name [unit]``).
 
-    Up to four rows print transposed, one line per quantity, so that nothing is cut.
+    Up to ``transposed_rows`` rows print transposed, one line per quantity, so that nothing is cut.
     """
     from rich.table import Table
     from rich.text import Text
 
     table = Table(title=Text(title))
-    if len(shown) <= 4:
+    if len(shown) <= transposed_rows:
         table.add_column(Text("quantity [unit]"))
         for i in range(len(shown)):
             table.add_column("value" if len(shown) == 1 else f"design {i + 1}", justify="right")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -197,6 +197,14 @@ def evaluate(
     out: Annotated[Path | None, typer.Option(help="results CSV (designs plus objective and constraint columns)")] = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
+    valves: Annotated[
+        bool,
+        typer.Option(
+            "--valves",
+            help="also each damper valve's RMS flow and equivalent resistance per design and load case, "
+            "outside the linearisation's validated range marked (with --out: OUT_valves.csv beside OUT)",
+        ),
+    ] = False,
 ) -> None:
     """Objectives and constraints of the baseline or a CSV file.
 
@@ -204,7 +212,9 @@ def evaluate(
     table shows the first 20 designs; --out writes them all. A row that breaks a
     parameter's rule or is not finite is not evaluated, a row outside the [variables] box
     is; both are flagged in the status and reason columns, never feasible, and counted in
-    one warning line.
+    one warning line. With physical damper valves, one more warning line counts the
+    designs with a valve outside the linearisation's validated range (equivalent
+    resistance over 1 GPa s/m^3); --valves lists every valve. docs/model.md §8.1.
     """
     from rich.console import Console
 
@@ -214,8 +224,15 @@ def evaluate(
     from hisopt.specification.validation import flag_summary
 
     p = load(problem, set_)
+    valves_out = None if out is None else out.with_name(f"{out.stem}_valves.csv")
+    if valves:
+        from hisopt.studies.damper_valves import check_damper_valves
+
+        check_damper_valves(p, "--valves")
     if out is not None:
         ensure_writable_file(out, "--out")  # fail before any work
+        if valves and valves_out is not None:
+            ensure_writable_file(valves_out, "--out")
     if designs is not None:
         from hisopt.units import variable_units
 
@@ -242,6 +259,38 @@ def evaluate(
         Console(width=200).print(units_table(display_frame(result.head(20)), f"{p.name}: {len(result)} design(s)"))
         if len(result) > 20:
             typer.echo(f"showing the first 20 of {len(result)} designs; write them all with --out FILE")
+    _valve_states(p, result, str(designs) if designs is not None else "baseline design", valves, valves_out if out is not None else None)
+
+
+def _valve_states(p: Any, result: Any, source: str, valves: bool, out: Path | None) -> None:
+    """For a problem with damper valves: the line counting designs outside the validated range,
+    and with ``valves`` each valve's RMS flow and equivalent resistance (printed, and written
+    to ``out``)."""
+    from hisopt.studies import damper_valves
+
+    if not damper_valves.has_damper_valves(p):
+        return
+    cases = damper_valves.load_case_valves(p, result[list(p.variable_names)])
+    summary = damper_valves.outside_summary(cases, source)
+    if summary:
+        typer.echo(f"warning: {summary}", err=True)
+    if not valves:
+        return
+    from rich.console import Console
+
+    from hisopt.cli.console import units_table
+    from hisopt.units import display_frame
+
+    table = damper_valves.valve_table(cases)
+    if out is not None:
+        from hisopt.io import write_csv
+
+        write_csv(table, out)
+        typer.echo(f"wrote {len(table)} valve rows to {out}")
+    shown = table[table["design"] < 20].drop(columns="converged")
+    shown.attrs = {"units": table.attrs["units"]}
+    Console(width=200).print(units_table(display_frame(shown), f"{p.name}: damper valves (design: row from 0)", transposed_rows=0))
+    typer.echo(damper_valves.range_note())
 
 
 def init(

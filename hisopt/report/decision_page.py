@@ -4,7 +4,8 @@ over a design (docs/model.md §19).
 The page holds the designs of :func:`hisopt.studies.decision_room.decision_room_data` and
 draws, filters and navigates them in the browser (``decision_room.js``, no library and no
 network): parallel coordinates whose brushes filter the scatter matrix, the table and the
-count; a design's values, parts, spectra and step response against the baseline's; filters
+count; a design's values, parts, damper valves' equivalent resistances (those outside the
+linearisation's validated range marked), spectra and step response against the baseline's; filters
 for the front, feasibility, a load case, a layout and the variables' bounds; reference-point
 and E-NAUTILUS navigation (the rules of :mod:`hisopt.optim.navigation`); CSV and problem-file
 export. Numbers travel as base64 arrays: the variables and objectives as float64 (an export
@@ -27,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.errors import ConfigError, RunError
+from hisopt.evaluation.valve_states import OUTSIDE_VALIDATED_RANGE, VALIDATED_RESISTANCE
 from hisopt.plausibility import BOUND_TOLERANCE
 from hisopt.report.tables import REPORT_CSS
 from hisopt.studies.decision_room import KINDS
@@ -144,6 +146,8 @@ def room_payload(room: Room, sheets: dict[int, str] | None = None) -> dict[str, 
         "feasible": _b64(table["feasible"].to_numpy(dtype=np.uint8)),
         "front": _b64(table["front"].to_numpy(dtype=np.uint8)),
         "bound_tolerance": BOUND_TOLERANCE,
+        "validated_resistance": VALIDATED_RESISTANCE,
+        "outside_range": OUTSIDE_VALIDATED_RANGE,
         "curves": curve_payload(room.curves, room.baseline),
         "sheets": {str(k): v for k, v in (sheets or {}).items()},
     }

@@ -138,8 +138,13 @@
   const PC = { top: 78, bottom: 28, left: 60, right: 60, height: 406, rows: 2 };
   let axes = [];
   function visibleColumns() {
-    return cols.filter((c) => c.group !== "load case" || !S.loadCase || c.name.endsWith("@" + S.loadCase));
+    return cols.filter(inCase);
   }
+  function inCase(c) { // a load case's column shows only with that case chosen (or none); a valve's of a scenario problem likewise
+    const perCase = c.group === "load case" || (c.group === "valve" && c.name.indexOf("@") >= 0);
+    return !perCase || !S.loadCase || c.name.endsWith("@" + S.loadCase);
+  }
+  const outsideRange = (c, i) => c.group === "valve" && c.values[i] > D.validated_resistance; // NaN: no fixed point, nothing to judge
   function layoutAxes() {
     const list = visibleColumns(), width = Math.max($("room").clientWidth, 600, PC.left + PC.right + 96 * (list.length - 1)); // wider: it scrolls
     const gap = (width - PC.left - PC.right) / Math.max(list.length - 1, 1);
@@ -314,10 +319,11 @@
   function showDetails() {
     const i = S.hovered >= 0 ? S.hovered : S.shown;
     if (i < 0) return;
-    $("d-title").textContent = rowName(i) + (feasible[i] ? "" : " (not feasible)") + (onFront[i] ? ", on the front" : "");
+    const outside = cols.some((c) => outsideRange(c, i));
+    $("d-title").textContent = rowName(i) + (feasible[i] ? "" : " (not feasible)") + (onFront[i] ? ", on the front" : "") + (outside ? ", a damper valve " + D.outside_range : "");
     const src = D.sources[source[i]];
-    const rows = cols.filter((c) => (c.group !== "variable" || src.variables.indexOf(c.name) >= 0) && (c.group !== "load case" || !S.loadCase || c.name.endsWith("@" + S.loadCase)));
-    $("d-table").innerHTML = "<thead><tr><th class=\"text\">quantity</th><th class=\"text\">kind</th><th>value</th></tr></thead><tbody>" + rows.map((c) => "<tr><td class=\"text\">" + esc(c.name) + "</td><td class=\"text\">" + c.group + "</td><td>" + withUnit(c.values[i], c.display) + (c.group === "variable" ? boundNote(i, esc(c.name)) : "") + "</td></tr>").join("") + "</tbody>";
+    const rows = cols.filter((c) => (c.group !== "variable" || src.variables.indexOf(c.name) >= 0) && inCase(c));
+    $("d-table").innerHTML = "<thead><tr><th class=\"text\">quantity</th><th class=\"text\">kind</th><th>value</th></tr></thead><tbody>" + rows.map((c) => "<tr><td class=\"text\">" + esc(c.name) + "</td><td class=\"text\">" + c.group + "</td><td>" + withUnit(c.values[i], c.display) + (c.group === "variable" ? boundNote(i, esc(c.name)) : "") + (outsideRange(c, i) ? " (outside the validated range)" : "") + "</td></tr>").join("") + "</tbody>";
     const sheet = D.kinds[kind[i]] === "front" && D.sources.length === 1 ? D.sheets[String(fileRow[i])] : undefined;
     const command = D.kinds[kind[i]] === "front" && src.location ? "hisopt sheet " + src.location + " --design " + fileRow[i] : "";
     $("d-sheet").innerHTML = (sheet ? "<a href=\"" + esc(sheet) + "\">design sheet</a> · " : "") + (command ? "its design sheet: <code>" + command + "</code>" : "export its problem file to evaluate or sheet it");

@@ -8,8 +8,10 @@ from pathlib import Path
 
 import pandas as pd
 
+from hisopt.evaluation.valve_states import OUTSIDE_VALIDATED_RANGE
 from hisopt.plausibility import bound_labels
 from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.studies.damper_valves import OUTSIDE, range_note
 from hisopt.studies.design_sheet import DesignSheet, write_problem
 from hisopt.studies.envelope import CELSIUS_OFFSET, shown_envelope
 from hisopt.units import column_units, display_frame, format_quantity
@@ -44,14 +46,61 @@ def quantities_shown(sheet: DesignSheet) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["quantity", "value"])
 
 
+def valves_shown(valves: pd.DataFrame) -> pd.DataFrame:
+    """The damper valves' settings (:attr:`DesignSheet.valves`) for reading and pasting back:
+    each value with its unit (``3 mm``, ``1.5 MPa``; ``-`` where the valve has no such part)."""
+    units = valves.attrs.get("units", {})
+    return pd.DataFrame(
+        {c: [v if units.get(c) == "-" and isinstance(v, str) else _setting(v, units.get(c, "")) for v in valves[c]] for c in valves.columns},
+        index=valves.index,
+    )
+
+
+def _setting(value: object, unit: str) -> str:
+    if isinstance(value, str):
+        return value
+    number = float(value)  # type: ignore[arg-type]  # a setting is a number or a label
+    return "-" if number != number else format_quantity(number, unit)
+
+
 def tables(sheet: DesignSheet) -> list[tuple[str, pd.DataFrame]]:
-    """``(title, table of strings)`` of every section, in order."""
-    return [
+    """``(title, table of strings)`` of every section, in order (the damper valves' only for a
+    problem with physical damper valves)."""
+    out = [
         ("Parts and settings", parts_shown(sheet.parts)),
         ("Quantities", quantities_shown(sheet)),
         ("Operating envelope", display_frame(shown_envelope(sheet.envelope))),
         ("Modes with HIS", display_frame(sheet.modes)),
     ]
+    if len(sheet.valve_cases):
+        out += [
+            (VALVE_SECTIONS[0], valves_shown(sheet.valves)),
+            (VALVE_SECTIONS[1], display_frame(sheet.valve_cases)),
+            (VALVE_SECTIONS[2], display_frame(sheet.valve_modes)),
+        ]
+    return out
+
+
+VALVE_SECTIONS = ("Damper valves", "Damper valves per load case", "Roll and bounce damping per load case")
+"""The titles of the damper valves' sections (:func:`tables`)."""
+
+
+def notes(sheet: DesignSheet) -> dict[str, str]:
+    """A line under a section, by its title: what its columns mean where a number alone does not say."""
+    out = {}
+    if len(sheet.valve_cases):
+        out[VALVE_SECTIONS[0]] = (
+            "Each physical damper valve's settings, as [his] takes them (key: the parameter a value comes from where its name differs; "
+            "laminar_resistance: the laminar part in series)."
+        )
+        outside = int((sheet.valve_cases["validated_range"] == OUTSIDE).sum())
+        count = f"{outside} of {len(sheet.valve_cases)} valve and load-case pairs are {OUTSIDE}. " if outside else ""
+        out[VALVE_SECTIONS[1]] = (
+            "flow_rms: the RMS flow the road drives through the valve; resistance: its equivalent linear resistance there "
+            f"(the fixed point). {count}{range_note()}"
+        )
+        out[VALVE_SECTIONS[2]] = "The body's roll and bounce (heave) modes with each load case's equivalent valve resistances."
+    return out
 
 
 def heading(sheet: DesignSheet) -> tuple[str, str]:
@@ -61,15 +110,19 @@ def heading(sheet: DesignSheet) -> tuple[str, str]:
     p = sheet.problem
     on = bound_labels(p.baseline, p.lower, p.upper, p.variable_names)[0]
     bounds = f" At a bound of [variables] (the box, not the physics, chose it): {on}." if on else ""
-    return f"Design sheet: {p.name}, design {sheet.design}", f"Front row {sheet.design} of {sheet.source}; {feasible}.{bounds}"
+    cases = sheet.valve_cases
+    outside = sorted(set(cases.loc[cases["validated_range"] == OUTSIDE, "load_case"])) if len(cases) else []
+    valves = f" Its damper valves are {OUTSIDE_VALIDATED_RANGE} in: {', '.join(outside)}." if outside else ""
+    return f"Design sheet: {p.name}, design {sheet.design}", f"Front row {sheet.design} of {sheet.source}; {feasible}.{bounds}{valves}"
 
 
 def markdown(sheet: DesignSheet) -> str:
     """The sheet as Markdown (pipe tables)."""
     title, line = heading(sheet)
     parts = [f"# {title}", "", line, "", "The problem file `sheet.toml` reproduces it: `hisopt evaluate sheet.toml`.", ""]
+    said = notes(sheet)
     for name, table in tables(sheet):
-        parts += [f"## {name}", "", _pipe_table(table), ""]
+        parts += [f"## {name}", "", _pipe_table(table), ""] + ([said[name], ""] if name in said else [])
     return "\n".join(parts)
 
 
@@ -86,11 +139,17 @@ def html_page(sheet: DesignSheet) -> str:
     """The sheet as one self-contained HTML page."""
     title, line = heading(sheet)
     body = [f"<h1>{html.escape(title)}</h1>", f'<p class="meta">{html.escape(line)} The problem file <code>sheet.toml</code> reproduces it.</p>']
+    said = notes(sheet)
     for name, table in tables(sheet):
-        text = tuple(c for c in table.columns if str(c).split(" [")[0] in ("item", "note", "quantity", "mode", "motion"))
+        text = tuple(c for c in table.columns if str(c).split(" [")[0] in TEXT_COLUMNS)
         body += [f"<h2>{html.escape(name)}</h2>", f'<div class="figure">{html_table(table, text_columns=text)}</div>']
+        body += [f'<p class="meta">{html.escape(said[name])}</p>'] if name in said else []
     head = f'<meta charset="utf-8"><title>{html.escape(title)}</title><style>{REPORT_CSS}</style>'
     return f"<!DOCTYPE html><html><head>{head}</head><body>{''.join(body)}</body></html>\n"
+
+
+TEXT_COLUMNS = ("item", "note", "quantity", "mode", "motion", "valve", "key", "load_case", "validated_range")
+"""The columns of words, not numbers (set left in the HTML tables)."""
 
 
 def write_sheet(sheet: DesignSheet, folder: Path) -> list[Path]:

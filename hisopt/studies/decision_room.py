@@ -46,6 +46,8 @@ CHUNK = 2000
 CURVE_METHODS = ("modal", "direct")
 """How :func:`design_curves` computes the spectra: the evaluator's channels, or direct solves."""
 
+GROUPS = ("variable", "objective", "constraint", "load case", "part", "valve")
+"""The kinds of a room's quantity columns, in the page's order (:class:`Room`)."""
 KINDS = ("front", "refined", "evaluated")
 """Where a row comes from: ``front.csv``, a refined front (``front_refined.csv``, ``front_refined_ipopt.csv``) or ``evaluations.parquet``."""
 
@@ -87,9 +89,10 @@ class Room:
 
     ``table`` columns: ``source`` (its name), ``source_index`` (its place in ``sources``: a
     layout's seeds share a name), ``kind``, ``row``, the variables, objectives, constraints,
-    load-case quantities and parts, ``feasible`` and ``front`` (non-dominated among the
-    feasible rows); ``groups`` says which of those each quantity column is (``variable``,
-    ``objective``, ``constraint``, ``load case``, ``part``) and ``units`` its SI unit.
+    load-case quantities, parts and damper valves' equivalent resistances
+    (:func:`valve_columns`), ``feasible`` and ``front`` (non-dominated among the feasible
+    rows); ``groups`` says which of those each quantity column is (``variable``,
+    ``objective``, ``constraint``, ``load case``, ``part``, ``valve``) and ``units`` its SI unit.
     ``bounds`` per source the box of each variable; ``curves`` per row and ``baseline`` per
     source (its problem's baseline design); ``templates`` per source the problem file with
     ``{{name}}`` in place of each variable's value.
@@ -227,6 +230,25 @@ def part_columns(problem: Problem, x: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
+def valve_columns(problem: Problem, x: np.ndarray) -> dict[str, np.ndarray]:
+    """[Pa s m^-3] The equivalent resistance of each physical damper valve of designs ``x``
+    [SI] ``(n, n_var)`` in each load case (:mod:`hisopt.studies.damper_valves`): ``"<valve>
+    resistance"``, with ``@<scenario>`` in a problem with scenarios; NaN where the valves' RMS
+    flows have no fixed point. None for a problem without damper valves. Above
+    :data:`~hisopt.evaluation.valve_states.VALIDATED_RESISTANCE` a valve is outside the
+    linearisation's validated range (the page marks it)."""
+    from hisopt.studies import damper_valves
+
+    if not damper_valves.has_damper_valves(problem):
+        return {}
+    out: dict[str, np.ndarray] = {}
+    for case in damper_valves.load_case_valves(problem, x):
+        at = f"@{case.name}" if problem.scenario_names else ""
+        for j, label in enumerate(case.states.labels):
+            out[f"{label} resistance{at}"] = case.states.resistance[:, j]
+    return out
+
+
 def problem_template(problem: Problem) -> str:
     """The problem file (TOML) of ``problem`` with ``{{name}}`` where each design variable's
     value goes: a design's values put in give the file ``hisopt evaluate`` reproduces it from
@@ -279,19 +301,22 @@ def decision_room_data(sources: Sequence[Source], method: str = "modal") -> Room
         found = dict(q.attrs.get("units", {}))
         variables = {v: source.x[:, k] for k, v in enumerate(p.variable_names)}
         parts = {name: v for name, v in part_columns(p, source.x).items() if not any(np.array_equal(v, x) for x in variables.values())}  # not a variable again
+        valves = valve_columns(p, source.x)
         kinds = [
             ("variable", list(p.variable_names)),
             ("objective", objectives),
             ("constraint", [c.name for c in p.spec.constraints if c.name in q.columns]),
             ("load case", [c for c in p.scenario_columns if c not in objectives]),
             ("part", list(parts)),
+            ("valve", list(valves)),
         ]
+        own = {"part": (parts, "m"), "valve": (valves, "Pa s m^-3")}  # the columns not of the evaluator
         frame = pd.DataFrame({"source": source.name, "source_index": len(frames), "kind": source.kind, "row": source.row})
         for group, columns in kinds:
             for c in columns:
                 groups.setdefault(c, group)
-                units.setdefault(c, "m" if group == "part" else found.get(c, ""))
-                frame[c] = parts[c] if group == "part" else q[c].to_numpy(dtype=float)
+                units.setdefault(c, own[group][1] if group in own else found.get(c, ""))
+                frame[c] = own[group][0][c] if group in own else q[c].to_numpy(dtype=float)
         frame["feasible"] = q["feasible"].to_numpy(dtype=bool)
         frames.append(frame)
         curves.append(design_curves(p, source.x, f_hz, method))
@@ -304,7 +329,7 @@ def decision_room_data(sources: Sequence[Source], method: str = "modal") -> Room
     merged = Curves(
         first.f_hz, first.t_s, np.concatenate([c.spectra for c in curves]), np.concatenate([c.step for c in curves]), first.outputs, first.units, first.step_g
     )
-    ordered = sorted(groups, key=lambda c: ("variable", "objective", "constraint", "load case", "part").index(groups[c]))
+    ordered = sorted(groups, key=lambda c: GROUPS.index(groups[c]))
     return Room(list(sources), table, {c: groups[c] for c in ordered}, {c: units[c] for c in ordered}, objectives, bounds, merged, baseline, templates)
 
 

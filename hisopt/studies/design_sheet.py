@@ -8,7 +8,7 @@ that reproduces it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,8 +17,10 @@ import pandas as pd
 
 from hisopt.coupled.modal import modal_analysis
 from hisopt.hydraulics import laws
+from hisopt.hydraulics.layout import DamperValve
 from hisopt.hydraulics.network import resolve
 from hisopt.problem import Problem
+from hisopt.studies import damper_valves
 from hisopt.studies.envelope import envelope_table
 
 MODE_COLUMNS = ("mode", "motion", "frequency_hz", "damping_ratio")
@@ -45,6 +47,15 @@ class DesignSheet:
         :func:`hisopt.studies.envelope.envelope_table` of the design
     modes : pd.DataFrame
         :data:`MODE_COLUMNS` of its modes with HIS
+    valves : pd.DataFrame
+        its physical damper valves' settings
+        (:func:`hisopt.studies.damper_valves.valve_settings`; no rows without damper valves)
+    valve_cases : pd.DataFrame
+        per load case and valve its RMS flow, equivalent resistance and whether that lies in
+        the validated range (:func:`hisopt.studies.damper_valves.valve_table`)
+    valve_modes : pd.DataFrame
+        per load case the roll and bounce (heave) modes' frequency and damping ratio with the
+        valves at that case's fixed point (:func:`hisopt.studies.damper_valves.mode_damping`)
     """
 
     problem: Problem
@@ -54,6 +65,9 @@ class DesignSheet:
     quantities: pd.DataFrame
     envelope: pd.DataFrame
     modes: pd.DataFrame
+    valves: pd.DataFrame = field(default_factory=pd.DataFrame)
+    valve_cases: pd.DataFrame = field(default_factory=pd.DataFrame)
+    valve_modes: pd.DataFrame = field(default_factory=pd.DataFrame)
 
     def problem_data(self) -> dict[str, Any]:
         """The problem file of the design (its ``[his]`` values are the design's), as TOML data:
@@ -77,7 +91,14 @@ def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str) -> D
     quantities = sheet_problem.evaluate(baseline, log=False)
     modes = modal_analysis(sheet_problem)[list(MODE_COLUMNS)]
     modes.attrs = {"units": {"mode": "-", "motion": "-", "frequency_hz": "Hz", "damping_ratio": "-"}}
-    return DesignSheet(sheet_problem, design, source, parts_table(sheet_problem), quantities, envelope_table(sheet_problem), modes)
+    sheet = DesignSheet(sheet_problem, design, source, parts_table(sheet_problem), quantities, envelope_table(sheet_problem), modes)
+    if not damper_valves.has_damper_valves(sheet_problem):
+        return sheet
+    cases = damper_valves.load_case_valves(sheet_problem, baseline)
+    table = damper_valves.valve_table(cases)
+    per_case = table.drop(columns=["design", "converged"])
+    per_case.attrs = {"units": {k: v for k, v in table.attrs["units"].items() if k in per_case.columns}}
+    return replace(sheet, valves=damper_valves.valve_settings(cases[0]), valve_cases=per_case, valve_modes=damper_valves.mode_damping(cases))
 
 
 def parts_table(problem: Problem) -> pd.DataFrame:
@@ -85,7 +106,8 @@ def parts_table(problem: Problem) -> pd.DataFrame:
     cylinders' bore and rod (``dA`` and ``lam`` for a problem posed in the paper's terms:
     the sizes they make), the accumulators (nominal volume, precharge at the charge
     temperature, gas separator and rating), the charge (oil fill and the static pressure it
-    gives at the charge temperature), the valves and the pipes."""
+    gives at the charge temperature), the valves (a physical damper valve's settings are in
+    :attr:`DesignSheet.valves`) and the pipes."""
     spec = problem.spec
     his = problem.model(problem.baseline[None, :]).his
     assert his is not None  # a model with HIS
@@ -124,6 +146,8 @@ def parts_table(problem: Problem) -> pd.DataFrame:
         for c, value in enumerate(pressure):
             rows.append((f"charge: circuit {his.network.layout.circuits[c].name} static pressure, unladen (absolute)", float(value), "Pa", ""))
     for k, valve, _ in his.network.valves():
+        if isinstance(valve, DamperValve):
+            continue  # a physical valve has its own section: its settings, not one coefficient
         rows.append((f"valve {valve.a} - {valve.b}: coefficient", float(np.ravel(his.values.resistance[k])[0]), "Pa s m^-3", ""))
     if spec.his.pipes is not None:
         for what in ("diameter", "length front", "length rear"):
