@@ -228,7 +228,10 @@ def test_slp_refines_the_valves_problem_on_its_solved_flows(valves_run):
     and weakly dominates its start (tests/test_refine.py's invariants)."""
     problem, run_dir = valves_run
     result = refine_run(run_dir, max_points=4)
-    check_refined(problem, read_front(run_dir / "front.csv"), result)
+    # another batch changes the poles at rounding (1e-14: a batch's mirror split is decided for
+    # the batch); the valves' fixed point carries that through its secant steps, and a PSD peak
+    # of damping ratio 0.05 amplifies a pole's move by 1 / zeta^2 = 400: 1e-10 (3e-11 measured)
+    check_refined(problem, read_front(run_dir / "front.csv"), result, rtol=1e-10)
     assert result.points["accepted"].any()
 
 

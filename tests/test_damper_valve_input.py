@@ -23,6 +23,7 @@ import pytest
 
 import hisopt
 from hisopt.errors import ConfigError
+from hisopt.evaluation.valve_flows import FLOW_TOLERANCE
 from hisopt.io import read_csv
 from tests.cli_inprocess import assert_one_line, run_cli
 from tests.conftest import ROOT
@@ -153,7 +154,9 @@ def test_custom_damper_valves_give_the_catalogue_valves_objectives(valves, tmp_p
     got = custom.evaluate(x, log=False)
     want = valves.evaluate(x, log=False)
     for name in valves.objective_names:  # the same network, element for element: round-off only
-        np.testing.assert_allclose(got[name].to_numpy(), want[name].to_numpy(), rtol=1e-9)
+        # two problems solve the same fixed point from their own starts: each within the flows'
+        # tolerance of it, a quantity moving at most as much (its slope in log flow is below 1)
+        np.testing.assert_allclose(got[name].to_numpy(), want[name].to_numpy(), rtol=2 * FLOW_TOLERANCE)
     moved = custom.evaluate(np.vstack([custom.baseline, custom.baseline * [1, 1, 1, 1.5, 1]]), log=False)
     assert moved["sigma_aw"].iloc[0] != moved["sigma_aw"].iloc[1]  # d_front acts
 
