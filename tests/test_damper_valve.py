@@ -22,7 +22,7 @@ from hisopt.evaluation.valve_states import valve_states
 from hisopt.hydraulics import laws
 
 RHO = 872.0
-VALVES = "problems/roll_plane_his_valves.toml"
+VALVES = "tests/data/valves_one_road.toml"  # the valves problem on its city road alone
 
 
 def _tangent(q: float, kq: float, pc: float, rb: float) -> float:

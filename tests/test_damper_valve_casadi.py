@@ -44,7 +44,7 @@ EPS = np.finfo(float).eps
 RHO = 850.0  # [kg/m^3] oil
 N_POINTS = 3000
 GAIN = 2.0 / math.sqrt(2.0 * math.pi)  # R_eq = r + GAIN (bleed + tail / s)
-VALVES_PROBLEM = ROOT / "problems" / "roll_plane_his_valves.toml"
+VALVES_PROBLEM = ROOT / "tests" / "data" / "valves_one_road.toml"  # the valves problem on its city road alone
 
 
 def valve_box(n: int, seed: int, cracking_lower: float = 0.0) -> dict[str, np.ndarray]:

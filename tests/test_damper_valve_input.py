@@ -28,7 +28,7 @@ from hisopt.io import read_csv
 from tests.cli_inprocess import assert_one_line, run_cli
 from tests.conftest import ROOT
 
-VALVES = ROOT / "problems" / "roll_plane_his_valves.toml"
+VALVES = ROOT / "tests" / "data" / "valves_one_road.toml"  # the valves problem on its city road alone
 TEXT = VALVES.read_text(encoding="utf-8")
 CUSTOM_TEXT = (ROOT / "problems" / "layout_custom_roll_plane.toml").read_text(encoding="utf-8")
 

@@ -38,7 +38,7 @@ from hisopt.studies.design_sheet import design_sheet
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
 
-VALVES = ROOT / "problems" / "roll_plane_his_valves.toml"
+VALVES = ROOT / "tests" / "data" / "valves_one_road.toml"  # the valves problem on its city road alone
 SCENARIOS = """
 [[scenarios]]
 name = "smooth"
