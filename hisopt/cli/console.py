@@ -140,6 +140,9 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
     at_bound = bound_summary(result.front, result.problem)
     if at_bound:
         rows.insert(1, ("front at a bound", at_bound.split(" sit ")[0] + " (on_bound column of front.csv)"))
+    valves = front_valves(result)
+    if valves is not None:
+        rows.insert(2, ("damper valves", valves[0]))
     for item, value in rows:
         totals.add_row(item, Text(value))
     tables: list[Any] = [totals]
@@ -173,13 +176,46 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
             notes = [bound_note(float(d[name]), *bounds[name]) if name in bounds else "" for d in (knee, asf)]
             marked = marked or any(notes)
             picks.add_row(Text(shown.label(name)), *[Text(shown.number(d[name]) + n) for d, n in zip((knee, asf), notes, strict=True)])
+        for label, marks in [] if valves is None else valves[1]:
+            picks.add_row(Text(label), *(Text(m) for m in marks))
+        caption = []
         if marked:
-            picks.caption = Text(
+            caption.append(
                 f"at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
                 "that bound; the box, not the physics, chose that value"
             )
+        if valves is not None:
+            caption.append("outside: a damper valve outside the linearisation's validated range in some load case (hisopt sheet, evaluate --valves)")
+        if caption:
+            picks.caption = Text("\n".join(caption))
         tables.append(picks)
     return tables
+
+
+def front_valves(result: OptimizationResult) -> tuple[str, list[tuple[str, tuple[str, ...]]]] | None:
+    """For a problem with damper valves: a summary row counting the front's designs with a valve
+    outside the linearisation's validated range in some load case, and rows of the knee's and
+    the ASF pick's largest equivalent resistance over the valves and load cases, marked
+    ``outside`` there (docs/model.md §3.3); None without damper valves or a front."""
+    import numpy as np
+
+    from hisopt.studies.damper_valves import designs_outside, has_damper_valves, load_case_valves
+    from hisopt.units import display_for
+
+    problem = result.problem
+    if not has_damper_valves(problem) or not len(result.front):
+        return None
+    names = list(problem.variable_names)
+    picks = [result.knee, result.asf_pick()]
+    x = np.vstack([result.front[names].to_numpy(dtype=float), *(np.array([[float(d[n]) for n in names]]) for d in picks)])
+    cases = load_case_valves(problem, x)
+    outside = designs_outside(cases)
+    n = len(result.front)
+    largest = np.nanmax(np.stack([case.states.resistance for case in cases]), axis=(0, 2))[n:]
+    shown = display_for("Pa s m^-3", list(largest), trim=False)
+    marks = tuple(shown.number(r) + (" (outside)" if out else "") for r, out in zip(largest, outside[n:], strict=True))
+    summary = f"{int(outside[:n].sum())} of {n} front designs outside the validated range (over 1 GPa s/m^3 in a load case)"
+    return summary, [(shown.label("largest valve resistance"), marks)]
 
 
 def stop_words(result: OptimizationResult) -> str:

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from hisopt.evaluation.evaluate import Evaluator
-from hisopt.evaluation.valve_flows import solve_valve_flows, valve_flow_names_of
+from hisopt.evaluation.valve_flows import FlowStart, solve_valve_flows, valve_flow_names_of
 from hisopt.hydraulics.network import Network
 from hisopt.specification.design_space import DesignSpace
 
@@ -85,7 +85,8 @@ def valve_states(space: DesignSpace, designs: Any) -> ValveStates:
     converged = np.ones(n, dtype=bool)
     if network.solved_valves():
         evaluator = Evaluator(space, names=(), rms_outputs=valve_flow_names_of(space))
-        flows, converged, _ = solve_valve_flows(evaluator, x, {})
+        start = FlowStart(evaluator)(x, len(network.solved_valves())) if len(x) > 64 else None  # a fit pays off on many designs
+        flows, converged, _ = solve_valve_flows(evaluator, x, {}, start)
     flow = np.full((n, len(labels)), np.nan)
     resistance = np.full((n, len(labels)), np.nan)
     if converged.any():
