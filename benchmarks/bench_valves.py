@@ -95,9 +95,9 @@ def main() -> None:
     print(f"  linear valves (Rv over 1e8-1e10): {n / t_linear:8.0f} designs/s per core")
     print(f"  damper valves (fixed point):      {n / t_valves:8.0f} designs/s per core")
     print(f"  cost ratio damper / linear:       {t_valves / t_linear:8.2f}x  (goal <= 3x)")
-    print(
-        f"  the fixed point run to its end (solve_valve_flows, as Problem.model and the sheet solve it): {iterations.mean():.2f} iterations per design (min {iterations.min()}, max {iterations.max()}), {ok.mean():.1%} converged"
-    )
+    mean, low, high = iterations.mean(), iterations.min(), iterations.max()
+    print(f"  fixed point run to its end (solve_valve_flows, as Problem.model and the sheet): {mean:.2f} iterations per design ({low}-{high})")
+    print(f"  converged: {ok.mean():.1%}")
     print(f"  start per load case (once): {t_start * 1e3:.0f} ms")
 
 
