@@ -11,6 +11,7 @@ solution.
 from __future__ import annotations
 
 import math
+import runpy
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ import hisopt
 from hisopt.evaluation.valve_flows import FLOW_TOLERANCE, log_fixed_point
 from hisopt.evaluation.valve_states import valve_states
 from hisopt.hydraulics import laws
+from tests.conftest import ROOT
 
 RHO = 872.0
 VALVES = "tests/data/valves_one_road.toml"  # the valves problem on its city road alone
@@ -76,11 +78,7 @@ def test_blowoff_equivalent_resistance_against_quadrature(diameter, pc, rb):
     for s in np.geomspace(1e-6, 1e-2, 7):
         edges = sorted({0.0, min(q_c, 40 * s), 40 * s})
         slope = lambda q, s=s: _tangent(q, kq, pc, rb) * math.exp(-0.5 * (q / s) ** 2) / (s * math.sqrt(2 * math.pi))  # noqa: E731
-        expected = 2 * sum(
-            integrate.quad(slope, a, b, epsabs=0, epsrel=1e-13, limit=200)[0]
-            for a, b in zip(edges[:-1], edges[1:], strict=True)
-            if b > a
-        )
+        expected = 2 * sum(integrate.quad(slope, a, b, epsabs=0, epsrel=1e-13, limit=200)[0] for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a)
         assert laws.damper_valve_equivalent_resistance(s, kq, pc, rb) == pytest.approx(expected, rel=2e-8)
 
 
@@ -147,3 +145,16 @@ def test_a_problem_without_damper_valves_takes_no_new_path():
     assert not paper.network().damper_valves()
     assert evaluator._flow_evaluator is None  # noqa: SLF001
     assert "valve_flow_0" not in evaluator.outputs
+
+
+def test_the_papers_rv_moves_nothing_and_real_valves_move_everything():
+    """README's figures ("Real damper valves"), from examples/rv_range.py: at the paper's
+    baseline, Rv over its box moves no indicator by 1 %; over real valves' 1e8-1e10 it moves
+    comfort, stroke and tyre load by multiples (README quotes them rounded to its digits)."""
+    example = runpy.run_path(str(ROOT / "examples" / "rv_range.py"))
+    moves = example["spreads"]()
+    assert max(moves["paper box 0-1.6e6"].values()) == pytest.approx(0.0077, abs=5e-5)
+    real = moves["real valves 1e8-1e10"]
+    assert real["sigma_aw"] == pytest.approx(3.62, abs=5e-3)
+    assert real["max_stroke_psd"] == pytest.approx(4.49, abs=5e-3)
+    assert real["max_tire_load_psd"] == pytest.approx(48.38, abs=5e-3)

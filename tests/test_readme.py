@@ -39,6 +39,7 @@ NOT_RUN = {
     "python -m hisopt.optim.warmup": "compiles the kernels ahead (tests/test_kernels_warmup.py runs it in a fresh cache)",
     "python -m pytest": "runs this test suite",
     "python benchmarks/": "a benchmark (minutes); benchmarks/ compares against its own baselines",
+    "python examples/rv_range.py": "an example script; tests/test_damper_valve.py checks the figures README quotes from it",
     "dask scheduler": "starts a Dask scheduler on host A of a multi-machine cluster",
     "dask worker": "starts Dask workers on other hosts",
 }
