@@ -11,7 +11,10 @@ solution.
 from __future__ import annotations
 
 import math
+import re
 import runpy
+import tomllib
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -158,3 +161,54 @@ def test_the_papers_rv_moves_nothing_and_real_valves_move_everything():
     assert real["sigma_aw"] == pytest.approx(3.62, abs=5e-3)
     assert real["max_stroke_psd"] == pytest.approx(4.49, abs=5e-3)
     assert real["max_tire_load_psd"] == pytest.approx(48.38, abs=5e-3)
+
+
+CHAMBERS = (("A", "2b", "4b", '1t = "A", 2b = "A.2b", 3t = "A", 4b = "A.4b"'), ("B", "1b", "3b", '1b = "B.1b", 2t = "B", 3b = "B.3b", 4t = "B"'))
+
+
+def _custom(valve: Callable[[str, str], str], extra: Callable[[str], str] | None = None) -> hisopt.Problem:
+    """The one-road valves problem with its layout written out: ``valve(a, b)`` the element
+    table of a bottom chamber's valve from node ``a`` to node ``b``; ``extra(c)`` elements of
+    circuit ``c`` listed first (on its node ``"<c>.x"``)."""
+    text = (ROOT / VALVES).read_text(encoding="utf-8")
+    text = re.sub(r"(?m)^(orifice_diameter|discharge_coefficient|cracking_pressure|blowoff_resistance) = .*\n", "", text)
+    text = re.sub(r"(?m)^(orifice_diameter|cracking_pressure) = \{ lower.*\n", "", text)
+    circuits = ""
+    for c, f, r, chambers in CHAMBERS:
+        nodes = ", ".join(f'"{n}"' for n in [c, f"{c}.{f}", f"{c}.{r}"] + ([f"{c}.x"] if extra else []))
+        elements = [*([extra(c)] if extra else []), f'{{ type = "accumulator", node = "{c}" }}', valve(f"{c}.{f}", c), valve(f"{c}.{r}", c)]
+        circuits += f'[[his.circuits]]\nname = "{c}"\nnodes = [{nodes}]\nchambers = {{ {chambers} }}\nelements = [\n' + ",\n".join(elements) + "\n]\n"
+    text = text.replace("[his.charge]", 'layout = "custom"\n\n' + circuits + "\n[his.charge]", 1)
+    return hisopt.problem_from_dict(tomllib.loads(text), "custom valves")
+
+
+def test_an_orifice_without_flow_rms_is_solved_as_a_bleed_only_damper_valve():
+    """An ``orifice`` element left without ``flow_rms`` is linearised at the RMS flow the road
+    drives through it, like a damper valve of the same K without a blow-off (the same law, so
+    the same objectives, to the fixed point's tolerance)."""
+    kq = laws.orifice_coefficient(3e-3, 0.7, hisopt.load_problem(VALVES).spec.his.fluid.rho)  # the oil's density
+    orifice = _custom(lambda a, b: f'{{ type = "orifice", from = "{a}", to = "{b}", kq = {kq!r} }}')
+    valve = _custom(lambda a, b: f'{{ type = "damper_valve", from = "{a}", to = "{b}", orifice_diameter = "3 mm" }}')
+    assert len(orifice.network().solved_valves()) == 4
+    x = orifice.design_matrix([{}, {"p0": 3e6, "dA": 5e-4, "lam": 0.3}])
+    got, want = orifice.evaluate(x, log=False), valve.evaluate(x, log=False)
+    for name in orifice.objective_names:
+        np.testing.assert_allclose(got[name].to_numpy(), want[name].to_numpy(), rtol=2 * FLOW_TOLERANCE)
+
+
+def test_a_shorted_valve_before_the_damper_valves_leaves_their_flows_theirs():
+    """A linear valve of R = 0 between two accumulators is contracted away, which shifts the
+    later elements' indices: each damper valve still reads its own solved flow (its
+    resistance is the law's at the flow measured through it)."""
+    problem = _custom(
+        lambda a, b: f'{{ type = "damper_valve", from = "{a}", to = "{b}", orifice_diameter = "{3 if a[-2] in "12" else 4} mm" }}',
+        lambda c: f'{{ type = "accumulator", node = "{c}.x" }},\n{{ type = "valve", from = "{c}.x", to = "{c}", resistance = 0.0 }}',
+    )
+    ((_, model),) = problem.model(problem.baseline[None, :]).groups()
+    assert model.his is not None and model.his.origin is not None  # contracted
+    states = valve_states(problem, problem.baseline[None, :])
+    his = problem.spec.his
+    for j, diameter in enumerate((3e-3, 4e-3, 3e-3, 4e-3)):
+        kq = laws.orifice_coefficient(diameter, 0.7, his.fluid.rho)
+        r = laws.damper_valve_equivalent_resistance(states.flow_rms[0, j], kq)
+        assert states.resistance[0, j] == pytest.approx(float(r), rel=3 * FLOW_TOLERANCE)

@@ -181,7 +181,7 @@ class CoupledModel:
         net = self.his.network
         g = at_frequencies(stroke_matrix(self.vehicle), self.vehicle)
         flows = s[..., None, None] * (np.asarray(self.his.incidence)[..., None, :, :] @ g @ h_x)  # (.., F, ports, 4)
-        rows = [row for _, _, row in net.accumulators()] + [rows[2] for _, _, rows in net.damper_valves()]
+        rows = [row for _, _, row in net.accumulators()] + [rows[2] for _, _, rows in net.flow_valves()]
         unknowns = self.his.unknowns_per_port_flow(s, rows) @ flows
         n_acc = len(net.accumulators())
         volumes = self.his.accumulator_compliances()[..., None, :, None] * unknowns[..., :n_acc, :]
@@ -208,11 +208,13 @@ class CoupledModel:
         full = ss.realisation.full_map()
         rows = [14 + row for _, _, row in his.network.accumulators()]
         volumes = his.accumulator_compliances()[..., :, None] * full[..., rows, :]
+        # element indices through the original network: this model's may be contracted already
         origin = his.origin if his.origin is not None else tuple(range(len(his.network.elements)))
         where = {k: i for i, k in enumerate(origin)}
+        own = self.his.origin if self.his.origin is not None else tuple(range(len(self.his.network.elements)))
         flows = [
-            full[..., 14 + his.network.element_rows[where[k]][2], :] if k in where else np.zeros(full.shape[:-2] + (full.shape[-1],))
-            for k, _, _ in self.his.network.damper_valves()
+            full[..., 14 + his.network.element_rows[where[own[k]]][2], :] if own[k] in where else np.zeros(full.shape[:-2] + (full.shape[-1],))
+            for k, _, _ in self.his.network.flow_valves()
         ]
         return np.concatenate([volumes, *(f[..., None, :] for f in flows)], axis=-2)
 

@@ -100,8 +100,8 @@ def accumulator_outputs(n_accumulators: int) -> dict[str, Output]:
 
 
 def valve_flow_outputs(n_accumulators: int, n_valves: int) -> dict[str, Output]:
-    """The flow through each physical damper valve [m^3/s], in the network's element order
-    (:meth:`~hisopt.hydraulics.network.Network.damper_valves`), keyed ``valve_flow_<j>``: an
+    """The flow through each nonlinear valve [m^3/s] (damper valve or orifice), in the
+    network's element order (:meth:`~hisopt.hydraulics.network.Network.flow_valves`), keyed ``valve_flow_<j>``: an
     output over ``[X, V_acc, Q_valve]`` (its ``c`` has ``7 + n_accumulators + n_valves``
     columns), read from the hydraulic unknowns like the accumulators' oil volumes."""
     out = {}

@@ -138,7 +138,7 @@ class Evaluator:
         network = problem.network()
         self.n_accumulators = len(network.accumulators())
         self.all_outputs = (
-            standard_outputs(problem.vehicle) | accumulator_outputs(self.n_accumulators) | valve_flow_outputs(self.n_accumulators, len(network.damper_valves()))
+            standard_outputs(problem.vehicle) | accumulator_outputs(self.n_accumulators) | valve_flow_outputs(self.n_accumulators, len(network.flow_valves()))
         )
         solved = bool(network.solved_valves()) and names is None  # this load case's evaluator: it measures the flows it is built at
         self.rms_outputs = tuple(rms_outputs) or (tuple(valve_flow_names_of(problem)) if solved else ())

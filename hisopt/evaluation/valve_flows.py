@@ -61,8 +61,8 @@ flow, but less than in proportion: -0.1 to -0.4 over the valves problem's box)."
 def valve_flow_names_of(problem: DesignSpace) -> list[str]:
     """The ``valve_flow_<j>`` outputs of the valves whose RMS flows are solved, in element order."""
     net = problem.network()
-    damper = [k for k, _, _ in net.damper_valves()]
-    return [f"valve_flow_{damper.index(k)}" for k, _, _ in net.solved_valves()]
+    flowing = [k for k, _, _ in net.flow_valves()]
+    return [f"valve_flow_{flowing.index(k)}" for k, _, _ in net.solved_valves()]
 
 
 def solve_valve_flows(

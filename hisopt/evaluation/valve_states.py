@@ -94,9 +94,11 @@ def valve_states(space: DesignSpace, designs: Any) -> ValveStates:
         model = space.model(x[rows], inputs={k: v[rows] for k, v in flows.items()})
         his = model.his
         assert his is not None
-        measured = Evaluator(space, names=(), rms_outputs=[f"valve_flow_{j}" for j in range(len(labels))])
+        flowing = [k for k, _, _ in network.flow_valves()]
+        outputs = [f"valve_flow_{flowing.index(k)}" for k, _, _ in network.damper_valves()]
+        measured = Evaluator(space, names=(), rms_outputs=outputs)
         for group_rows, group in model.groups():
-            flow[rows[group_rows]] = measured.output_rms(group, [f"valve_flow_{j}" for j in range(len(labels))])
+            flow[rows[group_rows]] = measured.output_rms(group, outputs)
         for j, (k, _, _) in enumerate(network.damper_valves()):
             resistance[rows, j] = np.broadcast_to(np.asarray(his.values.resistance[k], dtype=float), (len(rows),))
     return ValveStates(labels, flow, resistance, converged, flows)

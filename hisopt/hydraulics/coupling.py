@@ -75,7 +75,7 @@ class HydraulicSystem:
     @cached_property
     def values(self) -> ElementValues:
         """The constitutive laws applied to every element."""
-        return nw.element_values(self.network, self.params, self.static_rise, self.static_pressure)
+        return nw.element_values(self.network, self.params, self.static_rise, self.static_pressure, self.origin)
 
     @cached_property
     def areas(self) -> tuple[Any, Any]:

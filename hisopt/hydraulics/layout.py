@@ -81,13 +81,14 @@ class Orifice(Valve):
 
     A sharp-edged orifice has no small-signal resistance at zero flow, so the linear engines
     (frequency domain, modes, linear time domain) use its equivalent linear resistance at the
-    RMS flow ``flow_rms`` (:func:`hisopt.hydraulics.laws.orifice_equivalent_resistance`); the
-    nonlinear time domain uses the law itself.
+    RMS flow ``flow_rms`` (:func:`hisopt.hydraulics.laws.orifice_equivalent_resistance`); left
+    out (None), the RMS flow the road drives through it, solved with the response like a
+    :class:`DamperValve`'s. The nonlinear time domain uses the law itself.
     """
 
     resistance: ParamRef = dc_field(default=0.0, metadata=si("Pa s m^-3"))
     kq: ParamRef = dc_field(default=0.0, metadata=si("Pa s^2 m^-6"))
-    flow_rms: ParamRef = dc_field(default=0.0, metadata=si("m^3/s"))
+    flow_rms: ParamRef | None = dc_field(default=None, metadata=si("m^3/s"))
 
 
 @dataclass(frozen=True)

@@ -65,7 +65,7 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
 }
 """Keys each element type needs; the others of its :data:`PARAMETER_FIELDS` have defaults
 (an accumulator's ``volume = "V0"``, ``precharge = "p0"``, ``gamma = "gamma"``; an orifice's
-``resistance = 0``, ``flow_rms = 0``; a damper valve's ``discharge_coefficient =
+``resistance = 0``, its ``flow_rms`` solved; a damper valve's ``discharge_coefficient =
 "discharge_coefficient"``, ``resistance = 0``, no blow-off, its RMS flow solved)."""
 
 _PARAM_KEYS = (

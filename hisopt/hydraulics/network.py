@@ -120,10 +120,16 @@ class Network:
         element order: the valves whose flows are hydraulic outputs (docs/model.md §3.3)."""
         return [(k, e, rows) for k, e, rows in self.valves() if isinstance(e, DamperValve)]
 
-    def solved_valves(self) -> list[tuple[int, DamperValve, tuple[int, ...]]]:
-        """``(element index, valve, (a, b, q) rows)`` of every damper valve whose RMS flow is
+    def flow_valves(self) -> list[tuple[int, Valve, tuple[int, ...]]]:
+        """``(element index, valve, (a, b, q) rows)`` of every nonlinear valve (a damper valve or
+        an orifice), in element order: the valves whose flows are hydraulic outputs
+        (``valve_flow_<j>``, ``j`` in this order) and may be solved on the road."""
+        return [(k, e, rows) for k, e, rows in self.valves() if isinstance(e, (DamperValve, Orifice))]
+
+    def solved_valves(self) -> list[tuple[int, Valve, tuple[int, ...]]]:
+        """``(element index, valve, (a, b, q) rows)`` of every nonlinear valve whose RMS flow is
         solved with the response (no ``flow_rms`` given), in element order."""
-        return [(k, e, rows) for k, e, rows in self.valves() if isinstance(e, DamperValve) and e.flow_rms is None]
+        return [(k, e, rows) for k, e, rows in self.flow_valves() if getattr(e, "flow_rms", 0.0) is None]
 
     def valves(self) -> list[tuple[int, Valve, tuple[int, ...]]]:
         """``(element index, valve, (a, b, q) rows)`` of every valve (orifices included), in
@@ -254,7 +260,9 @@ class ElementValues:
     the equivalent linear resistance."""
 
 
-def element_values(network: Network, params: Mapping[str, Any], static_rise: Any = None, static_pressure: Any = None) -> ElementValues:
+def element_values(
+    network: Network, params: Mapping[str, Any], static_rise: Any = None, static_pressure: Any = None, origin: tuple[int, ...] | None = None
+) -> ElementValues:
     """Apply the constitutive laws to every element (see :class:`ElementValues`).
 
     ``params`` maps every name the layout refers to, and ``rho``, ``mu``, ``beta``, to a value
@@ -269,6 +277,10 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
     Valves follow the fluid's temperature through ``params``' optional ``viscosity_ratio``,
     ``density_ratio`` and ``valve_laminar_fraction`` (:func:`hisopt.hydraulics.laws.viscous_resistance`;
     absent: 1, 1 and 1, the reference temperature).
+
+    ``origin``: per element, its index in the network this one was contracted from
+    (:meth:`~hisopt.hydraulics.coupling.HydraulicSystem.contracted`), which names its solved
+    RMS flow (:func:`solved_flow_name`); None: this network's own indices.
 
     ``static_rise`` [Pa]: the static pressure rise of each circuit above that point (a
     payload's, :func:`hisopt.coupled.payload.static_pressure_rise`), numpy ``B + (n_circuits,)`` or a
@@ -299,11 +311,12 @@ def element_values(network: Network, params: Mapping[str, Any], static_rise: Any
             r, kq = resolve(e.resistance, params, where), resolve(e.kq, params, where)
             r, kq = laws.viscous_resistance(r, 1.0, thermal[1], thermal[2]), laws.viscous_resistance(kq, 0.0, thermal[1], thermal[2])
             out.orifice[k] = (r, kq)
-            out.resistance[k] = laws.orifice_equivalent_resistance(r, kq, resolve(e.flow_rms, params, where))
+            flow = resolve(e.flow_rms if e.flow_rms is not None else solved_flow_name(k if origin is None else origin[k]), params, where)
+            out.resistance[k] = laws.orifice_equivalent_resistance(r, kq, flow)
         elif isinstance(e, DamperValve):
             law = damper_law(e, params, rho, thermal[1:], where)
             out.damper[k] = law
-            flow = resolve(e.flow_rms if e.flow_rms is not None else solved_flow_name(k), params, where)
+            flow = resolve(e.flow_rms if e.flow_rms is not None else solved_flow_name(k if origin is None else origin[k]), params, where)
             out.resistance[k] = laws.damper_valve_equivalent_resistance(flow, law[1], law[2], law[3], law[0])
         elif isinstance(e, Valve):
             out.resistance[k] = laws.viscous_resistance(resolve(e.resistance, params, where), *thermal)
