@@ -255,7 +255,7 @@ def damper_valve_pressure_drop(q: Any, kq: Any, cracking: Any = None, blowoff: A
     return r * q + q * bk.fmin(kq * aq, open_share)
 
 
-def damper_valve_slope(q: Any, kq: Any, cracking: Any = None, blowoff: Any = None, r: Any = 0.0) -> Any:
+def damper_valve_slope(q: Any, kq: Any, cracking: Any = None, blowoff: Any = None, r: Any = 0.0, drop: Any = None) -> Any:
     """[Pa s m^-3] Tangent ``d(dp)/dq`` of :func:`damper_valve_pressure_drop` (same arguments;
     numpy): the Newton Jacobian of the nonlinear time domain (docs/model.md §3.10).
 
@@ -264,12 +264,15 @@ def damper_valve_slope(q: Any, kq: Any, cracking: Any = None, blowoff: Any = Non
     so ``d|q| / dP = 1 / (2 u sqrt(K)) + 1 / R_b`` and the slope is
     ``2 u / (1 / sqrt(K) + 2 u / R_b)``; plus ``r`` throughout. At the crossover itself (a kink)
     the bleed's side is taken.
+
+    ``drop``: the law's drop at ``q`` without its laminar part, if already evaluated (past the
+    crossover it is ``sign(q) P``, so ``P`` need not be solved for again; below it is unused).
     """
     aq = np.abs(q)
     bleed = 2.0 * kq * aq
     if cracking is None:
         return r + bleed
-    p_open = _blowoff_drop(aq, kq, cracking, blowoff)
+    p_open = _blowoff_drop(aq, kq, cracking, blowoff) if drop is None else np.maximum(np.abs(drop), cracking)
     u = np.sqrt(p_open)
     open_slope = 2.0 * u / (1.0 / np.sqrt(kq) + 2.0 * u / blowoff)
     return r + np.where(kq * aq * aq <= p_open, bleed, open_slope)

@@ -108,13 +108,11 @@ class DamperGroup:
     cracking: NDArray[np.float64] | None
     blowoff: NDArray[np.float64] | None
 
-    def drop(self, q: np.ndarray) -> np.ndarray:
-        """[Pa] The valves' drops beyond their laminar part at flows ``q`` ``(m, k)``."""
-        return laws.damper_valve_pressure_drop(q, self.kq, self.cracking, self.blowoff)
-
-    def slope(self, q: np.ndarray) -> np.ndarray:
-        """[Pa s m^-3] Their tangents ``d(drop)/dq`` at ``q`` ``(m, k)``."""
-        return laws.damper_valve_slope(q, self.kq, self.cracking, self.blowoff)
+    def law(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """[Pa] The valves' drops beyond their laminar part at flows ``q`` ``(m, k)``, and
+        [Pa s m^-3] their tangents ``d(drop)/dq`` there."""
+        drop = laws.damper_valve_pressure_drop(q, self.kq, self.cracking, self.blowoff)
+        return drop, laws.damper_valve_slope(q, self.kq, self.cracking, self.blowoff, drop=drop)
 
 
 def damper_groups(laws_at: dict[int, tuple[float, float | None, float | None]], position: dict[int, int]) -> list[DamperGroup]:
@@ -263,9 +261,7 @@ class NonlinearModel:
         drop = self.kq_alg[:, None] * x * np.abs(x)
         slope = 2.0 * self.kq_alg[:, None] * np.abs(x)
         for group in self.dampers:
-            q = x[group.positions]
-            drop[group.positions] = group.drop(q)
-            slope[group.positions] = group.slope(q)
+            drop[group.positions], slope[group.positions] = group.law(x[group.positions])
         return drop, slope
 
     def algebraic(self, h_dyn: np.ndarray, vel: np.ndarray) -> np.ndarray:
@@ -281,8 +277,9 @@ class NonlinearModel:
             return x
         rhs = self.a_ad @ h_dyn + self.cp_alg @ vel
         size = np.abs(x)
-        flow = self.flow_alg[:, None]
-        scale = np.where(flow, np.where(flow, size, 0.0).max(axis=0), np.where(flow, 0.0, size).max(axis=0)) + 1e-30
+        scale = np.empty_like(x)
+        scale[self.flow_alg] = size[self.flow_alg].max(axis=0) + 1e-30
+        scale[~self.flow_alg] = size[~self.flow_alg].max(axis=0, initial=0.0) + 1e-30
         eye = np.eye(x.shape[0])[None]
         for _ in range(100):
             drop, slope = self.valve_law(x)
