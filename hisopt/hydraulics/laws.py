@@ -254,6 +254,29 @@ def damper_valve_pressure_drop(q: Any, kq: Any, cracking: Any = None, blowoff: A
     return r * q + bk.sign(q) * bk.fmin(kq * aq * aq, _blowoff_drop(aq, kq, cracking, blowoff))
 
 
+def damper_valve_slope(q: Any, kq: Any, cracking: Any = None, blowoff: Any = None, r: Any = 0.0, drop: Any = None) -> Any:
+    """[Pa s m^-3] Tangent ``d(dp)/dq`` of :func:`damper_valve_pressure_drop` (same arguments;
+    numpy): the Newton Jacobian of the nonlinear time domain (docs/model.md §3.10).
+
+    Below the crossover (where the bleed's drop ``K q^2`` is the smaller) it is the bleed's
+    ``2 K |q|``; past it the open drop ``P = u^2`` solves ``|q| = u / sqrt(K) + (P - p_c) / R_b``,
+    so ``d|q| / dP = 1 / (2 u sqrt(K)) + 1 / R_b`` and the slope is
+    ``2 u / (1 / sqrt(K) + 2 u / R_b)``; plus ``r`` throughout. At the crossover itself (a kink)
+    the bleed's side is taken.
+
+    ``drop``: the law's drop at ``q`` without its laminar part, if already evaluated (past the
+    crossover it is ``sign(q) P``, so ``P`` need not be solved for again; below it is unused).
+    """
+    aq = np.abs(q)
+    bleed = 2.0 * kq * aq
+    if cracking is None:
+        return r + bleed
+    p_open = _blowoff_drop(aq, kq, cracking, blowoff) if drop is None else np.maximum(np.abs(drop), cracking)
+    u = np.sqrt(p_open)
+    open_slope = 2.0 * u / (1.0 / np.sqrt(kq) + 2.0 * u / blowoff)
+    return r + np.where(kq * aq * aq <= p_open, bleed, open_slope)
+
+
 TAIL_NODES = 48
 TAIL_SPAN = 12.0
 """Gauss-Legendre nodes over ``y = (|q| - q_c) / s`` in ``[0, TAIL_SPAN]`` for the blow-off's

@@ -7,9 +7,13 @@ The lumped network of the linear model with three nonlinearities (laws from
   flow balance), and its pressure follows the polytropic gas law in absolute pressure,
   ``p_abs = p_abs0 (V0 / (V0 - dV))^gamma`` (``dV`` the gas volume taken by oil, plus any
   linear compliance ``C_o p`` at the node: oil, pipe ends);
-- optional quadratic orifice valves ``dp = R_v q + K_q q |q|`` (``valve_kq`` for every damper
-  valve, and each orifice element with its own ``R`` and ``K_q``; docs/model.md §12.2), the
-  algebraic valve network solved by Newton's method at each right-hand-side evaluation;
+- optional quadratic orifice valves ``dp = R_v q + K_q q |q|`` (``valve_kq`` for every linear
+  valve, and each orifice element with its own ``R`` and ``K_q``; docs/model.md §12.2), and
+  each physical damper valve by its own law
+  (:func:`hisopt.hydraulics.laws.damper_valve_pressure_drop`: bleed orifice, blow-off, laminar
+  part; docs/model.md §3.10), the algebraic valve network solved by Newton's method at each
+  right-hand-side evaluation from the linear solution (every valve at its equivalent
+  resistance);
 - optional tyre lift-off: the tyre pushes but never pulls (contact force
   ``F_static - k_t (z_u - z_g) - c_t (dz_u - dz_g) >= 0``).
 
@@ -92,6 +96,38 @@ def accumulators(his: HydraulicSystem) -> Accumulators:
     return Accumulators(tuple(names), rows, v0, p_abs0, gamma, p_abs0 - P_ATM_PA)
 
 
+@dataclass(frozen=True)
+class DamperGroup:
+    """Damper valves that share a form of :func:`hisopt.hydraulics.laws.damper_valve_pressure_drop`
+    (all with a blow-off, or all bleed only), for one vectorised call: ``positions`` their
+    flow rows among the algebraic unknowns, ``kq`` [Pa s^2 m^-6], ``cracking`` [Pa] and
+    ``blowoff`` [Pa s m^-3] columns ``(m, 1)`` (None for bleed-only valves)."""
+
+    positions: NDArray[np.int_]
+    kq: NDArray[np.float64]
+    cracking: NDArray[np.float64] | None
+    blowoff: NDArray[np.float64] | None
+
+    def law(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """[Pa] The valves' drops beyond their laminar part at flows ``q`` ``(m, k)``, and
+        [Pa s m^-3] their tangents ``d(drop)/dq`` there."""
+        drop = laws.damper_valve_pressure_drop(q, self.kq, self.cracking, self.blowoff)
+        return drop, laws.damper_valve_slope(q, self.kq, self.cracking, self.blowoff, drop=drop)
+
+
+def damper_groups(laws_at: dict[int, tuple[float, float | None, float | None]], position: dict[int, int]) -> list[DamperGroup]:
+    """The damper valves' laws ``{flow row: (K, p_c, R_b)}`` as :class:`DamperGroup` s, their
+    rows placed by ``position`` (descriptor row -> algebraic index)."""
+    groups = []
+    for blowoff in (True, False):
+        rows = [r for r, (_, p_c, _) in laws_at.items() if (p_c is not None) == blowoff]
+        if rows:
+            table = np.array([[laws_at[r][i] if blowoff or i == 0 else np.nan for i in range(3)] for r in rows], dtype=float)
+            at = np.array([position[r] for r in rows], dtype=int)
+            groups.append(DamperGroup(at, table[:, :1], table[:, 1:2] if blowoff else None, table[:, 2:] if blowoff else None))
+    return groups
+
+
 class NonlinearModel:
     """Right-hand side of the nonlinear model (see the module docstring), one design.
 
@@ -113,6 +149,7 @@ class NonlinearModel:
         self.tyre_liftoff = tyre_liftoff
 
         self.valve_kq = valve_kq
+        self.dampers: list[DamperGroup] = []
         if model.his is None:  # the reference car: no network, only the tyre nonlinearity
             self._no_network()
             return
@@ -124,8 +161,14 @@ class NonlinearModel:
         n_inc = single_design(np.asarray(his.incidence), 2, "cylinder incidence")
         self.acc = accumulators(his)
         kq_row = np.zeros(net.size)  # quadratic coefficient of each valve flow row
+        laws_at: dict[int, tuple[float, float | None, float | None]] = {}  # damper valves: flow row -> (K, p_c, R_b)
         for k, _, rows in net.valves():
-            if k in his.values.orifice:  # an orifice: its own law, its laminar part in A
+            if k in his.values.damper:  # a damper valve: its law, its laminar part in A
+                r_lam, kq, p_c, r_b = (None if v is None else _single(v, "damper valve parameter") for v in his.values.damper[k])
+                assert r_lam is not None and kq is not None
+                a[rows[2], rows[2]] += _single(his.values.resistance[k], "damper valve resistance") - r_lam
+                laws_at[rows[2]] = (kq, p_c, r_b)
+            elif k in his.values.orifice:  # an orifice: its own law, its laminar part in A
                 r_lam, kq = (_single(v, "orifice parameter") for v in his.values.orifice[k])
                 a[rows[2], rows[2]] += _single(his.values.resistance[k], "orifice resistance") - r_lam
                 kq_row[rows[2]] = kq
@@ -160,6 +203,8 @@ class NonlinearModel:
             self.solve_lin_d = -inv @ self.a_ad
             self.solve_lin_v = -inv @ self.cp_alg
             self.kq_alg = kq_row[self.alg]
+            self.dampers = damper_groups(laws_at, {int(r): i for i, r in enumerate(self.alg)})
+            self.flow_alg = net.is_flow[self.alg]
 
     def _no_network(self) -> None:
         empty = np.zeros(0)
@@ -209,25 +254,42 @@ class NonlinearModel:
                 return p
         raise ModelError("accumulator node pressure did not converge (gas volume exhausted?)")
 
+    def valve_law(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nonlinear part of each algebraic row at the unknowns ``x`` ``(n_alg, k)`` and its
+        tangent: ``K_q q |q|`` on orifice rows, a damper valve's drop beyond its laminar part
+        on its rows (:func:`hisopt.hydraulics.laws.damper_valve_pressure_drop`), 0 elsewhere."""
+        drop = self.kq_alg[:, None] * x * np.abs(x)
+        slope = 2.0 * self.kq_alg[:, None] * np.abs(x)
+        for group in self.dampers:
+            drop[group.positions], slope[group.positions] = group.law(x[group.positions])
+        return drop, slope
+
     def algebraic(self, h_dyn: np.ndarray, vel: np.ndarray) -> np.ndarray:
         """Pressures of compliance-free nodes and valve flows, ``(n_alg, k)``.
 
-        Linear valves: one matrix product. Quadratic orifices: Newton from the linear
-        solution, Jacobian ``A_aa - diag(2 K_q |q|)``.
+        Linear valves: one matrix product. Quadratic orifices and damper valves: Newton from
+        the linear solution (each valve at its equivalent resistance), Jacobian
+        ``A_aa - diag(d(drop)/dq)``, until every step is below 1e-12 of the largest pressure
+        (pressure rows) or flow (flow rows) of its column.
         """
         x = self.solve_lin_d @ h_dyn + self.solve_lin_v @ vel
-        if not self.kq_alg.any():
+        if not (self.kq_alg.any() or self.dampers):
             return x
         rhs = self.a_ad @ h_dyn + self.cp_alg @ vel
-        scale = np.abs(x).max(axis=0, keepdims=True) + 1e-30
+        size = np.abs(x)
+        scale = np.empty_like(x)
+        scale[self.flow_alg] = size[self.flow_alg].max(axis=0) + 1e-30
+        scale[~self.flow_alg] = size[~self.flow_alg].max(axis=0, initial=0.0) + 1e-30
+        eye = np.eye(x.shape[0])[None]
         for _ in range(100):
-            resid = self.a_aa @ x + rhs - (self.kq_alg[:, None] * x * np.abs(x))
-            jac = self.a_aa[None] - (2.0 * self.kq_alg * np.abs(x).T)[:, None, :] * np.eye(x.shape[0])[None]
+            drop, slope = self.valve_law(x)
+            resid = self.a_aa @ x + rhs - drop
+            jac = self.a_aa[None] - slope.T[:, None, :] * eye
             step = np.linalg.solve(jac, resid.T[..., None])[..., 0].T
             x = x - step
             if np.all(np.abs(step) <= 1e-12 * scale):
                 return x
-        raise ModelError("the quadratic valve network did not converge; check valve_kq and the valve layout")
+        raise ModelError("the nonlinear valve network did not converge; check valve_kq, the damper valves and the valve layout")
 
     def hydraulic_state(self, w: np.ndarray, vel: np.ndarray) -> np.ndarray:
         """All descriptor unknowns ``h`` (node pressures, branch flows), ``(n_h, k)``."""
@@ -279,7 +341,7 @@ class NonlinearModel:
         dh_dv = np.zeros((self.n_h, 7))
         dh_dw[self.dyn, np.arange(n_d)] = dpdw
         if self.alg.size:
-            jac_a = self.a_aa - np.diag(2.0 * self.kq_alg * np.abs(h[self.alg]))
+            jac_a = self.a_aa - np.diag(self.valve_law(h[self.alg][:, None])[1][:, 0])
             sol = -np.linalg.solve(jac_a, np.hstack([self.a_ad * dpdw, self.cp_alg]))
             dh_dw[self.alg], dh_dv[self.alg] = sol[:, :n_d], sol[:, n_d:]
         on = np.ones(4)

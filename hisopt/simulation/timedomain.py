@@ -8,7 +8,8 @@ by :class:`hisopt.road.interpolation.RoadInput`) and one result, :class:`TimeRes
   ``d(x - B1 u)/dt = A (x - B1 u) + (B0 + A B1) u`` so a road step needs no impulse; every
   pressure and flow comes back through the realisation's inverse map;
 - ``"nonlinear"``: :class:`hisopt.simulation.nonlinear_model.NonlinearModel` (gas law in absolute
-  pressure, quadratic orifices, tyre lift-off).
+  pressure, quadratic orifices, physical damper valves by their own law, tyre lift-off); the
+  linear mode takes each damper valve at the equivalent resistance the model was built with.
 
 All states are deviations from the static equilibrium on a flat road (``z_g = 0``), where
 the accumulators sit at their operating point. Outputs are SI.
@@ -21,7 +22,7 @@ Paper Eq. (1)-(6), (10), (15)-(21); docs/model.md §1-§4.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Literal, get_args
 
 import numpy as np
@@ -118,6 +119,14 @@ class TimeResponse:
     corners: NDArray[np.float64]
     """``T_z`` (4, 3): body points above the wheels from ``[z_s, phi, theta]``."""
     mode: SimulationMode
+    valve_flow_m3s: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)))
+    """[m^3/s] Flow through each physical damper valve, from its node ``a`` to ``b``, ``(n_t, n_valves)``
+    (the network's :meth:`~hisopt.hydraulics.network.Network.damper_valves` order, as the
+    frequency domain's ``valve_flow_<j>``)."""
+    valve_drop_pa: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)))
+    """[Pa] Pressure drop ``p_a - p_b`` across each damper valve, ``(n_t, n_valves)``."""
+    valve_names: tuple[str, ...] = ()
+    """``"<circuit>:<from>-><to>"`` of each damper valve."""
 
     @property
     def corner_acceleration(self) -> NDArray[np.float64]:
@@ -129,7 +138,8 @@ class TimeResponse:
 
         Columns: ``time``; ``road_<w>``; DOF displacements ``z_s, phi, theta, z_u1..z_u4``,
         velocities ``d<dof>``, accelerations ``dd<dof>``; ``a_body_<w>`` (body corners),
-        ``stroke_<w>``, ``tyre_force_<w>``; ``p_acc_<name>`` (gauge), ``dv_acc_<name>``.
+        ``stroke_<w>``, ``tyre_force_<w>``; ``p_acc_<name>`` (gauge), ``dv_acc_<name>``;
+        ``valve_flow_<j>``, ``valve_drop_<j>`` of each damper valve.
         """
         cols: dict[str, np.ndarray] = {"time": self.t_s}
         cols |= {f"road_{w}": self.road_m[:, i] for i, w in enumerate(WHEEL_NAMES)}
@@ -142,6 +152,8 @@ class TimeResponse:
         cols |= {f"tyre_force_{w}": self.tyre_force_n[:, i] for i, w in enumerate(WHEEL_NAMES)}
         cols |= {f"p_acc_{n}": self.accumulator_pressure_pa[:, i] for i, n in enumerate(self.accumulator_names)}
         cols |= {f"dv_acc_{n}": self.accumulator_volume_m3[:, i] for i, n in enumerate(self.accumulator_names)}
+        cols |= {f"valve_flow_{j}": self.valve_flow_m3s[:, j] for j in range(len(self.valve_names))}
+        cols |= {f"valve_drop_{j}": self.valve_drop_pa[:, j] for j in range(len(self.valve_names))}
         frame = pd.DataFrame(cols)
         frame.attrs["units"] = {name: signal_unit(name) for name in frame.columns}
         return frame
@@ -183,7 +195,17 @@ def signal_unit(column: str) -> str:
         return f"{dof[column[2:]]}/s^2"
     if column.startswith("d") and column[1:] in dof:
         return f"{dof[column[1:]]}/s"
-    prefixes = {"time": "s", "road_": "m", "a_body_": "m/s^2", "stroke_": "m", "tyre_force_": "N", "p_acc_": "Pa", "dv_acc_": "m^3"}
+    prefixes = {
+        "time": "s",
+        "road_": "m",
+        "a_body_": "m/s^2",
+        "stroke_": "m",
+        "tyre_force_": "N",
+        "p_acc_": "Pa",
+        "dv_acc_": "m^3",
+        "valve_flow_": "m^3/s",
+        "valve_drop_": "Pa",
+    }
     return next(unit for prefix, unit in prefixes.items() if column.startswith(prefix))
 
 
@@ -252,8 +274,10 @@ def simulate(
     mode
         ``"linear"`` (exact state space) or ``"nonlinear"`` (gas law, options below).
     valve_kq
-        [Pa s^2 m^-6] Quadratic orifice coefficient ``K_q`` of every damper valve,
-        ``dp = R_v q + K_q q |q|`` (nonlinear mode only).
+        [Pa s^2 m^-6] Quadratic orifice coefficient ``K_q`` of every linear valve (``Rv``),
+        ``dp = R_v q + K_q q |q|`` (nonlinear mode only). Orifice elements and physical damper
+        valves follow their own laws in nonlinear mode (docs/model.md §3.10) and their
+        equivalent resistances in linear mode.
     tyre_liftoff
         [-] Let wheels leave the road when the dynamic load exceeds the static load
         (nonlinear mode only).
@@ -292,10 +316,11 @@ def simulate(
     if force.shape != (7,) or not np.all(np.isfinite(force)):
         raise ConfigError(f"expected body_force of shape (7,) [N, N m], finite, got shape {force.shape}")
     ((_, contracted),) = model.groups()  # a single design: one group
-    quadratic = valve_kq > 0.0 or (mode == "nonlinear" and _has_quadratic_orifice(model))
+    quadratic = valve_kq > 0.0 or (mode == "nonlinear" and _has_nonlinear_valve(model))
     if contracted is not model and quadratic:
         raise ModelError(
-            "a valve with R_v = 0 between two oil volumes has no linear resistance for the orifice law to start from; give it R_v > 0 or set valve_kq = 0"
+            "a valve with R_v = 0 between two oil volumes has no linear resistance for the orifice law to start from; "
+            "give it R_v > 0 or set valve_kq = 0 (or simulate orifices and damper valves in linear mode)"
         )
     model = contracted  # zero-resistance valves between oil volumes merged (exact shorts)
     ss = model.state_space()
@@ -309,11 +334,13 @@ def simulate(
     return _simulate_nonlinear(model, ss, road, chosen, rtol, u_scale, valve_kq, tyre_liftoff, force)
 
 
-def _has_quadratic_orifice(model: CoupledModel) -> bool:
-    """Whether an orifice element of the model's network has a quadratic coefficient."""
+def _has_nonlinear_valve(model: CoupledModel) -> bool:
+    """Whether the model's network has a physical damper valve or an orifice element with a
+    quadratic coefficient."""
     if model.his is None:
         return False
-    return any(bool(np.any(np.asarray(kq) > 0.0)) for _, kq in model.his.values.orifice.values())
+    values = model.his.values
+    return bool(values.damper) or any(bool(np.any(np.asarray(kq) > 0.0)) for _, kq in values.orifice.values())
 
 
 def _body_acceleration(model: CoupledModel, n_states: int, force: np.ndarray) -> np.ndarray:
@@ -351,7 +378,10 @@ def _simulate_linear(model: CoupledModel, ss: StateSpace, road: RoadInput, metho
         vol = acc.compliance[:, None] * p  # linearised gas law
         names = acc.names
         p = p + acc.p0_gauge[:, None]
-    return _response(model, road, x[:7], x[7:14], dx[7:14], p, vol, names, "linear")
+    response = _response(model, road, x[:7], x[7:14], dx[7:14], p, vol, names, "linear")
+    if model.his is None or ss.realisation is None:
+        return response
+    return _with_valves(response, model, single_design(ss.realisation.full_map(), 2, "realisation")[14:] @ x)
 
 
 def _simulate_nonlinear(
@@ -401,10 +431,24 @@ def _simulate_nonlinear(
             vol[i] = laws.gas_volume(p_nodes[j], net.acc.v0[i], net.acc.p_abs0[i], net.acc.gamma[i])
     p = p + net.acc.p0_gauge[:, None]
     response = _response(model, road, y[:7], y[7:14], dy[7:14], p, vol, net.acc.names, "nonlinear")
+    if model.his is not None:
+        response = _with_valves(response, model, h)
     if tyre_liftoff:  # report the clipped tyre force, as the model applied it
         force = -net.tyre_force(y[:7], y[7:14], road.z_m.T, road.sampled_rate().T).T
         response = replace(response, tyre_force_n=force)
     return response
+
+
+def _with_valves(response: TimeResponse, model: CoupledModel, h: np.ndarray) -> TimeResponse:
+    """``response`` with each damper valve's flow and drop from the descriptor unknowns ``h``
+    ``(n_h, n_t)`` of ``model``'s network."""
+    from hisopt.evaluation.valve_states import valve_labels  # on use: it loads the evaluator
+
+    assert model.his is not None
+    net = model.his.network
+    rows = np.array([r for _, _, r in net.damper_valves()], dtype=int).reshape(-1, 3)
+    flow, drop = h[rows[:, 2]].T, (h[rows[:, 0]] - h[rows[:, 1]]).T
+    return replace(response, valve_flow_m3s=flow, valve_drop_pa=drop, valve_names=valve_labels(net))
 
 
 def _response(
