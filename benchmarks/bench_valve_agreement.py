@@ -1,6 +1,7 @@
 """The linearised frequency domain against the nonlinear time domain (issue 39, docs/model.md §3.10).
 
-Five designs of ``problems/roll_plane_his_valves.toml`` whose damper valves' equivalent
+Five designs of the valves problem (by default ``tests/data/valves_one_road.toml``: its city
+road alone, a 2e9 Pa s/m^3 blow-off) whose damper valves' equivalent
 resistances span 1e8 to 5e9 Pa s/m^3, each simulated with the valve law on seeded ISO 8608
 realisations of the problem's road (each with its mirror) and with the linear model on the same
 roads (:func:`hisopt.simulation.agreement.road_agreement`). Prints, per design and figure, the
@@ -11,11 +12,13 @@ linear on the same roads).
 
     python benchmarks/bench_valve_agreement.py --calibrate           # 3 realisations x 2 x 20 s per design: ~6 min
     python benchmarks/bench_valve_agreement.py --realisations 1 --duration 8   # a smoke run
+    python benchmarks/bench_valve_agreement.py --problem problems/roll_plane_his_valves.toml --road D 10   # the shipped problem's rough road
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import tempfile
 import time
 from pathlib import Path
@@ -27,7 +30,9 @@ from hisopt.problem import Problem, load_problem
 from hisopt.simulation.agreement import FIGURES, FREQUENCY_DOMAIN_METRICS, Agreement, road_agreement
 
 ROOT = Path(__file__).resolve().parents[1]
-PROBLEM = ROOT / "problems" / "roll_plane_his_valves.toml"
+PROBLEM = ROOT / "tests" / "data" / "valves_one_road.toml"
+"""The valves problem on its city road, as tests/test_valve_agreement.py pins it; ``--problem``
+and ``--road`` take the shipped problem and any of its roads."""
 
 DESIGNS = {
     "D1": {"p0": 1.0e6, "dA": 4e-4, "lam": 0.1, "orifice_diameter": 6e-3, "cracking_pressure": 1.5e6},
@@ -104,9 +109,29 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=20.0, help="[s] record kept per simulation (after 5 s settling)")
     parser.add_argument("--designs", nargs="*", default=[f"D{i}" for i in range(1, 6)], help="which of D1..D6")
     parser.add_argument("--calibrate", action="store_true", help="also the frequency domain at the simulated valves' effective resistance")
+    parser.add_argument("--problem", type=Path, default=PROBLEM, help="a damper-valve problem file")
+    parser.add_argument("--road", nargs=2, metavar=("CLASS", "SPEED"), help="its [road] instead (ISO 8608 class, m/s), load cases dropped")
     args = parser.parse_args()
-    problem = load_problem(PROBLEM)
-    print(f"{PROBLEM.name}: road class {problem.spec.road.road_class} at {problem.spec.road.speed:g} m/s, {problem.spec.road.coherence} tracks,")
+    with tempfile.TemporaryDirectory() as folder:
+        run(args, on_road(args.problem, args.road, Path(folder)))
+
+
+def on_road(problem_file: Path, road: list[str] | None, folder: Path) -> Path:
+    """``problem_file``, or a copy with its ``[road]`` the given class and speed and no load cases."""
+    if road is None:
+        return problem_file
+    text = problem_file.read_text(encoding="utf-8").split("\n[robust]")[0]
+    text = re.sub(r'(?m)^class = "[A-H]"', f'class = "{road[0]}"', text, count=1)
+    text = re.sub(r"(?m)^speed = [0-9.]+", f"speed = {float(road[1])}", text, count=1)
+    path = folder / f"{problem_file.stem}_{road[0]}_{road[1]}.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def run(args: argparse.Namespace, problem_file: Path) -> None:
+    """Print the table (and with ``--calibrate`` the calibration) for ``problem_file``."""
+    problem = load_problem(problem_file)
+    print(f"{problem_file.name}: road class {problem.spec.road.road_class} at {problem.spec.road.speed:g} m/s, {problem.spec.road.coherence} tracks,")
     band = problem.spec.band
     print(f"band {band.f_min_hz:g}-{band.f_max_hz:g} Hz; {args.realisations} realisation(s) x 2 (mirror) x {args.duration:g} s per design")
     print("R_eq [Pa s/m^3] front/rear valve; gaps in % of the frequency domain (FD), ± one standard error over the realisations")
@@ -137,7 +162,7 @@ def main() -> None:
     print("| design R_eq / R_TD (front) | figure | gap at R_eq % | gap at R_TD % | check |")
     print("|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
-        twin = linear_twin(PROBLEM, Path(folder))
+        twin = linear_twin(problem_file, Path(folder))
         for name, a in results.items():
             at_effective = calibrated(problem, twin, DESIGNS[name], a.effective_resistance)
             at_equivalent = calibrated(problem, twin, DESIGNS[name], a.resistance)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hisopt.problem import problem_from_dict
+from hisopt import problem_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -52,6 +52,8 @@ weight = 0.5
 """
 MODERATE = {"p0": 3.0e6, "dA": 1.07e-4, "lam": 0.22, "orifice_diameter": 3.6e-3, "cracking_pressure": 2.0e6}
 """A design of the valves problem whose valves sit inside the validated range (about 0.33 GPa s/m^3)."""
+STIFF = {"orifice_diameter": 2e-3, "cracking_pressure": 4e6}
+"""The baseline with a 2 mm bleed whose blow-off hardly opens: about 9.5-9.9 GPa s/m^3, outside."""
 FIXED_POINT_BUDGET = FLOW_TOLERANCE
 SHOWN_BUDGET = 5e-4
 
@@ -91,7 +93,7 @@ def test_each_resistance_is_the_laws_at_the_flow_shown_beside_it(scenario_proble
 
 
 def test_the_validated_range_follows_the_threshold(problem):
-    x = problem.design_matrix([MODERATE, {}])  # {}: the baseline, about 3.2 GPa s/m^3
+    x = problem.design_matrix([MODERATE, STIFF])
     cases = damper_valves.load_case_valves(problem, x)
     resistance = cases[0].states.resistance
     assert np.all(resistance[0] < VALIDATED_RESISTANCE) and np.all(resistance[1] > VALIDATED_RESISTANCE)
@@ -102,7 +104,7 @@ def test_the_validated_range_follows_the_threshold(problem):
 
 
 def test_a_row_breaking_a_rule_blanks_only_itself(problem):
-    x = problem.design_matrix([{}, {"p0": -1.0}, MODERATE])  # p0 >= 0 broken: not evaluated, as by evaluate
+    x = problem.design_matrix([STIFF, {"p0": -1.0}, MODERATE])  # p0 >= 0 broken: not evaluated, as by evaluate
     cases = damper_valves.load_case_valves(problem, x)
     alone = [valve_states(problem, x[[i]]).resistance[0] for i in (0, 2)]
     np.testing.assert_allclose(cases[0].states.resistance[[0, 2]], alone, rtol=FIXED_POINT_BUDGET)
@@ -148,7 +150,7 @@ def test_the_sheet_shows_each_valves_settings_as_they_read_back(scenario_problem
 
 
 def test_the_sheet_marks_a_valve_outside_the_validated_range(problem):
-    outside = markdown(design_sheet(problem, problem.baseline, 0, "front.csv"))
+    outside = markdown(design_sheet(problem, _design(problem, STIFF), 0, "front.csv"))
     inside = markdown(design_sheet(problem, _design(problem, MODERATE), 0, "front.csv"))
     assert f"Its damper valves are {OUTSIDE_VALIDATED_RANGE} in: road." in outside
     assert "| outside |" in outside and "4 of 4 valve and load-case pairs are outside" in outside
@@ -184,13 +186,16 @@ def test_hisopt_sheet_writes_the_valves_and_its_problem_file_keeps_them(run_dir,
 # --- hisopt evaluate ------------------------------------------------------------------------------
 def test_evaluate_valves_prints_and_writes_each_valve(tmp_path):
     out = tmp_path / "results.csv"
-    result = run_cli("evaluate", str(VALVES), "--valves", "--out", str(out))
+    problem = hisopt.load_problem(VALVES)
+    x = _design(problem, STIFF)
+    designs = tmp_path / "stiff.csv"
+    designs.write_text(",".join(problem.variable_names) + "\n" + ",".join(repr(float(v)) for v in x) + "\n", encoding="utf-8")
+    result = run_cli("evaluate", str(VALVES), "--designs", str(designs), "--valves", "--out", str(out))
     assert result.code == 0, result.stderr
-    assert f"baseline design: 1 of 1 designs have a damper valve {OUTSIDE_VALIDATED_RANGE}" in result.stderr
+    assert f"1 of 1 designs have a damper valve {OUTSIDE_VALIDATED_RANGE}" in result.stderr
     written = read_csv(tmp_path / "results_valves.csv")
     assert list(written.columns) == ["design", "load_case", "valve", "flow_rms", "resistance", "validated_range", "converged"]
-    problem = hisopt.load_problem(VALVES)
-    states = valve_states(problem, problem.baseline[None, :])
+    states = valve_states(problem, x[None, :])
     np.testing.assert_allclose(written["resistance"].to_numpy(dtype=float), states.resistance[0], rtol=1e-12)
     assert set(written["validated_range"]) == {"outside"}
     assert "flow_rms" in result.stdout and "L/s" in result.stdout and "GPa s/m^3" in result.stdout
@@ -231,7 +236,7 @@ def test_the_page_marks_a_design_outside_the_validated_range(problem, tmp_path):
     from hisopt.report.decision_page import room_payload, write_decision_room
     from tests.test_decision_room import _driver_or_skip
 
-    x = problem.design_matrix([MODERATE, {}, {"orifice_diameter": 1e-3, "cracking_pressure": 4e6}])
+    x = problem.design_matrix([MODERATE, STIFF, {"orifice_diameter": 1e-3, "cracking_pressure": 4e6}])
     room = decision_room_data([Source("valves", problem, x, np.array(["front"] * len(x)), np.arange(len(x)))])
     payload = room_payload(room)
     assert payload["validated_resistance"] == VALIDATED_RESISTANCE

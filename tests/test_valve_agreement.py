@@ -1,6 +1,6 @@
 """The linearised frequency domain against the nonlinear time domain (issue 39; docs/model.md §3.10).
 
-Physical damper valves on ``problems/roll_plane_his_valves.toml``: the evaluator's RMS valve
+Physical damper valves on ``tests/data/valves_one_road.toml`` (the valves problem on its city road): the evaluator's RMS valve
 flow, FL stroke, FL tyre load and sigma_aw against the nonlinear simulation (the valve law
 itself) on seeded ISO 8608 realisations of the problem's road, band-limited alike
 (:mod:`hisopt.simulation.agreement`). Pinned figures come from
@@ -19,7 +19,7 @@ from hisopt.simulation.agreement import FIGURES, band_mean_square
 from hisopt.standards.iso_2631_1_1997 import weighting_gain_squared
 from tests.conftest import ROOT
 
-VALVES = ROOT / "problems" / "roll_plane_his_valves.toml"
+VALVES = ROOT / "tests" / "data" / "valves_one_road.toml"  # the valves problem on its city road alone, as measured
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from hisopt.simulation.agreement import road_realisation
 from hisopt.simulation.nonlinear_model import NonlinearModel
 from tests.conftest import ROOT
 
-VALVES = ROOT / "problems" / "roll_plane_his_valves.toml"
+VALVES = ROOT / "tests" / "data" / "valves_one_road.toml"  # the valves problem on its city road alone, as measured
 CUSTOM = ROOT / "problems" / "layout_custom_roll_plane.toml"
 
 

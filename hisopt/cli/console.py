@@ -199,6 +199,7 @@ def front_valves(result: OptimizationResult) -> tuple[str, list[tuple[str, tuple
     ``outside`` there (docs/model.md §3.3); None without damper valves or a front."""
     import numpy as np
 
+    from hisopt.evaluation.valve_states import VALIDATED_RESISTANCE
     from hisopt.studies.damper_valves import designs_outside, has_damper_valves, load_case_valves
     from hisopt.units import display_for
 
@@ -214,7 +215,7 @@ def front_valves(result: OptimizationResult) -> tuple[str, list[tuple[str, tuple
     largest = np.nanmax(np.stack([case.states.resistance for case in cases]), axis=(0, 2))[n:]
     shown = display_for("Pa s m^-3", list(largest), trim=False)
     marks = tuple(shown.number(r) + (" (outside)" if out else "") for r, out in zip(largest, outside[n:], strict=True))
-    summary = f"{int(outside[:n].sum())} of {n} front designs outside the validated range (over 1 GPa s/m^3 in a load case)"
+    summary = f"{int(outside[:n].sum())} of {n} front designs outside the validated range (over {VALIDATED_RESISTANCE / 1e9:g} GPa s/m^3 in a load case)"
     return summary, [(shown.label("largest valve resistance"), marks)]
 
 
