@@ -123,8 +123,11 @@ def test_batch_equals_design_by_design(valves):
     for i in range(len(x)):
         one = valves.evaluate(x[i : i + 1])
         for name in valves.objective_names:
-            # the same arithmetic per design (the start depends on the design alone): equal to rounding
-            assert one[name].iloc[0] == pytest.approx(batch[name].iloc[i], rel=1e-12)
+            # the same arithmetic per design (the start depends on the design alone) but for a
+            # batch's mirror split, decided for the batch: the poles at rounding (1e-14), which the
+            # fixed point carries through its secant steps and a PSD peak of damping ratio 0.05
+            # amplifies by 1 / zeta^2 = 400: 1e-10 (1.1e-12 measured under another BLAS)
+            assert one[name].iloc[0] == pytest.approx(batch[name].iloc[i], rel=1e-10)
 
 
 def test_the_solved_flows_are_the_flows_the_road_drives(valves):

@@ -7,6 +7,7 @@ objectives, constraints and optimiser settings. See ``problems/roll_plane_his.to
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import tomllib
 from collections.abc import Mapping
@@ -524,6 +525,11 @@ def _allowed_keys(loc: tuple[Any, ...]) -> list[str]:
     return [f.alias or name for name, f in fields.items()] if fields else []
 
 
+MAX_LISTED_KEYS = 20
+"""An unknown key's message lists the table's keys up to this many; a longer table's message
+names the closest ones instead (it stays one readable line)."""
+
+
 def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     key = ".".join(_key_part(p) for p in err["loc"] if not str(p).startswith("function-"))
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
@@ -533,6 +539,11 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
         return f"{key}.{head}", rest
     if err["type"] == "extra_forbidden":
         allowed = _allowed_keys(err["loc"][:-1])
+        if len(allowed) > MAX_LISTED_KEYS:  # a long table: the keys closest to the one written
+            given = str(err["loc"][-1])
+            close = difflib.get_close_matches(given, allowed, n=5, cutoff=0.5)
+            hint = f"did you mean {', '.join(close)}? " if close else ""
+            return key, f"unknown key; {hint}expected one of the table's {len(allowed)} keys (check the spelling)"
         return key, f"unknown key; expected one of {', '.join(allowed)} (check the spelling)" if allowed else "unknown key"
     elif isinstance(value, bool) and err["type"] in ("float_type", "int_type", "float_parsing", "int_parsing"):
         kind = "an integer" if err["type"].startswith("int") else "a number"
