@@ -58,6 +58,18 @@ def exit_code(exc: BaseException) -> int:
     return exc.exit_code if isinstance(exc, Interrupted) else 128 + signal.SIGINT
 
 
+def as_interrupt(exc: BaseException) -> KeyboardInterrupt | None:
+    """The interruption ``exc`` is or carries, else None. A signal whose handler raises while a
+    compiled (numba) function's dispatcher returns comes out as ``SystemError: ... returned a
+    result with an exception set``, the interruption chained as its cause."""
+    seen: BaseException | None = exc
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            return seen
+        seen = seen.__cause__ or seen.__context__
+    return None
+
+
 def signal_name(exc: BaseException) -> str:
     """``"SIGTERM"``, ``"SIGINT"`` (also for a plain KeyboardInterrupt)."""
     return exc.name if isinstance(exc, Interrupted) else "SIGINT"

@@ -199,3 +199,20 @@ def test_a_signal_outside_a_run_is_one_line_not_a_traceback(tmp_path, sig, delay
     lines = [line for line in err.splitlines() if line.strip()]
     assert proc.returncode == 128 + sig, err
     assert len(lines) == 1 and signal.Signals(sig).name in lines[0] and "Traceback" not in err
+
+
+def test_a_signal_raised_inside_a_compiled_kernels_dispatch_is_still_the_interruption():
+    """A signal whose handler raises while a numba dispatcher returns comes out as a
+    SystemError carrying the interruption (seen under load in CI): the run engine treats it
+    as the interruption; a SystemError of its own stays a failure."""
+    from hisopt import interrupt
+
+    try:
+        try:
+            raise interrupt.Interrupted(signal.SIGTERM)
+        except KeyboardInterrupt as inner:
+            raise SystemError("CPUDispatcher(<function lay_nodes>) returned a result with an exception set") from inner
+    except SystemError as outer:
+        found = interrupt.as_interrupt(outer)
+    assert isinstance(found, interrupt.Interrupted) and found.exit_code == 143
+    assert interrupt.as_interrupt(SystemError("a failure of its own")) is None

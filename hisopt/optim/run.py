@@ -119,16 +119,25 @@ def _drive_session(engine: Engine, run: rundir.RunDirectory | None, progress: Pr
                 _record(run, session, runstate.FINISHED, engine, result)
                 finished = True
         return result
-    except KeyboardInterrupt as exc:
+    except (KeyboardInterrupt, SystemError) as exc:
+        signalled = interrupt.as_interrupt(exc)
+        if signalled is None:  # a SystemError of its own: a failure, recorded as one
+            if run is not None and not finished:
+                with interrupt.deferred():
+                    runstate.record_failure(run.info, session, exc, engine.generation + 1)
+                    run.write_info()
+            raise
         if run is not None and not finished:
-            session["signal"] = interrupt.signal_name(exc)
+            session["signal"] = interrupt.signal_name(signalled)
             with interrupt.deferred():  # a second Ctrl-C must not cut the save short
                 engine.restore_algorithm(*engine.mark)  # the last complete generation, whatever was cut short
                 _save(engine, run)
                 result = engine.result(run.path)
                 rundir.write_outputs(run.path, result)
                 _record(run, session, runstate.INTERRUPTED, engine, result)
-        raise
+        if signalled is exc:
+            raise
+        raise signalled from None
     except Exception as exc:
         if run is not None and not finished:
             with interrupt.deferred():
