@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from hisopt.specification.design_space import DesignSpace, Inputs
 
 
-class Evaluator(Protocol):
+class FlowIntegrator(Protocol):
     """What the fixed point needs of :class:`~hisopt.evaluation.evaluate.Evaluator` (named as a
     protocol: the evaluator imports this module)."""
 
@@ -66,7 +66,7 @@ def valve_flow_names_of(problem: DesignSpace) -> list[str]:
 
 
 def solve_valve_flows(
-    evaluator: Evaluator, x: np.ndarray, inputs: Inputs, start: tuple[np.ndarray, np.ndarray] | None = None
+    evaluator: FlowIntegrator, x: np.ndarray, inputs: Inputs, start: tuple[np.ndarray, np.ndarray] | None = None
 ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """The solved RMS flows [m^3/s] of ``x``'s designs (admissible rows), as model inputs
     (:func:`~hisopt.hydraulics.network.solved_flow_name`), each ``(n,)``; whether each design
@@ -96,7 +96,9 @@ def solve_valve_flows(
     return flows, ok, iterations
 
 
-def first_steps(evaluator: Evaluator, x: np.ndarray, inputs: Inputs, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+def first_steps(
+    evaluator: FlowIntegrator, x: np.ndarray, inputs: Inputs, start: tuple[np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """``log`` of the RMS flows [m^3/s] after :data:`FIRST_STEPS` secant steps from ``start``,
     ``(n, n_valves)`` (NaN rows where a model fails), and the last ``(y, log F(y))`` pair the
     steps evaluated (for :func:`secant_step`): where the evaluator evaluates the designs,
@@ -187,7 +189,7 @@ def log_fixed_point(
     return y, converged & ~failed, iterations, (y_prev, g_prev)
 
 
-def _slopes(evaluator: Evaluator, x: np.ndarray, inputs: Inputs, y: np.ndarray, step: float = 0.05) -> np.ndarray:
+def _slopes(evaluator: FlowIntegrator, x: np.ndarray, inputs: Inputs, y: np.ndarray, step: float = 0.05) -> np.ndarray:
     """The slope of each valve's ``log F`` in its own ``log s`` at ``y`` (the others held), by
     a forward difference of ``step``: ``(n, n_valves)``."""
     net = evaluator.problem.network()
@@ -205,7 +207,7 @@ class FlowStart:
     box (solved once per load case). A better start saves iterations; the answer is the fixed
     point whatever the start (to far below :data:`FLOW_TOLERANCE`)."""
 
-    def __init__(self, evaluator: Evaluator, inputs: Inputs | None = None):
+    def __init__(self, evaluator: FlowIntegrator, inputs: Inputs | None = None):
         from scipy.stats import qmc
 
         space = evaluator.problem
@@ -253,10 +255,11 @@ def _at_flows(model: CoupledModel, names: list[str], flows: np.ndarray) -> Coupl
     return replace(model, his=replace(model.his, params=params))
 
 
-def _flow_rms(evaluator: Evaluator, model: CoupledModel, outputs: list[str]) -> np.ndarray:
+def _flow_rms(evaluator: FlowIntegrator, model: CoupledModel, outputs: list[str]) -> np.ndarray:
     """[m^3/s] The valves' band RMS flows ``(n, len(outputs))`` of a batch of models (NaN for a
     design whose model is unstable, singular or untrusted)."""
-    out = np.full((len(np.atleast_1d(model.his.batch_shape and np.empty(model.his.batch_shape))), len(outputs)), np.nan)  # type: ignore[union-attr]
+    assert model.his is not None
+    out = np.full((int(np.prod(model.his.batch_shape)), len(outputs)), np.nan)
     try:
         groups = model.groups()
     except (ModelError, np.linalg.LinAlgError, ValueError):
