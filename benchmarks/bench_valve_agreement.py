@@ -27,24 +27,14 @@ import numpy as np
 
 from hisopt.evaluation.evaluate import Evaluator
 from hisopt.problem import Problem, load_problem
-from hisopt.simulation.agreement import FIGURES, FREQUENCY_DOMAIN_METRICS, Agreement, road_agreement
+from hisopt.simulation.agreement import AGREEMENT_DESIGNS, FIGURES, FREQUENCY_DOMAIN_METRICS, Agreement, road_agreement
 
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEM = ROOT / "tests" / "data" / "valves_one_road.toml"
 """The valves problem on its city road, as tests/test_valve_agreement.py pins it; ``--problem``
 and ``--road`` take the shipped problem and any of its roads."""
 
-DESIGNS = {
-    "D1": {"p0": 1.0e6, "dA": 4e-4, "lam": 0.1, "orifice_diameter": 6e-3, "cracking_pressure": 1.5e6},
-    "D2": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 6e-3, "cracking_pressure": 1.5e6},
-    "D3": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 4.5e-3, "cracking_pressure": 1.5e6},
-    "D4": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 3e-3, "cracking_pressure": 0.8e6},
-    "D5": {"p0": 3.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 2.5e-3, "cracking_pressure": 1.5e6},
-    "D6": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 2.5e-3, "cracking_pressure": 4e6},
-}
-"""Across the box (SI): R_eq about 1.4e8, 4.4e8, 1.1e9, 2.9e9 and 5.1e9 Pa s/m^3 on the road (the
-default five); D6 (5.5e9, ``--designs D6``) has D5's orifice, p0 2 MPa and the blow-off at the
-box's top, which it hardly reaches (its crossover flow is 3.5 RMS flows): a bleed orifice alone."""
+DESIGNS = AGREEMENT_DESIGNS
 
 UNITS = {"valve_flow": (1e-6, "mL/s"), "stroke_fl": (1e-3, "mm"), "tire_load_fl": (1.0, "N"), "sigma_aw": (1.0, "m/s^2")}
 

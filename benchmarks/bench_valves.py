@@ -51,6 +51,21 @@ def problems(path: Path):  # -> (damper valves, linear valves)
     return valves, problem_from_dict(linear, "linear valves")
 
 
+def first_steps_residual(problem, flow_evaluator, x: np.ndarray, start: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """[-] Each design's fixed-point residual after :data:`FIRST_STEPS` secant steps from
+    ``start``: how many designs the evaluator's first evaluation accepts (docs/model.md §3.3)."""
+    from hisopt.evaluation.valve_flows import first_steps, flow_residual
+    from hisopt.hydraulics.network import solved_flow_name
+
+    y, _ = first_steps(flow_evaluator, x, {}, start)
+    names = [solved_flow_name(k) for k, _, _ in problem.network().solved_valves()]
+    model = problem.model(x, inputs={name: np.exp(y[:, j]) for j, name in enumerate(names)})
+    measured = np.full(y.shape, np.nan)
+    for rows, group in model.groups():
+        measured[rows] = flow_evaluator.output_rms(group, flow_evaluator.rms_outputs)
+    return flow_residual(y, measured)
+
+
 def best_time(fn: Callable[[], object], repeats: int) -> float:
     """[s] The least CPU time of this process over ``repeats`` calls (after one to warm up):
     per core, and not lengthened by other processes sharing the machine."""
@@ -70,7 +85,7 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=100, help="designs per call, as the optimiser sends a generation")
     parser.add_argument("--problem", type=Path, default=PROBLEM, help="a damper-valve problem file (default: the valves problem's city road)")
     args = parser.parse_args()
-    from hisopt.evaluation.valve_flows import FlowStart, solve_valve_flows
+    from hisopt.evaluation.valve_flows import FIRST_STEPS, FLOW_TOLERANCE, FlowStart, solve_valve_flows
 
     valves, linear = problems(args.problem)
     rng = np.random.default_rng(0)
@@ -88,7 +103,9 @@ def main() -> None:
     flow_evaluator = ev_valves._flow_evaluator if hasattr(ev_valves, "_flow_evaluator") else ev_valves.evaluators[0]._flow_evaluator  # noqa: SLF001
     start = FlowStart(flow_evaluator)
     t_start = time.perf_counter() - t0
-    _, ok, iterations = solve_valve_flows(flow_evaluator, x_valves, {}, start(x_valves, 4))
+    guess, slope = start(x_valves, 4)
+    _, ok, iterations = solve_valve_flows(flow_evaluator, x_valves, {}, (guess, slope))
+    residual = first_steps_residual(valves, flow_evaluator, x_valves, (guess, slope))
     n = args.designs
     cases = len(valves.scenario_names) or 1
     print(f"{n} random designs of {args.problem.name} ({cases} load case(s)), {args.batch} per call, one BLAS thread, least CPU time of {args.repeats}")
@@ -98,7 +115,9 @@ def main() -> None:
     mean, low, high = iterations.mean(), iterations.min(), iterations.max()
     print(f"  fixed point run to its end (solve_valve_flows, as Problem.model and the sheet): {mean:.2f} iterations per design ({low}-{high})")
     print(f"  converged: {ok.mean():.1%}")
-    print(f"  start per load case (once): {t_start * 1e3:.0f} ms")
+    print(f"  start per load case (once): {t_start * 1e3:.0f} ms; its first-step slopes of log F in log s: {slope.min():.2f} to {slope.max():.2f}")
+    within = ", ".join(f"{np.mean(residual <= tol):.1%} within {tol:g}" for tol in (FLOW_TOLERANCE, 1e-3))
+    print(f"  after the evaluator's {FIRST_STEPS} secant steps, the residual measured at the designs: {within}")
 
 
 if __name__ == "__main__":

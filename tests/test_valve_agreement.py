@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from hisopt.problem import Problem, load_problem
-from hisopt.simulation.agreement import FIGURES, band_mean_square
+from hisopt.simulation.agreement import AGREEMENT_DESIGNS, FIGURES, band_mean_square
 from hisopt.standards.iso_2631_1_1997 import weighting_gain_squared
 from tests.conftest import ROOT
 
@@ -41,14 +41,8 @@ def test_band_mean_square_keeps_the_band_and_weights_it():
     assert band_mean_square(x, dt, 0.01, 199.0) == pytest.approx(np.var(x), rel=1e-12)  # Parseval
 
 
-DESIGNS = {
-    "D1": {"p0": 1.0e6, "dA": 4e-4, "lam": 0.1, "orifice_diameter": 6e-3, "cracking_pressure": 1.5e6},
-    "D2": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 6e-3, "cracking_pressure": 1.5e6},
-    "D3": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 4.5e-3, "cracking_pressure": 1.5e6},
-    "D4": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 3e-3, "cracking_pressure": 0.8e6},
-    "D5": {"p0": 3.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 2.5e-3, "cracking_pressure": 1.5e6},
-}
-"""benchmarks/bench_valve_agreement.py's designs (SI)."""
+DESIGNS = {name: AGREEMENT_DESIGNS[name] for name in ("D1", "D2", "D3", "D4", "D5")}
+"""The agreement's designs whose figures :data:`MEASURED` pins (SI)."""
 
 MEASURED = {
     "D1": (1.408485e08, [(0.006, 0.009), (0.024, 0.005), (0.01, 0.005), (0.005, 0.011)], [(-0.0, 0.0), (-0.0, 0.0), (-0.0, 0.0), (-0.0, 0.0)]),

@@ -48,14 +48,14 @@ the evaluator's own 1e-3 budget against a converged reference and far below the
 linearisation's error (2-20 %, docs/model.md §3.3)."""
 FIRST_STEPS = 2
 """Secant steps the evaluator takes from :class:`FlowStart` before it evaluates a design and
-measures its residual (three quarters of random designs of the valves problem are then within
-:data:`FLOW_TOLERANCE`, nineteen in twenty within 1e-3)."""
+measures its residual (four in five random designs of the valves problem's city road are then
+within :data:`FLOW_TOLERANCE`, 97 % within 1e-3: ``python benchmarks/bench_valves.py``)."""
 MAX_ITERATIONS = 30
 INITIAL_FLOW = 1e-4
 """[m^3/s] The first RMS flow tried: 0.1 L/s, a passenger car's damper on a C road."""
 FIRST_SLOPE = -0.25
-"""The slope of ``log F`` in ``log s`` assumed for the first step (a stiffer valve passes less
-flow, but less than in proportion: -0.1 to -0.4 over the valves problem's box)."""
+"""The slope of ``log F`` in ``log s`` assumed for the first step where :class:`FlowStart` has
+none: a stiffer valve passes less flow, but less than in proportion (a slope in (-1, 0))."""
 
 
 def valve_flow_names_of(problem: DesignSpace) -> list[str]:
@@ -190,8 +190,9 @@ def log_fixed_point(
 
 
 def _slopes(evaluator: FlowIntegrator, x: np.ndarray, inputs: Inputs, y: np.ndarray, step: float = 0.05) -> np.ndarray:
-    """The slope of each valve's ``log F`` in its own ``log s`` at ``y`` (the others held), by
-    a forward difference of ``step``: ``(n, n_valves)``."""
+    """The slope of each valve's ``log F`` at ``y`` along all valves' ``log s`` stepped together
+    by ``step`` (a forward difference; the cross terms are small, so it is close to each
+    valve's own slope): ``(n, n_valves)``."""
     net = evaluator.problem.network()
     names = [solved_flow_name(k) for k, _, _ in net.solved_valves()]
     outputs = valve_flow_names_of(evaluator.problem)

@@ -108,6 +108,22 @@ def response_mean_squares(problem: Problem, response: TimeResponse, settle_s: fl
     )
 
 
+AGREEMENT_DESIGNS = {
+    "D1": {"p0": 1.0e6, "dA": 4e-4, "lam": 0.1, "orifice_diameter": 6e-3, "cracking_pressure": 1.5e6},
+    "D2": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 6e-3, "cracking_pressure": 1.5e6},
+    "D3": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 4.5e-3, "cracking_pressure": 1.5e6},
+    "D4": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 3e-3, "cracking_pressure": 0.8e6},
+    "D5": {"p0": 3.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 2.5e-3, "cracking_pressure": 1.5e6},
+    "D6": {"p0": 2.0e6, "dA": 1e-3, "lam": 0.5, "orifice_diameter": 2.5e-3, "cracking_pressure": 4e6},
+}
+"""The designs of the valves problem the agreement is measured on (SI; docs/model.md §3.10,
+``benchmarks/bench_valve_agreement.py``, ``tests/test_valve_agreement.py``). On its city road
+(``tests/data/valves_one_road.toml``) their front equivalent resistances are about 1.4e8,
+4.4e8, 1.1e9, 2.9e9 and 5.1e9 Pa s/m^3; D6 (5.5e9) has D5's orifice, p0 2 MPa and the
+blow-off at the box's top, which it hardly reaches (its crossover flow is 3.5 RMS flows): a
+bleed orifice alone."""
+
+
 @dataclass(frozen=True)
 class Agreement:
     """One design's frequency- and time-domain figures (:data:`FIGURES`) on its problem's road.
@@ -246,4 +262,13 @@ def road_agreement(
     return Agreement(states.labels, states.resistance[0], frequency_domain, nonlinear, linear, float(t[-1] + dt), effective)
 
 
-__all__ = ["FIGURES", "Agreement", "band_mean_square", "frequency_domain_figures", "response_mean_squares", "road_agreement", "road_realisation"]
+__all__ = [
+    "AGREEMENT_DESIGNS",
+    "FIGURES",
+    "Agreement",
+    "band_mean_square",
+    "frequency_domain_figures",
+    "response_mean_squares",
+    "road_agreement",
+    "road_realisation",
+]
