@@ -162,7 +162,8 @@ def test_a_sheet_without_damper_valves_has_no_valve_section():
     sheet = design_sheet(paper, paper.baseline, 0, "front.csv")
     assert [name for name, _ in tables(sheet)] == ["Parts and settings", "Quantities", "Operating envelope", "Modes with HIS"]
     assert any(  # the paper's Rv keeps its coefficient row
-item.startswith("valve ") and item.endswith(": coefficient") for item in sheet.parts["item"])
+        item.startswith("valve ") and item.endswith(": coefficient") for item in sheet.parts["item"]
+    )
 
 
 @pytest.fixture(scope="module")

@@ -171,9 +171,10 @@ class CoupledModel:
 
     def hydraulic_response(self, s: ArrayLike, h_x: np.ndarray) -> np.ndarray:
         """The hydraulic outputs per wheel input by direct solve, either pipe fidelity,
-        ``B + (F, n_accumulators + n_damper_valves, 4)``: each accumulator's oil volume
-        [m^3/m], then the flow through each damper valve [m^3/s/m] (in element order,
-        :meth:`~hisopt.hydraulics.network.Network.damper_valves`), from the motion
+        ``B + (F, n_accumulators + n_valves + n_ports, 4)``: each accumulator's oil volume
+        [m^3/m], then the flow through each nonlinear valve [m^3/s/m] (in element order,
+        :meth:`~hisopt.hydraulics.network.Network.flow_valves`), then each port's (chamber's)
+        pressure [Pa/m], from the motion
         ``h_x = X / z_g``: the network's response to the port flows ``s N G X``."""
         if self.his is None:
             return np.zeros(np.shape(h_x)[:-2] + (0, 4), dtype=complex)
@@ -181,7 +182,7 @@ class CoupledModel:
         net = self.his.network
         g = at_frequencies(stroke_matrix(self.vehicle), self.vehicle)
         flows = s[..., None, None] * (np.asarray(self.his.incidence)[..., None, :, :] @ g @ h_x)  # (.., F, ports, 4)
-        rows = [row for _, _, row in net.accumulators()] + [rows[2] for _, _, rows in net.flow_valves()]
+        rows = [row for _, _, row in net.accumulators()] + [rows[2] for _, _, rows in net.flow_valves()] + [int(r) for r in net.port_rows]
         unknowns = self.his.unknowns_per_port_flow(s, rows) @ flows
         n_acc = len(net.accumulators())
         volumes = self.his.accumulator_compliances()[..., None, :, None] * unknowns[..., :n_acc, :]
@@ -196,10 +197,11 @@ class CoupledModel:
 
     def hydraulic_states(self, ss: StateSpace) -> np.ndarray:
         """The hydraulic outputs from the states of ``ss`` (this model's :meth:`state_space`),
-        ``B + (n_accumulators + n_damper_valves, n_states)``, rows of the realisation's map back
-        to the unknowns: each accumulator's oil volume [m^3] (its compliance times its node
-        pressure, docs/model.md §16.9), then each damper valve's flow [m^3/s] (0 for a valve
-        a short leaves joining a node to itself: no pressure drives it)."""
+        ``B + (n_accumulators + n_valves + n_ports, n_states)``, rows of the realisation's map
+        back to the unknowns: each accumulator's oil volume [m^3] (its compliance times its node
+        pressure, docs/model.md §16.9), then each nonlinear valve's flow [m^3/s] (0 for a valve
+        a short leaves joining a node to itself: no pressure drives it), then each port's
+        (chamber's) pressure [Pa]."""
         if self.his is None or ss.realisation is None:
             return np.zeros(ss.a.shape[:-2] + (0, ss.a.shape[-1]))
         lumped = self if self.pipe_model == "lumped" else CoupledModel(self.vehicle, self.his.lumped())
@@ -216,7 +218,8 @@ class CoupledModel:
             full[..., 14 + his.network.element_rows[where[own[k]]][2], :] if own[k] in where else np.zeros(full.shape[:-2] + (full.shape[-1],))
             for k, _, _ in self.his.network.flow_valves()
         ]
-        return np.concatenate([volumes, *(f[..., None, :] for f in flows)], axis=-2)
+        ports = full[..., [14 + int(r) for r in his.network.port_rows], :]  # the chambers' pressures: ports survive a contraction
+        return np.concatenate([volumes, *(f[..., None, :] for f in flows), ports], axis=-2)
 
     def descriptor(self) -> Descriptor:
         """The coupled lumped model ``diag(e) dz/dt = A z + B0 u + B1 du/dt``, ``z = [X, V, h]``.

@@ -110,3 +110,31 @@ def valve_flow_outputs(n_accumulators: int, n_valves: int) -> dict[str, Output]:
         c[0, 7 + n_accumulators + j] = 1.0
         out[f"valve_flow_{j}"] = Output(f"valve_flow_{j}", "m^3/s", c, np.zeros((1, 4)))
     return out
+
+
+def port_pressure_outputs(n_accumulators: int, n_valves: int, n_ports: int) -> dict[str, Output]:
+    """The dynamic pressure at each port's node, the chamber's [Pa], in the network's port
+    order (:attr:`~hisopt.hydraulics.network.Network.ports`), keyed ``port_pressure_<i>``: an
+    output over ``[X, V_acc, Q_valve, p_port]`` (its ``c`` has ``7 + n_accumulators + n_valves
+    + n_ports`` columns), read from the hydraulic unknowns like the accumulators' oil volumes
+    (docs/model.md §21: the buildability rules' road swing of the chamber pressures)."""
+    out = {}
+    width = 7 + n_accumulators + n_valves + n_ports
+    for i in range(n_ports):
+        c = np.zeros((1, width))
+        c[0, 7 + n_accumulators + n_valves + i] = 1.0
+        out[f"port_pressure_{i}"] = Output(f"port_pressure_{i}", "Pa", c, np.zeros((1, 4)))
+    return out
+
+
+STROKE_RATE_NAMES = ("stroke_rate_fl", "stroke_rate_fr", "stroke_rate_rl", "stroke_rate_rr")
+"""The strokes' rates in wheel order: a port's flow is its chamber's area times its strut's rate."""
+
+
+def stroke_rate_outputs(vehicle: VehicleParams) -> dict[str, Output]:
+    """[m/s] Each strut's stroke rate ``s delta_i`` (extension positive), keyed by
+    :data:`STROKE_RATE_NAMES`: a chamber's flow is its area times its strut's rate, so the
+    hoses' road flows come from these (docs/model.md §21)."""
+    g = stroke_matrix(vehicle)
+    zero7, zero4 = np.zeros(7), np.zeros(4)
+    return {name: Output(name, "m/s", np.array([zero7, g[i]]), np.array([zero4, zero4])) for i, name in enumerate(STROKE_RATE_NAMES)}

@@ -35,6 +35,7 @@ def integral_keys(metrics: list[Metric], comfort: Comfort, outputs: dict[str, Ou
         lambda n: 0.0,
         lambda n: 0.0,
         lambda: [1.0] * n_accumulators,
+        lambda n: 0.0,  # the rules' integrals: the evaluator's build_outputs
     )
     return list(dict.fromkeys(keys))
 

@@ -95,6 +95,7 @@ def reduce_metrics(
     static: Callable[[str], Any],
     transient: Callable[[str], Any] | None = None,
     rooms: Callable[[], Sequence[Any]] | None = None,
+    build: Callable[[str], Any] | None = None,
 ) -> dict[str, Any]:
     """Every metric from its spectra: the one dispatch of docs/model.md §6.
 
@@ -106,7 +107,9 @@ def reduce_metrics(
       raises ``ValueError`` naming the quantity);
     - ``swing`` (``accumulator_swing``): the largest ``sqrt(integral(S_oil_volume_j)) / room_j``
       over the accumulators, ``rooms()`` their static rooms
-      (:func:`hisopt.coupled.operating_point.accumulator_rooms`; NaN without accumulators).
+      (:func:`hisopt.coupled.operating_point.accumulator_rooms`; NaN without accumulators);
+    - ``build``: ``build(name)``, a buildability rule's usage (:mod:`hisopt.coupled.buildability`;
+      an engine without it raises ``ValueError`` naming the quantity).
 
     Parameters
     ----------
@@ -138,6 +141,10 @@ def reduce_metrics(
                 share = bk.sqrt(integral(f"oil_volume_{j}", None)) / room
                 worst = share if j == 0 else bk.fmax(worst, share)
             out[m.name] = worst
+        elif m.kind == "build":
+            if build is None:
+                raise ValueError(f"{m.name}: this engine has no buildability rules")
+            out[m.name] = build(m.name)
         else:
             out[m.name] = static(m.name)
     return out

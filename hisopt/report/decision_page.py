@@ -333,9 +333,7 @@ def decision_room(source: str | Path | OptimizationResult | LayoutStudyResult, m
         sources = data.layout_sources(source, limit)
         title = "Decision room: layout study"
     else:
-        raise ConfigError(
-            f"expected a finished run's directory, its OptimizationResult or a LayoutStudyResult, got {type(source).__name__}", key="source"
-        )
+        raise ConfigError(f"expected a finished run's directory, its OptimizationResult or a LayoutStudyResult, got {type(source).__name__}", key="source")
     if not sources:
         raise RunError("decision_room: the layout study has no front yet; run it to the end with hisopt.compare_layouts")
     room = data.decision_room_data(sources)

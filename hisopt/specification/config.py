@@ -34,6 +34,7 @@ from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.plausibility import cylinder_box_problem, given_warnings, rule_reason, speed_problem, warn
 from hisopt.quantities import field_unit, has_unit, si
+from hisopt.specification.build_settings import Build
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.text_files import read_file
 from hisopt.specification.tolerances import parse_tolerances
@@ -287,6 +288,7 @@ class ProblemSpec(_Strict):
     band: Band = Field(default_factory=Band)
     comfort: Comfort = Field(default_factory=Comfort)
     handling: Handling = Field(default_factory=Handling)
+    build: Build = Field(default_factory=Build)
     objectives: list[str] = Field(default_factory=lambda: ["sigma_aw", "max_roll_psd", "max_stroke_psd", "max_tire_load_psd"])
     constraints: list[Constraint] = Field(default_factory=list)
     optimizer: Optimizer = Field(default_factory=Optimizer)
