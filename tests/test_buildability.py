@@ -330,3 +330,15 @@ def test_the_casadi_model_takes_the_static_rules_and_refuses_the_road_ones():
     road = problem_from_dict(charged() | {"constraints": [{"name": "pressure_floor_usage", "limit": 1.0}]}, warn_implausible=False)
     with pytest.raises(RunError, match="--method slp"):
         CasadiModel(road)
+
+
+def test_a_rule_with_an_uncertain_road_roughness_is_refused(tmp_path):
+    path = tmp_path / "uncertain.toml"
+    text = (ROOT / "problems" / "roll_plane_his_uncertain.toml").read_text()
+    text += (
+        '\n[[constraints]]\nname = "strut_load_usage"\nlimit = 1.0\n\n[[uncertain]]\ninput = "road.class"\ndistribution = "uniform"\nlower = "B"\nupper = "C"\n'
+    )
+    path.write_text(text)
+    result = run_cli("evaluate", str(path))
+    assert result.code == 2 and len(result.stderr.strip().splitlines()) == 1
+    assert "no factor of an uncertain road.class scales it" in result.stderr
