@@ -86,7 +86,7 @@ def numpy_quantities(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: n
             out[m.name] = y.max() if at is None else y[at[m.name]]
             out[f"{m.name}_node"] = int(np.argmax(y))
         else:
-            out[m.name] = roll_gradient(model)[0]
+            out[m.name] = roll_gradient(model, problem.spec.handling.gravity_moment)[0]
     return out
 
 
