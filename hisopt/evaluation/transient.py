@@ -34,7 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Protocol, cast
 
 import numpy as np
 
@@ -476,8 +476,8 @@ def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams, gravity
     moved = gravity_softened(a, b) if gravity_moment else a  # the dynamics the step and the gain see
     lumped = coupled is not None and coupled.pipe_model == "lumped"  # a distributed model's state space is its lumped twin's
     if halve and lumped:
-        softened = replace(ss, a=moved.reshape(np.shape(ss.a))) if gravity_moment else ss  # type: ignore[type-var]
-        half = _roll_half(coupled, softened, b)  # type: ignore[arg-type]
+        full = cast("StateSpace", ss)  # a coupled model's
+        half = _roll_half(coupled, replace(full, a=moved.reshape(np.shape(full.a))) if gravity_moment else full, b)  # type: ignore[arg-type]
     else:
         half = None
     with np.errstate(all="ignore"):
