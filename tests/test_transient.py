@@ -195,6 +195,18 @@ def test_problem_file_rules(problem):
     data["handling"] = {"step_g": 0.0}
     with pytest.raises(ConfigError, match="handling.step_g"):
         problem_from_dict(data)
+    data["handling"] = {"gravity_moment": "no"}  # a TOML boolean, not a word
+    with pytest.raises(ConfigError, match="handling.gravity_moment: expected a valid boolean"):
+        problem_from_dict(data)
+
+
+def test_a_gravity_moment_that_is_not_a_boolean_is_refused_in_one_line(tmp_path):
+    from tests.cli_inprocess import run_cli
+
+    path = tmp_path / "bad.toml"
+    path.write_text((ROOT / "problems" / "roll_plane_his.toml").read_text().replace("gravity_moment = false", "gravity_moment = 1"))
+    out = run_cli("evaluate", str(path))
+    assert out.code == 2 and out.error_lines == [f"error: {path}: handling.gravity_moment: expected a valid boolean, got 1"]
 
 
 def test_finite_difference_designs_stay_in_the_box():
