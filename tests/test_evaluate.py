@@ -156,17 +156,38 @@ def test_band_method_agrees_with_filter_method(problem, rng):
 
 
 def test_roll_gradient_closed_form_without_his(all_metrics_problem):
-    """Reference car: roll moment on springs in series with tyres, exact; HIS reduces it."""
+    """Reference car: roll moment on springs in series with tyres, exact; HIS reduces it.
+
+    Per g the body carries the lateral force's moment ``M = m_s g h_0s`` and, with the
+    gravity moment (issue 40), its weight's ``M phi`` once it rolls by ``phi`` about the roll
+    axis. Suspension and tyres carry that moment in series (the wheels are free on their
+    tyres), ``phi = (M + M phi) c`` with ``c = 1 / k_phi,s + 1 / k_phi,t``, so
+    ``phi = M c / (1 - M c)``; the paper's convention drops ``M phi``: ``phi = M c``.
+    """
     p = all_metrics_problem
     v = p.spec.vehicle
     from hisopt.evaluation.evaluate import roll_gradient
 
+    assert not p.spec.handling.gravity_moment  # the paper's problem keeps the paper's convention
     k_s = 2 * v.k_sf * v.t_f**2 + 2 * v.k_sr * v.t_r**2
     k_t = 2 * v.k_tf * v.t_f**2 + 2 * v.k_tr * v.t_r**2
-    expected = v.m_s * 9.81 * v.h_0s * (1 / k_s + 1 / k_t)
-    assert roll_gradient(p.model(his=False))[0] == pytest.approx(expected, rel=1e-9)
+    paper = v.m_s * 9.81 * v.h_0s * (1 / k_s + 1 / k_t)
+    with_gravity = paper / (1 - paper)
+    bare = p.model(his=False)
+    assert roll_gradient(bare, gravity_moment=False)[0] == pytest.approx(paper, rel=1e-9)
+    assert roll_gradient(bare, gravity_moment=True)[0] == pytest.approx(with_gravity, rel=1e-9)
+    assert with_gravity / paper == pytest.approx(1.109, abs=1e-3)  # 11 % more without HIS
+    data = p.spec.model_dump(by_alias=True)
+    data["handling"]["gravity_moment"] = True
+    gravity = problem_from_dict(data, "with gravity")
+    assert roll_gradient(bare)[0] == roll_gradient(gravity.model(his=False), gravity.spec.handling.gravity_moment)[0]  # true is the default
     with_his = p.evaluator()(p.baseline[None])["roll_gradient"][0]
-    assert with_his < 0.6 * expected
+    assert with_his < 0.6 * paper
+    # with HIS the gravity moment changes only the roll entry of K_static, so by the
+    # Sherman-Morrison formula phi_g = phi / (1 - phi) [rad/g] for any stiffness: 3.2 % here
+    raised = gravity.evaluator()(gravity.baseline[None])["roll_gradient"][0]
+    assert raised == pytest.approx(with_his / (1 - with_his), rel=1e-12)
+    assert 1.02 < raised / with_his < 1.04
 
 
 def test_distributed_pipe_path_is_batched_and_matches_lumped_pipes(problem, rng):

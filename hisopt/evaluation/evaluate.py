@@ -361,7 +361,8 @@ class Evaluator:
         :attr:`unread`."""
         names = [m.name for m in self.metrics if m.kind == "transient"]
         wanted = [name for name in names if name not in self.unread]
-        steps = transient_quantities(model, model.car, wanted, self.problem.spec.handling.step_g) if wanted else {}
+        handling = self.problem.spec.handling
+        steps = transient_quantities(model, model.car, wanted, handling.step_g, handling.gravity_moment) if wanted else {}
         return steps | {name: np.full(n, np.nan) for name in names if name in self.unread}
 
     def _shared_samples(self, lam: np.ndarray, channels: Channels, evaluators: list[Evaluator]) -> list[Prior]:
@@ -534,7 +535,7 @@ class Evaluator:
             lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
             integral,
             lambda output: maxima[output],
-            lambda name: static_quantity(model, name),
+            lambda name: static_quantity(model, name, self.problem.spec.handling.gravity_moment),
             steps.__getitem__,
             lambda: accumulator_rooms(model.his) if model.his is not None else [],
             self._build_usages(model, len(lam), integral),
@@ -661,19 +662,30 @@ def poles(model: CoupledModel) -> np.ndarray:
     return np.linalg.eig(model.state_space().a)[0]
 
 
-def static_quantity(model: CoupledModel, name: str) -> np.ndarray:
-    """A ``static`` metric of a batch of models with HIS: :func:`roll_gradient` or one of
+def static_quantity(model: CoupledModel, name: str, gravity_moment: bool) -> np.ndarray:
+    """A ``static`` metric of a batch of models with HIS: :func:`roll_gradient` (with the
+    body's gravity moment or not: ``[handling] gravity_moment``) or one of
     :func:`hisopt.coupled.operating_point.accumulator_quantities`."""
     if name == "roll_gradient":
-        return roll_gradient(model)
+        return roll_gradient(model, gravity_moment)
     if model.his is None:
         raise ValueError(f"{name}: a model without HIS has no accumulators")
     return np.asarray(accumulator_quantities(model.his)[name])
 
 
-def roll_gradient(model: CoupledModel) -> np.ndarray:
-    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
+def roll_gradient(model: CoupledModel, gravity_moment: bool = True) -> np.ndarray:
+    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`).
+
+    Parameters
+    ----------
+    model : CoupledModel
+        a problem's model
+    gravity_moment : bool, optional
+        [-] include the body's gravity moment ``m_s g h_0s phi`` (docs/model.md §6.4); pass
+        ``problem.spec.handling.gravity_moment`` for the problem's own convention (the
+        paper's problem: False)
+    """
     from hisopt.coupled.model import CoupledModel
 
     of_type(model, CoupledModel, "model", "a CoupledModel (a problem's model())")
-    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
+    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle, gravity_moment)

@@ -19,6 +19,7 @@ from pydantic import (
     ConfigDict,
     Field,
     SerializerFunctionWrapHandler,
+    StrictBool,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -212,9 +213,17 @@ class Robust(_Strict):
 
 
 class Handling(_Strict):
-    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6)."""
+    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6) and the
+    convention of the roll quantities (docs/model.md §6.4)."""
 
     step_g: float = Field(0.4, gt=0, description="lateral-acceleration step of roll_step_peak and roll_rate_peak", json_schema_extra=si("g"))
+    gravity_moment: StrictBool = Field(
+        True,
+        description=(
+            "the body's weight adds m_s g h_0s phi when it rolls by phi about the roll axis: in roll_gradient and the transient roll quantities "
+            "(docs/model.md §6.4); false: the paper's convention, the lateral force's moment alone"
+        ),
+    )
 
 
 class Optimizer(_Strict):

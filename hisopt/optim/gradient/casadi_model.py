@@ -362,11 +362,12 @@ class CasadiModel:
 
     # -- quantities -----------------------------------------------------------------------------
     def roll_gradient(self, x: ca.MX) -> ca.MX:
-        """[rad/g] Static roll angle under the moment ``m_s g h_0s`` (``K + G^T K_his G``)."""
+        """[rad/g] Static roll angle under the moment ``m_s g h_0s`` (``K + G^T K_his G``; with the
+        body's gravity moment as ``[handling] gravity_moment`` says, docs/model.md §6.4)."""
         veh = self.problem.vehicle
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
         k_his = self.problem.hydraulic_system(params).static_stiffness()
-        return roll_gradient(coupled_stiffness(stiffness_matrix(veh), veh, k_his), veh)
+        return roll_gradient(coupled_stiffness(stiffness_matrix(veh), veh, k_his), veh, self.problem.spec.handling.gravity_moment)
 
     def accumulators(self, x: ca.MX) -> dict[str, ca.MX]:
         """[-] The accumulators' static quantities (:func:`hisopt.coupled.operating_point.accumulator_quantities`)."""
