@@ -148,7 +148,7 @@ class Evaluator:
         )
         self.build_rules = rule_names(self.metrics)
         """The buildability rules the metrics need (docs/model.md §21)."""
-        self.build_limits = spec.build.limits()
+        self.build_limits = spec.build_limits
         self.build_outputs = road_outputs(network, self.build_rules)
         """Outputs whose band RMS the rules read (the chambers' and accumulators' pressures, the strokes' rates)."""
         solved = bool(network.solved_valves()) and names is None  # this load case's evaluator: it measures the flows it is built at

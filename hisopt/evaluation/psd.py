@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hisopt.constants import G_MPS2
+from hisopt.coupled.model import gravity_stiffness
 from hisopt.hydraulics import backend as bk
 from hisopt.metrics import COMFORT_OUTPUTS, Metric
 from hisopt.standards import iso_2631_1_1997 as iso2631
@@ -172,10 +173,8 @@ def roll_gradient(stiffness: Any, vehicle: VehicleParams | VehicleBatch, gravity
     moment = vehicle.m_s * G_MPS2 * vehicle.h_0s  # one per car of a batch
     load = np.zeros(np.shape(moment) + (7,))
     load[..., 1] = moment
-    softening = moment if gravity_moment else 0.0
-    if bk.is_casadi(stiffness):
-        return bk.solve(stiffness - bk.assemble((7, 7), [(1, 1, softening)], like=stiffness), load)[1]
-    k = np.array(stiffness, dtype=float)
-    k[..., 1, 1] -= softening
+    k = gravity_stiffness(stiffness, vehicle, gravity_moment)
+    if bk.is_casadi(k):
+        return bk.solve(k, load)[1]
     x = np.linalg.solve(k, np.broadcast_to(load[..., None], k.shape[:-1] + (1,)))
     return np.atleast_1d(x[..., 1, 0])

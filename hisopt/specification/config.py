@@ -35,6 +35,7 @@ from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.plausibility import cylinder_box_problem, given_warnings, rule_reason, speed_problem, warn
 from hisopt.quantities import field_unit, has_unit, si
+from hisopt.coupled.buildability import BuildLimits
 from hisopt.specification.build_settings import Build
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.text_files import read_file
@@ -309,6 +310,11 @@ class ProblemSpec(_Strict):
     robust: Robust = Field(default_factory=Robust)
     uncertain: list[UncertainInput] = Field(default_factory=list)
     synthesis: Synthesis | None = None
+
+    @property
+    def build_limits(self) -> BuildLimits:
+        """``[build]`` as the buildability rules take it, with ``[handling] gravity_moment``."""
+        return self.build.limits(self.handling.gravity_moment)
 
     @field_validator("objectives")
     @classmethod

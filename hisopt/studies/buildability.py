@@ -60,7 +60,7 @@ def case_rules(space: DesignSpace, x: np.ndarray) -> dict[str, RuleValue]:
     model = space.model(x[rows], inputs=inputs or None)
     outputs = road_outputs(space.network(), tuple(RULES))
     evaluator = Evaluator(space, names=(), rms_outputs=outputs)
-    limits = space.spec.build.limits()
+    limits = space.spec.build_limits
     for group, sub in model.groups():
         rms = evaluator.output_rms(sub, outputs)
         got = rule_values(sub, limits, tuple(RULES), lambda o, rms=rms: rms[:, outputs.index(o)])  # type: ignore[misc]

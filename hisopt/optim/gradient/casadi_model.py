@@ -378,7 +378,7 @@ class CasadiModel:
         """[-] A static buildability rule's usage (:func:`hisopt.coupled.buildability.static_rule_elements`)."""
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
         model = CoupledModel(self.problem.vehicle, self.problem.hydraulic_system(params))
-        elements, limit = static_rule_elements(model, self.problem.spec.build.limits())[name]
+        elements, limit = static_rule_elements(model, self.problem.spec.build_limits)[name]
         return symbolic_usage(name, elements, limit)
 
     def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool, transient: Any = None) -> dict[str, ca.MX]:
