@@ -169,3 +169,28 @@ def test_overdamped_wheels_give_their_root_with_the_most_wheel_energy():
     share = energy[3:] / energy.sum(0)
     expected = np.abs(lam[real][np.argmax(share, axis=1)]) / (2 * np.pi)
     np.testing.assert_allclose(frequency[0], expected, rtol=1e-9)
+
+
+def test_without_pipes_the_names_are_the_cars_energy_and_the_optimal_assignment(problem, rng):
+    # the paper's problem has no pipes: the rigid-oil motion is the car's own, and the greedy
+    # fill gives the names of an optimal assignment of modes to the seven places (the rule
+    # before the oil came in) on every design
+    from scipy.optimize import linear_sum_assignment
+
+    from hisopt.coupled.mode_energy import mode_set, motion_coordinates
+
+    x = random_designs(problem, 30, rng)
+    modes = mode_set(problem.model(x))
+    mass = np.diag(problem.model(x[:1]).mass)
+    np.testing.assert_array_equal(modes.u, motion_coordinates(modes.vec[:, 7:14, :], mass))
+    groups = [(0, 2), (1,), (0, 2), (3, 5), (4, 6), (3, 5), (4, 6)]  # the motions of each name of MODE_NAMES
+    for d in range(len(x)):
+        keep = np.flatnonzero(modes.oscillating[d])
+        energy = np.abs(modes.u[d][:, keep]) ** 2
+        score = np.array([energy[list(g)].sum(0) / energy.sum(0) for g in groups])
+        places, chosen = linear_sum_assignment(-score)
+        group_of = {int(keep[c]): groups[p] for p, c in zip(places, chosen, strict=True)}
+        for c, g in group_of.items():
+            slot = modes.slots[d, c]
+            assert slot >= 0 and groups[slot] == g, (d, c)
+        assert (modes.slots[d][~np.isin(np.arange(modes.slots.shape[1]), list(group_of))] < 0).all()

@@ -301,11 +301,14 @@ def mode_set(model: CoupledModel, tol: float = 1e-8) -> ModeSet:
     v = vec[:, 7:14, :]
     inertance = weights[:, states]  # (b, k)
     q = vec[:, states, :]
-    t_l = np.swapaxes(flows, 1, 2) * inertance[:, None, :]  # (b, 7, k)
-    m_eff = mass[:, :, None] * np.eye(7) + t_l @ flows
-    rigid = np.linalg.solve(m_eff, mass[:, :, None] * v + t_l @ q)  # the projection in the energy inner product
-    projected = np.einsum("bim,bij,bjm->bm", rigid.conj(), m_eff, rigid).real
-    eff = np.diagonal(m_eff, axis1=1, axis2=2)
+    if states.size:
+        t_l = np.swapaxes(flows, 1, 2) * inertance[:, None, :]  # (b, 7, k)
+        m_eff = mass[:, :, None] * np.eye(7) + t_l @ flows
+        rigid = np.linalg.solve(m_eff, mass[:, :, None] * v + t_l @ q)  # the projection in the energy inner product
+        projected = np.einsum("bim,bij,bjm->bm", rigid.conj(), m_eff, rigid).real
+        eff = np.diagonal(m_eff, axis1=1, axis2=2)
+    else:  # no oil that moves: the car's own motion and masses
+        rigid, projected, eff = v, total, mass
     u = motion_coordinates(rigid, eff)
     relative = np.clip(total - projected, 0.0, None)
     budget = (np.abs(u) ** 2).sum(1) + relative
