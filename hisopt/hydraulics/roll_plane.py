@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_serializer, model_valid
 from hisopt.hydraulics import laws
 from hisopt.hydraulics.charge import REFERENCE_TEMPERATURE, Charge
 from hisopt.hydraulics.coupling import HydraulicSystem
-from hisopt.hydraulics.fluid import Fluid, Oil, thermal_ratios
+from hisopt.hydraulics.fluid import Fluid, Oil, fluid_oil_problem, oil_fluid, thermal_ratios
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
 from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
@@ -153,6 +153,19 @@ class RollPlaneHIS(BaseModel):
         return self
 
     @model_validator(mode="after")
+    def _one_oil(self) -> RollPlaneHIS:
+        # [his.fluid]'s density and viscosity are the oil's at the reference temperature
+        # (docs/model.md §16.1): given, they must agree; not given, they are taken from it.
+        reference = reference_temperature(self)
+        if self.oil.temperature_problem(reference):  # refused by the problem's temperature check, with its key
+            return self
+        problem = fluid_oil_problem(self.fluid, self.oil, reference)
+        if problem:
+            raise ValueError(problem)
+        object.__setattr__(self, "fluid", oil_fluid(self.fluid, self.oil, reference))  # frozen: set once, while validated
+        return self
+
+    @model_validator(mode="after")
     def _distributed_needs_pipes(self) -> RollPlaneHIS:
         if self.pipe_model == "distributed" and self.pipes is None:
             raise ValueError("pipe_model = 'distributed' needs a [his.pipes] layout")
@@ -260,7 +273,9 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
         } | {k: v for k, v in (overrides or {}).items() if k.startswith("pipe_")}
     thermal = thermal_parameters(base, temperature)
     values |= thermal
-    values |= {"rho": base.fluid.rho * thermal["density_ratio"], "mu": base.fluid.mu * thermal["viscosity_ratio"], "beta": base.fluid.beta}
+    fluid = oil_fluid(base.fluid, base.oil, reference_temperature(base))  # as validated; here for a model_copy's [his]
+    assert fluid.rho is not None and fluid.mu is not None
+    values |= {"rho": fluid.rho * thermal["density_ratio"], "mu": fluid.mu * thermal["viscosity_ratio"], "beta": fluid.beta}
     if base.charge is not None:
         values["gas_fraction"] = base.charge.gas_fraction
         values["charge_oil_volume"] = base.charge.oil_volume
