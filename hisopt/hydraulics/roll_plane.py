@@ -41,9 +41,11 @@ class PipeLayout(BaseModel):
 
 
 SEPARATOR_RATINGS = {"diaphragm": 8.0, "bladder": 4.0}
-"""[-] Largest ratio of absolute working pressure to precharge by gas separator: a bladder
-folds and wears beyond about 4, a diaphragm about 8 (accumulator makers' selection guides,
-e.g. HYDAC's; a part's data sheet gives its own, ``[his] pressure_rating``)."""
+"""[-] Largest ratio of working pressure to precharge (gauge, docs/model.md §16.8) by gas
+separator: a bladder folds and wears beyond about 4, a diaphragm about 8 (accumulator makers'
+selection guides: HST, Parker, Stauff; a size's own is in the accumulator catalogue,
+:func:`hisopt.hydraulics.parts_catalogue.accumulator_rating`; a part's data sheet gives its
+own, ``[his] pressure_rating``)."""
 
 
 class RollPlaneHIS(BaseModel):
@@ -97,8 +99,14 @@ class RollPlaneHIS(BaseModel):
     pressure_rating: float | None = Field(
         None,
         gt=1,
-        description="largest ratio of absolute working pressure to precharge the accumulators are rated for (None: the separator's, SEPARATOR_RATINGS)",
+        description="largest ratio of working pressure to precharge (gauge) the accumulators are rated for (None: the separator's, SEPARATOR_RATINGS)",
         json_schema_extra=si("-"),
+    )
+    max_working_pressure: float | None = Field(
+        None,
+        gt=0,
+        description="largest working pressure (gauge) the accumulators are rated for (None: their catalogue size's, accumulator_rating)",
+        json_schema_extra=si("Pa"),
     )
     fluid: Fluid = Field(default_factory=Fluid)
     oil: Oil = Field(default_factory=Oil)
