@@ -31,16 +31,22 @@ def random_designs(problem: hisopt.Problem, n: int, rng: np.random.Generator, co
     return x
 
 
-def every_quantity(steps: bool = True, swing: bool = False) -> tuple[list[str], list[dict[str, object]]]:
+RATING_QUANTITIES = ("static_pressure_ratio", "pressure_rating_usage")
+"""The accumulator rating quantities: +inf (a failed design) at a zero gauge precharge, a
+corner of the paper's box (docs/model.md §16.8)."""
+
+
+def every_quantity(steps: bool = True, swing: bool = False, rating: bool = False) -> tuple[list[str], list[dict[str, object]]]:
     """Objectives and constraints of a problem that evaluates every registered quantity: those
     that may be minimised as objectives, the others as constraints with a limit never met
     (``steps=False``: without the step-response quantities, docs/model.md §6.6; ``swing``:
-    with ``accumulator_swing``, which only a charged HIS has, §16.9)."""
+    with ``accumulator_swing``, which only a charged HIS has, §16.9; ``rating``: with
+    :data:`RATING_QUANTITIES`, which fail a design without precharge, §16.8)."""
     from hisopt.evaluation.transient import STEP_NAMES
     from hisopt.metrics import METRICS
 
     objectives = [name for name, m in METRICS.items() if m.objective and (steps or name not in STEP_NAMES) and (swing or m.kind != "swing")]
-    return objectives, [{"name": name, "limit": 1e-12} for name, m in METRICS.items() if not m.objective]
+    return objectives, [{"name": name, "limit": 1e-12} for name, m in METRICS.items() if not m.objective and (rating or name not in RATING_QUANTITIES)]
 
 
 def _summary_lines() -> list[str]:
