@@ -114,9 +114,10 @@ def test_a_fluid_within_the_tolerance_is_the_given_one():
 
 # The parts problem's baseline (50/36 mm cylinders, 1 L accumulators, -8 hoses) with its own oil
 # (0.0752 Pa s at 20 C) against the old default 0.03 Pa s at the same density: the hoses damp
-# 2.5 times more. Measured (this file's first version): -26.14 % and -37.62 %. Budget: both
-# numbers are ratios of two peaks on the same frequency grid, so the grid's error cancels to
-# first order; half a percentage point covers a change of the grid or solver settings.
+# 2.5 times more. Measured (this file's first version): -26.14 % and -37.62 %; the converged
+# reference grid (hisopt.evaluation.reference) gives the same within 4e-5 points. Budget: the
+# evaluator's contract is 1e-3 relative on each quantity (docs/model.md §10.7), so at most 2e-3
+# on a ratio near 0.7, 0.15 points; pinned to 0.2.
 HOSE_OIL_CHANGE = {"max_stroke_psd": -26.14, "max_tire_load_psd": -37.62}
 
 
@@ -128,4 +129,4 @@ def test_the_parts_hoses_damp_with_their_own_oil():
     old = Problem(problem.spec.model_copy(update={"his": thin}), problem.path)
     now, before = (p.evaluate(np.atleast_2d(problem.baseline), log=False) for p in (problem, old))
     for name, change in HOSE_OIL_CHANGE.items():
-        assert 100.0 * (float(now[name].iloc[0]) / float(before[name].iloc[0]) - 1.0) == pytest.approx(change, abs=0.5), name
+        assert 100.0 * (float(now[name].iloc[0]) / float(before[name].iloc[0]) - 1.0) == pytest.approx(change, abs=0.2), name
