@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import hisopt
-from hisopt.hydraulics.parts_catalogue import BLADDER_RATIO, accumulator_rating, shipped_accumulator_ratings
+from hisopt.hydraulics.parts_catalogue import BLADDER_RATIO, accumulator_rating, his_accumulator_rating, shipped_accumulator_ratings
 from hisopt.problem import problem_from_dict
 from hisopt.specification.catalogues import catalogue_accumulator_ratings
 from tests.cli_inprocess import assert_one_line, run_cli
@@ -67,10 +67,15 @@ def test_a_bladder_and_the_problems_own_values_replace_the_catalogues():
         accumulator_rating(1e-3, "piston")
 
 
-def test_max_working_pressure_is_read_in_its_unit():
-    text = PARTS.read_text(encoding="utf-8").replace('separator = "diaphragm"', 'separator = "diaphragm"\nmax_working_pressure = "210 bar"')
-    spec = problem_from_dict(tomllib.loads(text), str(PARTS), warn_implausible=False).spec
-    assert spec.his.max_working_pressure == pytest.approx(2.1e7, rel=1e-15)
+def test_max_working_pressure_is_read_in_its_unit_and_overrides_the_size():
+    text = PARTS.read_text(encoding="utf-8").replace('separator = "diaphragm"', 'separator = "bladder"\nmax_working_pressure = "210 bar"')
+    his = problem_from_dict(tomllib.loads(text), str(PARTS), warn_implausible=False).spec.his
+    assert his.max_working_pressure == pytest.approx(2.1e7, rel=1e-15)
+    ratio, pressure = his_accumulator_rating(his, np.array([1.4e-3, 2.8e-3]))
+    np.testing.assert_array_equal(ratio, [4.0, 4.0])
+    np.testing.assert_allclose(pressure, [2.1e7, 2.1e7], rtol=1e-15)
+    ratio, _ = his_accumulator_rating(his.model_copy(update={"pressure_rating": 3.0}), 1.4e-3)
+    assert ratio == 3.0
 
 
 def write_problem(tmp_path: Path, csv: str) -> Path:

@@ -19,12 +19,15 @@ import re
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hisopt.errors import ConfigError
 from hisopt.quantities import unit_factor
+
+if TYPE_CHECKING:
+    from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
 _HEADER = re.compile(r"\s*(?P<label>[^\[\]]*?)\s*\[(?P<unit>[^\[\]]*)\]\s*")
 
@@ -186,3 +189,9 @@ def accumulator_rating(
     ratio = np.where(bought, sized, np.nan) if pressure_rating is None else np.full(volume.shape, float(pressure_rating))
     pressure = np.where(bought, ratings.pressures[at], np.nan) if max_working_pressure is None else np.full(volume.shape, float(max_working_pressure))
     return ratio, pressure
+
+
+def his_accumulator_rating(his: RollPlaneHIS, volume_m3: Any, ratings: AccumulatorRatings | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """[-], [Pa] :func:`accumulator_rating` of a ``[his]`` table: its ``separator``, and its
+    ``pressure_rating`` and ``max_working_pressure`` where given."""
+    return accumulator_rating(volume_m3, his.separator, ratings, pressure_rating=his.pressure_rating, max_working_pressure=his.max_working_pressure)
