@@ -7,13 +7,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hisopt.coupled.operating_point import accumulator_quantities
 from hisopt.evaluation.channels import DirectOutputs
 from hisopt.evaluation.evaluate import Evaluator
 from hisopt.evaluation.reference import converged_grid, grid_quantities
 from hisopt.linalg import join
 from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
-from tests.conftest import every_quantity, random_designs
+from tests.conftest import RATING_QUANTITIES, every_quantity, random_designs
 from tests.error_budget import assert_discriminating, pole_budget, solve_budget
 
 REFERENCE = {  # docs/model.md §7.1 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
@@ -100,7 +101,14 @@ def test_nan_free_over_whole_box_without_warnings(all_metrics_problem, rng):
     assert q["valid"].all()
     for name in p.evaluator().names:
         assert np.all(np.isfinite(q[name])) and np.all(q[name] > 0), name
-    assert set(p.evaluator().names) == {name for name, m in METRICS.items() if m.kind not in ("swing", "build")}  # all but the charged HIS's
+    # all but the charged HIS's and the rating's, +inf at p0 = 0 (docs/model.md §16.8), checked here alone
+    assert set(p.evaluator().names) == {name for name, m in METRICS.items() if m.kind not in ("swing", "build") and name not in RATING_QUANTITIES}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rating = accumulator_quantities(p.model(np.vstack([x, edges, lo, hi])).his)
+    at_zero = np.vstack([x, edges, lo, hi])[:, 0] == 0.0
+    for name in RATING_QUANTITIES:
+        assert np.all(rating[name][at_zero] == np.inf) and np.all(np.isfinite(rating[name][~at_zero])) and np.any(at_zero), name
 
 
 def test_singular_designs_give_nan_and_never_raise(problem):

@@ -73,6 +73,11 @@ if TYPE_CHECKING:
     from hisopt.specification.design_space import DesignSpace, Inputs
 
 
+BEYOND_RATING = frozenset(m.name for m in METRICS.values() if not m.objective or m.kind == "build")
+"""Quantities whose +inf is a value, not a failure: a ratio over a rating of zero (an
+accumulator without gauge precharge is rated for nothing, docs/model.md §16.8, §21.2), which no
+constraint admits."""
+
 MEASURED = "measured:"
 """Prefix of an evaluation's band RMS of an output among :attr:`Evaluator.rms_outputs` (the
 damper valves' flows a design was evaluated at), dropped before :meth:`Evaluator.shared` returns."""
@@ -351,7 +356,7 @@ class Evaluator:
         out = []
         for ev, prior in zip(evaluators, shared, strict=True):
             values = ev.quantities(lam, channels, model, prior, steps)
-            finite = [np.isfinite(v) for k, v in values.items() if k not in self.unread]
+            finite = [np.isfinite(v) | ((v == np.inf) & (k in BEYOND_RATING)) for k, v in values.items() if k not in self.unread]
             out.append((values, stable & np.all(finite, axis=0)))
         return out
 

@@ -564,7 +564,7 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     value = err.get("input")
     head, colon, rest = msg.partition(": ")
-    if err["type"] == "value_error" and colon and key and head in _allowed_keys(err["loc"]):  # a table's validator naming its key
+    if err["type"] == "value_error" and colon and key and head.split(".")[0] in _allowed_keys(err["loc"]):  # a table's validator naming its key
         return f"{key}.{head}", rest
     if err["type"] == "extra_forbidden":
         allowed = _allowed_keys(err["loc"][:-1])

@@ -82,7 +82,7 @@ def verdicts(cases: list[CaseRules]) -> pd.DataFrame:
     quantity) and :data:`VERDICT_COLUMNS`."""
     usage = {name: np.max(np.stack([c.rules[name].usage for c in cases]), axis=0) for name in RULES}
     table = np.stack(list(usage.values()), axis=-1)
-    evaluated = np.all(np.isfinite(table), axis=-1)
+    evaluated = ~np.any(np.isnan(table), axis=-1)  # +inf: beyond a rating of zero, judged
     worst = np.where(evaluated, np.max(np.where(evaluated[:, None], table, 0.0), axis=-1), np.nan)
     binding = np.array(list(RULES), dtype=object)[np.argmax(np.where(evaluated[:, None], table, -np.inf), axis=-1)]
     frame = pd.DataFrame(usage)
