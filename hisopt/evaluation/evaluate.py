@@ -23,8 +23,7 @@ from hisopt.coupled.operating_point import accumulator_quantities, accumulator_r
 from hisopt.coupled.response import Output, accumulator_outputs, port_pressure_outputs, standard_outputs, stroke_rate_outputs, valve_flow_outputs
 from hisopt.errors import ModelError
 from hisopt.evaluation import psd as psd_kernels
-from hisopt.evaluation.build_rules import road_outputs, rule_names, rule_values
-from hisopt.evaluation.build_rules import usages as build_usages
+from hisopt.evaluation.build_rules import RuleQuantities
 from hisopt.evaluation.channels import (
     Channels,
     DirectOutputs,
@@ -151,11 +150,9 @@ class Evaluator:
             | port_pressure_outputs(self.n_accumulators, len(network.flow_valves()), len(network.ports))
             | stroke_rate_outputs(problem.vehicle)
         )
-        self.build_rules = rule_names(self.metrics)
+        self.build = RuleQuantities(problem, self.metrics)
         """The buildability rules the metrics need (docs/model.md §21)."""
-        self.build_limits = spec.build_limits
-        self.build_outputs = road_outputs(network, self.build_rules)
-        """Outputs whose band RMS the rules read (the chambers' and accumulators' pressures, the strokes' rates)."""
+        self.build_outputs = self.build.outputs
         solved = bool(network.solved_valves()) and names is None  # this load case's evaluator: it measures the flows it is built at
         self.rms_outputs = tuple(rms_outputs) or (tuple(valve_flow_names_of(problem)) if solved else ())
         """Outputs whose band RMS this evaluator integrates besides the metrics' (the valves'
@@ -543,23 +540,8 @@ class Evaluator:
             lambda name: static_quantity(model, name, self.problem.spec.handling.gravity_moment),
             steps.__getitem__,
             lambda: accumulator_rooms(model.his) if model.his is not None else [],
-            self._build_usages(model, len(lam), integral),
+            self.build.of(model, len(lam), integral),
         )
-
-    def _build_usages(self, model: CoupledModel, n: int, integral: Any) -> Any:
-        """The ``build`` callback of :func:`~hisopt.evaluation.psd.reduce_metrics`: every rule
-        computed once, on the first quantity asked for (:mod:`hisopt.evaluation.build_rules`)."""
-        done: dict[str, np.ndarray] = {}
-
-        def build(name: str) -> np.ndarray:
-            if not done:
-                if model.his is None:
-                    return np.full(n, np.nan)
-                rms = (lambda o: np.sqrt(np.maximum(integral(o, None), 0.0))) if self.build_outputs else None
-                done.update(build_usages(rule_values(model, self.build_limits, self.build_rules, rms), n))
-            return done[name]
-
-        return build
 
     def output_spectra(self, model: CoupledModel, names: Sequence[str], f_hz: np.ndarray) -> np.ndarray:
         """One-sided PSDs ``(n, F, len(names))`` of the outputs ``names`` (of

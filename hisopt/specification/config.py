@@ -27,6 +27,7 @@ from pydantic import (
     model_validator,
 )
 
+from hisopt.coupled.buildability import BuildLimits
 from hisopt.coupled.payload import Payload, laden_problem
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.catalogue import PIPE_PARAMETERS, his_layout, layout_defaults, layout_problem, used_parameters
@@ -35,7 +36,6 @@ from hisopt.hydraulics.roll_plane import RollPlaneHIS
 from hisopt.metrics import METRICS
 from hisopt.plausibility import cylinder_box_problem, given_warnings, rule_reason, speed_problem, warn
 from hisopt.quantities import field_unit, has_unit, si
-from hisopt.coupled.buildability import BuildLimits
 from hisopt.specification.build_settings import Build
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.text_files import read_file

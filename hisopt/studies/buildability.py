@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.coupled.buildability import RULES, RuleValue
-from hisopt.evaluation.build_rules import road_outputs, rule_values
+from hisopt.evaluation.build_rules import catalogue_rating, road_outputs, rule_values
 from hisopt.studies.damper_valves import load_cases
 from hisopt.units import NO_UNIT
 
@@ -61,9 +61,10 @@ def case_rules(space: DesignSpace, x: np.ndarray) -> dict[str, RuleValue]:
     outputs = road_outputs(space.network(), tuple(RULES))
     evaluator = Evaluator(space, names=(), rms_outputs=outputs)
     limits = space.spec.build_limits
+    rating = catalogue_rating(space)
     for group, sub in model.groups():
         rms = evaluator.output_rms(sub, outputs)
-        got = rule_values(sub, limits, tuple(RULES), lambda o, rms=rms: rms[:, outputs.index(o)])  # type: ignore[misc]
+        got = rule_values(sub, limits, tuple(RULES), lambda o, rms=rms: rms[:, outputs.index(o)], rating)  # type: ignore[misc]
         target = rows[np.asarray(group)]
         for name, value in got.items():
             for part in ("value", "limit", "usage"):
