@@ -346,3 +346,22 @@ def test_a_rule_with_an_uncertain_road_roughness_is_refused(tmp_path):
     result = run_cli("evaluate", str(path))
     assert result.code == 2 and len(result.stderr.strip().splitlines()) == 1
     assert "no factor of an uncertain road.class scales it" in result.stderr
+
+
+def test_one_design_without_an_operating_point_does_not_blank_its_batch():
+    """The flagship's cold corner: 19 mm hoses' oil contracts more than a 0.16 L accumulator
+    holds, so that design has no operating point at -20 C; the valves' fixed point and the
+    rules of the other designs of its batch are still evaluated (design by design when the
+    batch's linear algebra refuses it)."""
+    from hisopt.problem import load_problem
+    from hisopt.studies.buildability import case_rules
+
+    problem = load_problem(ROOT / "problems" / "his_buildable.toml", warn_implausible=False)
+    winter = problem.scenario_space("winter_city")
+    x = problem.design_matrix([[3e5, 0.032, 0.012, 0.16e-3, 6.3e-3, 1e-3, 1e5], [3e5, 0.032, 0.012, 0.16e-3, 19e-3, 1e-3, 1e5]])
+    alone = winter.evaluator()(x[[0]])
+    both = winter.evaluator()(x)
+    assert list(both["valid"]) == [True, False]
+    assert both["sigma_aw"][0] == pytest.approx(alone["sigma_aw"][0], rel=1e-9)
+    rules = case_rules(winter, x)
+    assert np.isfinite(rules["strut_load_usage"].usage[0]) and np.isnan(rules["strut_load_usage"].usage[1])

@@ -257,17 +257,34 @@ def _at_flows(model: CoupledModel, names: list[str], flows: np.ndarray) -> Coupl
 
 
 def _flow_rms(evaluator: FlowIntegrator, model: CoupledModel, outputs: list[str]) -> np.ndarray:
-    """[m^3/s] The valves' band RMS flows ``(n, len(outputs))`` of a batch of models (NaN for a
-    design whose model is unstable, singular or untrusted)."""
+    """[m^3/s] The valves' band RMS flows ``(n, len(outputs))`` of a batch of models
+    (:func:`band_rms`)."""
+    return band_rms(evaluator, model, outputs)
+
+
+def band_rms(evaluator: FlowIntegrator, model: CoupledModel, outputs: Sequence[str]) -> np.ndarray:
+    """The band RMS of ``outputs`` ``(n, len(outputs))`` of a batch of models, NaN for a design
+    whose model is unstable, singular, untrusted or not built (an accumulator without oil at
+    rest): a batch the linear algebra refuses as a whole (one design's NaN matrix) is done
+    design by design, so that one design does not blank the others."""
     assert model.his is not None
-    out = np.full((int(np.prod(model.his.batch_shape)), len(outputs)), np.nan)
+    n = int(np.prod(model.his.batch_shape))
+    out = np.full((n, len(outputs)), np.nan)
     try:
         groups = model.groups()
     except (ModelError, np.linalg.LinAlgError, ValueError):
+        groups = None
+    if groups is None:
+        if n == 1:
+            return out
+        for i in range(n):
+            out[i] = band_rms(evaluator, model.subset(np.array([i])), outputs)[0]
         return out
     for rows, group in groups:
         try:
             out[rows] = evaluator.output_rms(group, outputs)
         except (np.linalg.LinAlgError, ModelError):
-            continue
+            if len(rows) > 1:
+                for j, i in enumerate(np.asarray(rows)):
+                    out[i] = band_rms(evaluator, group.subset(np.array([j])), outputs)[0]
     return out

@@ -45,6 +45,7 @@ def case_rules(space: DesignSpace, x: np.ndarray) -> dict[str, RuleValue]:
     row breaking a parameter's rule, whose valves have no fixed point or whose model is
     unstable."""
     from hisopt.evaluation.evaluate import Evaluator
+    from hisopt.evaluation.valve_flows import band_rms
     from hisopt.evaluation.valve_states import valve_states
     from hisopt.specification.validation import STATUS_INVALID, check_designs
 
@@ -62,13 +63,16 @@ def case_rules(space: DesignSpace, x: np.ndarray) -> dict[str, RuleValue]:
     evaluator = Evaluator(space, names=(), rms_outputs=outputs)
     limits = space.spec.build_limits
     rating = catalogue_rating(space)
-    for group, sub in model.groups():
-        rms = evaluator.output_rms(sub, outputs)
-        got = rule_values(sub, limits, tuple(RULES), lambda o, rms=rms: rms[:, outputs.index(o)], rating)  # type: ignore[misc]
-        target = rows[np.asarray(group)]
-        for name, value in got.items():
-            for part in ("value", "limit", "usage"):
-                getattr(out[name], part)[target] = np.broadcast_to(getattr(value, part), (len(target),))
+    rms = band_rms(evaluator, model, outputs)
+    good = np.all(np.isfinite(rms), axis=1)  # NaN: unstable, or no operating point (an accumulator without oil)
+    if not good.any():
+        return out
+    sub = model.subset(np.flatnonzero(good))
+    got = rule_values(sub, limits, tuple(RULES), lambda o: rms[good][:, outputs.index(o)], rating)
+    target = rows[good]
+    for name, value in got.items():
+        for part in ("value", "limit", "usage"):
+            getattr(out[name], part)[target] = np.broadcast_to(getattr(value, part), (len(target),))
     return out
 
 
