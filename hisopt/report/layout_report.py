@@ -16,6 +16,7 @@ import numpy as np
 from hisopt.plotting.axes import log_axis
 from hisopt.plotting.theme import COLORS, template
 from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.studies.buildability import BUILDABLE, VERDICT_COLUMNS
 from hisopt.units import display_for, display_frame, format_quantity
 
 if TYPE_CHECKING:
@@ -23,6 +24,12 @@ if TYPE_CHECKING:
 
     from hisopt.studies.layout_study import LayoutStudyResult
 
+VERDICT_NOTE = (
+    "buildable, binding_rule, build_margin: the buildability verdict (docs/model.md §21) of each layout's design at the limit, "
+    "the one its sigma_aw_at_limit and best_<variable> columns give; every rule is judged in every load case, whether or not the "
+    "problem constrains it (build_margin: 1 minus the binding rule's usage). The ranking does not use it."
+)
+"""What the verdict columns of a ranking judge (the layout and synthesis reports say it)."""
 _GRID_CSS = ".schematics{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}"
 
 
@@ -187,15 +194,18 @@ def table_html(result: LayoutStudyResult) -> str:
         "gain_vs_roll_plane_pct",
         "handling_least",
         "at_limit",
+        *VERDICT_COLUMNS,
     ]
     second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c in ("stiffness_coupling", "damper_valves")]
     first = [c for c in first if c in t]  # a table of an older hisopt lacks handling_least and at_limit
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
     shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
-    labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]", "damper_valves [-]")
+    shown[0] = shown[0].replace("", "–")  # its binding_rule: empty here, NaN read back from layouts.csv
+    labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]", "damper_valves [-]", "buildable [-]", "binding_rule [-]")
     return (
         '<div style="overflow-x:auto">'
         + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
+        + (f'<p class="meta">{html.escape(VERDICT_NOTE)}</p>' if BUILDABLE in t else "")
         + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit", text_columns=labels)
         + "</div>"
     )

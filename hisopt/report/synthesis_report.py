@@ -1,7 +1,7 @@
 """``DIR/report.html`` of a topology synthesis (:mod:`hisopt.studies.synthesis`): one offline page.
 
 The candidates per element count and what the screen kept, the ranking of the optimised
-layouts at equal handling, the schematics of the best ten and their trade-off curves (best
+layouts at equal handling (with the buildability verdict of each one's design at the limit), the schematics of the best ten and their trade-off curves (best
 comfort against the handling limit); engineering units throughout. The layout study of the
 survivors keeps its own fuller report in ``DIR/study/report.html``.
 """
@@ -12,7 +12,9 @@ import html
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from hisopt.report.layout_report import VERDICT_NOTE
 from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.studies.buildability import BUILDABLE, VERDICT_COLUMNS
 from hisopt.units import display_frame, format_quantity
 
 if TYPE_CHECKING:
@@ -55,6 +57,7 @@ def _ranking_html(result: SynthesisResult) -> str:
         "sigma_aw_at_limit",
         "handling_at_best",
         "gain_vs_roll_plane_pct",
+        *VERDICT_COLUMNS,
         "hv_mean",
         "hv_std",
         "k_bounce",
@@ -66,7 +69,7 @@ def _ranking_html(result: SynthesisResult) -> str:
     return html_table(
         shown,
         "Optimised layouts, best gain in comfort over roll_plane at equal handling first",
-        text_columns=("layout [-]", "catalogue [-]", "description [-]"),
+        text_columns=("layout [-]", "catalogue [-]", "description [-]", "buildable [-]", "binding_rule [-]"),
     )
 
 
@@ -95,6 +98,7 @@ def write_synthesis_report(result: SynthesisResult, path: str | Path | None = No
             "than the paper's roll-plane layout there. Each layout's problem file is in layouts/; the study of the survivors, with its fronts, "
             'attainment and decision room, is <a href="study/report.html">study/report.html</a>.</p>',
             '<div style="overflow-x:auto">' + _ranking_html(result) + "</div>",
+            f'<p class="meta">{html.escape(VERDICT_NOTE)}</p>' if BUILDABLE in result.layouts else "",
             f"<h2>The best {min(BEST_SHOWN, len(result.layouts))}</h2>",
             f'<div class="schematics">{cells}</div>',
             "<h2>Trade-off: best comfort against the handling limit</h2>",
