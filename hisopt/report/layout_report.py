@@ -177,7 +177,8 @@ def attainment_figure(result: LayoutStudyResult) -> go.Figure:
 
 
 def table_html(result: LayoutStudyResult) -> str:
-    """``layouts.csv`` in engineering units, split into the comparison and the layouts' data."""
+    """``layouts.csv`` in engineering units, split into the comparison, the buildability of each
+    layout's design at the limit (a table of an older hisopt has none) and the layouts' data."""
     t = result.table
     first = [
         "layout",
@@ -194,21 +195,31 @@ def table_html(result: LayoutStudyResult) -> str:
         "gain_vs_roll_plane_pct",
         "handling_least",
         "at_limit",
-        *VERDICT_COLUMNS,
     ]
     second = ["layout", "variables"] + [c for c in t.columns if c.startswith(("k_", "c_", "best_")) or c in ("stiffness_coupling", "damper_valves")]
     first = [c for c in first if c in t]  # a table of an older hisopt lacks handling_least and at_limit
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
     shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
-    shown[0] = shown[0].replace("", "–")  # its binding_rule: empty here, NaN read back from layouts.csv
     labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]", "damper_valves [-]", "buildable [-]", "binding_rule [-]")
     return (
         '<div style="overflow-x:auto">'
         + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
-        + (f'<p class="meta">{html.escape(VERDICT_NOTE)}</p>' if BUILDABLE in t else "")
+        + verdict_html(t, labels)
         + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit", text_columns=labels)
         + "</div>"
     )
+
+
+def verdict_html(table: Any, text_columns: tuple[str, ...]) -> str:
+    """The buildability verdict of each ranked layout's design at the limit (``table``: the
+    layout study's or the synthesis's ranking) with :data:`VERDICT_NOTE`; ``""`` for a table
+    written before hisopt judged it."""
+    if BUILDABLE not in table:
+        return ""
+    columns = [c for c in ("layout", "sigma_aw_at_limit", "gain_vs_roll_plane_pct", *VERDICT_COLUMNS) if c in table]
+    shown = display_frame(table[columns]).replace({"nan": "–", "": "–"})  # no design at the limit: empty here, NaN read back
+    caption = "Buildability of each layout's design at the limit (every rule, constrained or not)"
+    return html_table(shown, caption, text_columns=text_columns) + f'<p class="meta">{html.escape(VERDICT_NOTE)}</p>'
 
 
 def write_layout_report(result: LayoutStudyResult, path: str | Path | None = None) -> Path:

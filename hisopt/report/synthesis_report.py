@@ -12,9 +12,8 @@ import html
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hisopt.report.layout_report import VERDICT_NOTE
+from hisopt.report.layout_report import verdict_html
 from hisopt.report.tables import REPORT_CSS, html_table
-from hisopt.studies.buildability import BUILDABLE, VERDICT_COLUMNS
 from hisopt.units import display_frame, format_quantity
 
 if TYPE_CHECKING:
@@ -57,7 +56,6 @@ def _ranking_html(result: SynthesisResult) -> str:
         "sigma_aw_at_limit",
         "handling_at_best",
         "gain_vs_roll_plane_pct",
-        *VERDICT_COLUMNS,
         "hv_mean",
         "hv_std",
         "k_bounce",
@@ -69,7 +67,7 @@ def _ranking_html(result: SynthesisResult) -> str:
     return html_table(
         shown,
         "Optimised layouts, best gain in comfort over roll_plane at equal handling first",
-        text_columns=("layout [-]", "catalogue [-]", "description [-]", "buildable [-]", "binding_rule [-]"),
+        text_columns=("layout [-]", "catalogue [-]", "description [-]"),
     )
 
 
@@ -98,7 +96,7 @@ def write_synthesis_report(result: SynthesisResult, path: str | Path | None = No
             "than the paper's roll-plane layout there. Each layout's problem file is in layouts/; the study of the survivors, with its fronts, "
             'attainment and decision room, is <a href="study/report.html">study/report.html</a>.</p>',
             '<div style="overflow-x:auto">' + _ranking_html(result) + "</div>",
-            f'<p class="meta">{html.escape(VERDICT_NOTE)}</p>' if BUILDABLE in result.layouts else "",
+            verdict_html(result.layouts, ("layout [-]", "buildable [-]", "binding_rule [-]")),
             f"<h2>The best {min(BEST_SHOWN, len(result.layouts))}</h2>",
             f'<div class="schematics">{cells}</div>',
             "<h2>Trade-off: best comfort against the handling limit</h2>",
