@@ -140,27 +140,31 @@ def test_the_cylinder_rules_by_hand():
 
 def test_the_cornering_swing_balances_the_roll_moment(rng):
     """The body's roll equation at the cornering point: the springs' and the fluid's moments
-    about the CG carry ``m_s a_y h_0s``; the fluid's from ``f = -N^T dp``."""
+    carry the lateral force's ``m_s a_y h_0s`` plus the weight's ``m_s g h_0s phi`` (the
+    gravity moment, with the default ``[handling]``); the fluid's from ``f = -N^T dp``."""
     problem = problem_from_dict(charged(), warn_implausible=False)
     x = random_designs(problem, 6, rng, corners=False)
     model = problem.model(x)
     v = problem.vehicle
-    dp = b.cornering_swing(model, 1.0)  # magnitudes
+    dp = b.cornering_swing(model, 1.0, True)  # magnitudes, at 1 g
     k = model.stiffness()
+    k[:, 1, 1] -= v.m_s * G_MPS2 * v.h_0s
     load = np.zeros((len(x), 7, 1))
     load[:, 1, 0] = v.m_s * G_MPS2 * v.h_0s
-    delta = np.einsum("ij,nj->ni", stroke_matrix(v), np.linalg.solve(k, load)[..., 0])
+    motion = np.linalg.solve(k, load)[..., 0]
+    delta = np.einsum("ij,nj->ni", stroke_matrix(v), motion)
     n = np.asarray(model.his.incidence)
-    signed = np.stack([np.einsum("nw,nw->n", n[:, model.his.network.port_circuit == c].sum(axis=1), delta) for c in range(2)], axis=1)
+    net = model.his.network
+    signed = np.stack([np.einsum("nw,nw->n", n[:, net.port_circuit == c].sum(axis=1), delta) for c in range(2)], axis=1)
     from hisopt.hydraulics.network import total_compliance
 
-    compliance = np.stack([total_compliance(model.his.network, model.his.values, c) for c in range(2)], axis=1)
+    compliance = np.stack([total_compliance(net, model.his.values, c) for c in range(2)], axis=1)
     np.testing.assert_allclose(dp, np.abs(signed / compliance), rtol=1e-12)
-    fluid = -np.einsum("npw,np->nw", n, (signed / compliance)[:, model.his.network.port_circuit])
+    fluid = -np.einsum("npw,np->nw", n, (signed / compliance)[:, net.port_circuit])
     springs = -np.array([v.k_sf, v.k_sf, v.k_sr, v.k_sr]) * delta
     lever = np.array([v.t_f, -v.t_f, v.t_r, -v.t_r])  # positive roll lifts the left
     moment = np.einsum("nw,w->n", springs + fluid, lever)
-    np.testing.assert_allclose(moment, -v.m_s * G_MPS2 * v.h_0s, rtol=1e-9)
+    np.testing.assert_allclose(moment, -v.m_s * G_MPS2 * v.h_0s * (1 + motion[:, 1]), rtol=1e-9)
 
 
 def test_the_pressure_rules_by_hand(rng):
@@ -173,7 +177,7 @@ def test_the_pressure_rules_by_hand(rng):
     swing = road_swing_by_hand(problem, model)
     his = model.his
     static = b.circuit_pressures(his)
-    corner = b.cornering_swing(model, LIMITS.cornering_g)
+    corner = b.cornering_swing(model, LIMITS.cornering_g, True)
     port_low = static[:, his.network.port_circuit] - 3 * swing.port_pressure - corner[:, his.network.port_circuit]
     acc_low = static - 3 * swing.oil_volume / his.accumulator_compliances() - corner  # one accumulator per circuit, in circuit order
     precharge = (x[:, [0]] + P_ATM_PA) * his.params.get("gas_temperature_ratio", 1.0)
@@ -190,7 +194,7 @@ def test_the_pressure_rules_by_hand(rng):
     budget = 3 * sigma * 2e-4 / P_ATM_PA
     assert np.all(np.abs(got["pressure_floor_usage"].usage - usage_low) <= budget)
     assert np.all(np.abs(got["pressure_ceiling_usage"].usage - np.max(high / ceiling, axis=1)) <= budget)
-    assert got["pressure_floor_usage"].usage[0] == pytest.approx(0.9979, abs=1e-4)  # the baseline: 0.2 % above 1.1 x its precharge
+    assert got["pressure_floor_usage"].usage[0] == pytest.approx(1.0005, abs=1e-4)  # the baseline: at 1.1 x its precharge (0.05 % below)
 
 
 def _rating(his):
@@ -312,3 +316,33 @@ def test_a_rule_is_judged_in_every_load_case_and_its_worst_constrained(tmp_path)
     assert not df.loc[0, "feasible"]
     hot = problem_from_dict(charged() | {"temperature": 333.15}, warn_implausible=False)
     assert b.static_rules(hot.model(hot.baseline[None]), LIMITS)["strut_load_usage"].value[0] == pytest.approx(1.27, abs=0.005)
+
+
+def test_the_casadi_model_takes_the_static_rules_and_refuses_the_road_ones():
+    pytest.importorskip("casadi")
+    import casadi as ca
+
+    from hisopt.errors import RunError
+    from hisopt.optim.gradient.casadi_model import CasadiModel
+
+    static = problem_from_dict(charged() | {"constraints": [{"name": "strut_load_usage", "limit": 1.0}]}, warn_implausible=False)
+    model = CasadiModel(static, compile=False)
+    x = ca.MX.sym("x", len(static.variable_names))
+    f = ca.Function("f", [x], [model.build_rule(x, "strut_load_usage")])
+    numeric = static.evaluator()(static.baseline[None])["strut_load_usage"][0]
+    assert float(f(static.baseline)) == pytest.approx(numeric, rel=64 * EPS)
+    road = problem_from_dict(charged() | {"constraints": [{"name": "pressure_floor_usage", "limit": 1.0}]}, warn_implausible=False)
+    with pytest.raises(RunError, match="--method slp"):
+        CasadiModel(road)
+
+
+def test_a_rule_with_an_uncertain_road_roughness_is_refused(tmp_path):
+    path = tmp_path / "uncertain.toml"
+    text = (ROOT / "problems" / "roll_plane_his_uncertain.toml").read_text()
+    text += (
+        '\n[[constraints]]\nname = "strut_load_usage"\nlimit = 1.0\n\n[[uncertain]]\ninput = "road.class"\ndistribution = "uniform"\nlower = "B"\nupper = "C"\n'
+    )
+    path.write_text(text)
+    result = run_cli("evaluate", str(path))
+    assert result.code == 2 and len(result.stderr.strip().splitlines()) == 1
+    assert "no factor of an uncertain road.class scales it" in result.stderr

@@ -19,6 +19,7 @@ from pydantic import (
     ConfigDict,
     Field,
     SerializerFunctionWrapHandler,
+    StrictBool,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -26,6 +27,7 @@ from pydantic import (
     model_validator,
 )
 
+from hisopt.coupled.buildability import BuildLimits
 from hisopt.coupled.payload import Payload, laden_problem
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.catalogue import PIPE_PARAMETERS, his_layout, layout_defaults, layout_problem, used_parameters
@@ -38,7 +40,7 @@ from hisopt.specification.build_settings import Build
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.text_files import read_file
 from hisopt.specification.tolerances import parse_tolerances
-from hisopt.specification.uncertain import UncertainInput, resolve_uncertain
+from hisopt.specification.uncertain import ROAD_CLASS, ROAD_ROUGHNESS, UncertainInput, resolve_uncertain
 from hisopt.specification.validation import bounds_problem, design_parameters, implausible_number, switched_off
 from hisopt.specification.valve_checks import damper_valve_problem
 from hisopt.units import format_quantity
@@ -212,9 +214,17 @@ class Robust(_Strict):
 
 
 class Handling(_Strict):
-    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6)."""
+    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6) and the
+    convention of the roll quantities (docs/model.md §6.4)."""
 
     step_g: float = Field(0.4, gt=0, description="lateral-acceleration step of roll_step_peak and roll_rate_peak", json_schema_extra=si("g"))
+    gravity_moment: StrictBool = Field(
+        True,
+        description=(
+            "the body's weight adds m_s g h_0s phi when it rolls by phi about the roll axis: in roll_gradient and the transient roll quantities "
+            "(docs/model.md §6.4); false: the paper's convention, the lateral force's moment alone"
+        ),
+    )
 
 
 class Optimizer(_Strict):
@@ -300,6 +310,11 @@ class ProblemSpec(_Strict):
     robust: Robust = Field(default_factory=Robust)
     uncertain: list[UncertainInput] = Field(default_factory=list)
     synthesis: Synthesis | None = None
+
+    @property
+    def build_limits(self) -> BuildLimits:
+        """``[build]`` as the buildability rules take it, with ``[handling] gravity_moment``."""
+        return self.build.limits(self.handling.gravity_moment)
 
     @field_validator("objectives")
     @classmethod
@@ -470,6 +485,18 @@ class ProblemSpec(_Strict):
         return self
 
     @model_validator(mode="after")
+    def _build_rules_see_the_road_as_it_is(self) -> ProblemSpec:
+        build = [f"objectives.{i}" for i, o in enumerate(self.objectives) if METRICS[o].kind == "build"]
+        build += [f"constraints.{i}.name" for i, c in enumerate(self.constraints) if METRICS[c.name].kind == "build"]
+        rough = [u.input for u in self.uncertain if u.input in (ROAD_ROUGHNESS, ROAD_CLASS)]
+        if build and rough:
+            raise ValueError(
+                f"{build[0]}: a buildability rule adds the road's swing to a static value, so no factor of an uncertain {rough[0]} scales it; "
+                "expected the road's roughness fixed (a scenario per road class) or no buildability rule"
+            )
+        return self
+
+    @model_validator(mode="after")
     def _payload_fits(self) -> ProblemSpec:
         problem = None if self.payload is None else laden_problem(self.vehicle, self.payload)
         if problem:
@@ -537,7 +564,7 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     value = err.get("input")
     head, colon, rest = msg.partition(": ")
-    if err["type"] == "value_error" and colon and key and head in _allowed_keys(err["loc"]):  # a table's validator naming its key
+    if err["type"] == "value_error" and colon and key and head.split(".")[0] in _allowed_keys(err["loc"]):  # a table's validator naming its key
         return f"{key}.{head}", rest
     if err["type"] == "extra_forbidden":
         allowed = _allowed_keys(err["loc"][:-1])
