@@ -179,7 +179,9 @@ def _table(result: Any) -> Any:
         )
     )
     for col in shown.columns:
-        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith(("layout", "binding_rule")) else "right")
+        table.add_column(
+            Text(col.replace(" [", "\n[")), justify="left" if col.startswith(("layout", "binding_rule")) else "right", no_wrap=col.startswith("binding_rule")
+        )
     for row in shown.itertuples(index=False):
         table.add_row(*[Text(v) for v in row])
     return table

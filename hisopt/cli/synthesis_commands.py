@@ -139,7 +139,11 @@ def _ranking(result: Any) -> Any:
     )
     table = Table(title=Text(title))
     for col in shown.columns:
-        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith(("layout", "catalogue", "file", "binding_rule")) else "right")
+        table.add_column(
+            Text(col.replace(" [", "\n[")),
+            justify="left" if col.startswith(("layout", "catalogue", "file", "binding_rule")) else "right",
+            no_wrap=col.startswith("binding_rule"),
+        )
     for row in shown.itertuples(index=False):
         table.add_row(*[Text(str(v)) for v in row])
     return table
