@@ -7,12 +7,13 @@ the old file or the new one.
 from __future__ import annotations
 
 import contextlib
+import csv
 import hashlib
 import itertools
 import json
 import os
 import tempfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -149,6 +150,31 @@ def ensure_writable_dir(path: str | Path) -> Path:
         probe.close()
     except OSError as exc:
         raise RunError(f"{path}: output directory is not writable ({exc.strerror or exc})") from None
+    return path
+
+
+def ensure_own_table(path: str | Path, columns: Sequence[str], what: str, option: str = "--out") -> Path:
+    """Check before any work that ``path`` can be written as the table ``what`` with these
+    ``columns``: a new file, or one whose header says it is that table (written before by the
+    same command: it is written again). Nothing a user or another command made is written
+    over (docs/model.md §8.5).
+
+    Raises
+    ------
+    ConfigError
+        ``path`` holds another file, or cannot be written (:func:`ensure_writable_file`).
+    """
+    from hisopt.errors import ConfigError
+
+    path = ensure_writable_file(path, option)
+    if path.exists():
+        try:
+            with path.open(encoding="utf-8", newline="") as handle:
+                header = next(csv.reader(handle), [])
+        except (OSError, UnicodeDecodeError):
+            header = []
+        if header != list(columns):
+            raise ConfigError(f"{path} exists and is not {what} hisopt wrote; nothing is written over it: expected another --out name", key=option)
     return path
 
 

@@ -160,7 +160,7 @@ def test_the_sheet_marks_a_valve_outside_the_validated_range(problem):
 def test_a_sheet_without_damper_valves_has_no_valve_section():
     paper = hisopt.load_problem(DEFAULT_PROBLEM)
     sheet = design_sheet(paper, paper.baseline, 0, "front.csv")
-    assert [name for name, _ in tables(sheet)] == ["Parts and settings", "Quantities", "Operating envelope", "Modes with HIS"]
+    assert [name for name, _ in tables(sheet)] == ["Parts and settings", "Quantities", "Operating envelope", "Modes with HIS", "Buildability"]
     assert any(  # the paper's Rv keeps its coefficient row
         item.startswith("valve ") and item.endswith(": coefficient") for item in sheet.parts["item"]
     )

@@ -52,7 +52,7 @@ def test_the_sheet_lists_the_designs_parts(run_dir, tmp_path):
     assert f"| front cylinder bore | {bore * 1000:g} mm |" in text
     assert f"| front piston rod | {rod * 1000:g} mm |" in text
     assert f"| accumulator A: nominal volume | {volume * 1000:g} L |" in text
-    for section in ("## Parts and settings", "## Quantities", "## Operating envelope", "## Modes with HIS"):
+    for section in ("## Parts and settings", "## Quantities", "## Operating envelope", "## Modes with HIS", "## Buildability"):
         assert section in text
     assert "charge: temperature | 20 degC" in text
     problem = hisopt.load_problem(tmp_path / "sheet.toml")

@@ -108,6 +108,46 @@ def test_equal_handling_is_feasible_and_beats_every_sampled_design(serial):
     assert serial.table.loc[1, "gain_vs_roll_plane_pct"] == pytest.approx(100 * (1 - ar / rp), rel=1e-12)
 
 
+def test_each_layouts_design_at_the_limit_has_its_buildability_verdict(serial, tmp_path):
+    """Every rule (the study's problem constrains none) on the best_<variable> design, against
+    buildability computed here; in layouts.csv, the layout report and the synthesis's ranking."""
+    import dataclasses
+    import html
+
+    from hisopt.report.layout_report import VERDICT_NOTE, write_layout_report
+    from hisopt.report.synthesis_report import write_synthesis_report
+    from hisopt.studies.buildability import VERDICT_COLUMNS, buildability
+    from hisopt.studies.synthesis import SynthesisResult, _layouts_table
+
+    table = serial.table
+    at = list(table.columns).index("at_limit")
+    assert list(table.columns[at + 1 : at + 4]) == list(VERDICT_COLUMNS)
+    assert all(table.attrs["units"][c] == "-" for c in VERDICT_COLUMNS)
+    for case in serial.cases:
+        row = table.set_index("layout").loc[case.name]
+        x = np.array([[row[f"best_{n}"] for n in case.problem.variable_names]])
+        verdict = buildability(case.problem, x).iloc[0]
+        assert (bool(row["buildable"]), row["binding_rule"]) == (bool(verdict["buildable"]), verdict["binding_rule"])
+        assert row["build_margin"] == pytest.approx(verdict["build_margin"], rel=1e-12)
+    back = read_csv(serial.out / "layouts.csv")
+    assert back["binding_rule"].tolist() == table["binding_rule"].tolist() and back.attrs["units"]["build_margin"] == "-"
+    page = write_layout_report(serial, tmp_path / "report.html").read_text(encoding="utf-8")
+    assert html.escape(VERDICT_NOTE) in page and all(f">{rule}<" in page for rule in table["binding_rule"])
+
+    # the synthesis ranks the same table: the verdict travels with each layout, the order by gain alone
+    study = dataclasses.replace(serial, out=None)
+    candidates = pd.DataFrame(columns=["candidate", "elements", "catalogue", "description"])
+    layouts = _layouts_table(candidates, study, {}, None)
+    assert layouts["gain_vs_roll_plane_pct"].is_monotonic_decreasing
+    merged = layouts.set_index("layout")[list(VERDICT_COLUMNS)].loc[table["layout"]]
+    assert merged["binding_rule"].tolist() == table["binding_rule"].tolist()
+    np.testing.assert_array_equal(merged["build_margin"].to_numpy(), table["build_margin"].to_numpy())
+    counts = pd.DataFrame({"elements": [1], "candidates": [1], "screened_in": [1]})
+    result = SynthesisResult(candidates, layouts, study, counts, None)
+    page = write_synthesis_report(result, tmp_path / "synthesis.html").read_text(encoding="utf-8")
+    assert html.escape(VERDICT_NOTE) in page and "binding_rule" in page
+
+
 def test_normalisation_does_not_depend_on_the_other_layouts(problem, serial):
     from hisopt.studies.layout_metrics import normalised_hypervolume
 

@@ -153,6 +153,7 @@ def _table(result: Any) -> Any:
     from rich.table import Table
     from rich.text import Text
 
+    from hisopt.studies.buildability import VERDICT_COLUMNS
     from hisopt.units import display_frame, format_quantity
 
     columns = [
@@ -165,14 +166,22 @@ def _table(result: Any) -> Any:
         "sigma_aw_at_limit",
         "handling_at_best",
         "gain_vs_roll_plane_pct",
+        *VERDICT_COLUMNS,
         "k_roll",
         "k_warp",
     ]
-    shown = display_frame(result.table[columns]).replace("nan", "–")  # e.g. a layout without a design at the limit
+    shown = display_frame(result.table[[c for c in columns if c in result.table]]).replace("nan", "–")  # e.g. a layout without a design at the limit
     limit = format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"])  # with its unit: pasted back as is
-    table = Table(title=Text(f"Layouts at equal handling: {result.handling} <= {limit} (normalised hypervolume across seeds; gain in comfort over roll_plane)"))
+    table = Table(
+        title=Text(
+            f"Layouts at equal handling: {result.handling} <= {limit} (normalised hypervolume across seeds; gain in comfort over roll_plane; "
+            "buildable, binding_rule, build_margin: every buildability rule on the design at the limit)"
+        )
+    )
     for col in shown.columns:
-        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith("layout") else "right")
+        table.add_column(
+            Text(col.replace(" [", "\n[")), justify="left" if col.startswith(("layout", "binding_rule")) else "right", no_wrap=col.startswith("binding_rule")
+        )
     for row in shown.itertuples(index=False):
         table.add_row(*[Text(v) for v in row])
     return table

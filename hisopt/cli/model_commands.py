@@ -205,6 +205,14 @@ def evaluate(
             "outside the linearisation's validated range marked (with --out: OUT_valves.csv beside OUT)",
         ),
     ] = False,
+    build: Annotated[
+        bool,
+        typer.Option(
+            "--build",
+            help="also each buildability rule's usage per design and load case and the verdict (buildable, binding rule, margin), "
+            "whether or not the problem constrains them (with --out: OUT_build.csv beside OUT)",
+        ),
+    ] = False,
 ) -> None:
     """Objectives and constraints of the baseline or a CSV file.
 
@@ -214,7 +222,10 @@ def evaluate(
     is; both are flagged in the status and reason columns, never feasible, and counted in
     one warning line. With physical damper valves, one more warning line counts the
     designs with a valve outside the linearisation's validated range (equivalent
-    resistance over 1 GPa s/m^3); --valves lists every valve. docs/model.md §8.1.
+    resistance over 1 GPa s/m^3); --valves lists every valve. --build adds every
+    buildability rule's usage per load case and each design's verdict (docs/model.md §21.3).
+    A file beside OUT (OUT_valves.csv, OUT_build.csv) is written over only if it is the
+    same table from before. docs/model.md §8.1.
     """
     from rich.console import Console
 
@@ -225,14 +236,23 @@ def evaluate(
 
     p = load(problem, set_)
     valves_out = None if out is None else out.with_name(f"{out.stem}_valves.csv")
+    build_out = None if out is None else out.with_name(f"{out.stem}_build.csv")
     if valves:
         from hisopt.studies.damper_valves import check_damper_valves
 
         check_damper_valves(p, "--valves")
     if out is not None:
+        from hisopt.io import ensure_own_table
+
         ensure_writable_file(out, "--out")  # fail before any work
         if valves and valves_out is not None:
-            ensure_writable_file(valves_out, "--out")
+            from hisopt.studies.damper_valves import VALVE_TABLE_COLUMNS
+
+            ensure_own_table(valves_out, VALVE_TABLE_COLUMNS, "a damper valve table (evaluate --valves)")
+        if build and build_out is not None:
+            from hisopt.studies.build_views import usage_columns
+
+            ensure_own_table(build_out, usage_columns(), "a buildability table (evaluate --build)")
     if designs is not None:
         from hisopt.units import variable_units
 
@@ -260,6 +280,8 @@ def evaluate(
         if len(result) > 20:
             typer.echo(f"showing the first 20 of {len(result)} designs; write them all with --out FILE")
     _valve_states(p, result, str(designs) if designs is not None else "baseline design", valves, valves_out if out is not None else None)
+    if build:
+        _build_rules(p, result, build_out)
 
 
 def _valve_states(p: Any, result: Any, source: str, valves: bool, out: Path | None) -> None:
@@ -291,6 +313,41 @@ def _valve_states(p: Any, result: Any, source: str, valves: bool, out: Path | No
     shown.attrs = {"units": table.attrs["units"]}
     Console(width=200).print(units_table(display_frame(shown), f"{p.name}: damper valves (design: row from 0)", transposed_rows=0))
     typer.echo(damper_valves.range_note())
+
+
+BUILD_SHOWN = 5
+"""Designs whose every rule ``evaluate --build`` prints (the verdicts of the first 20)."""
+
+
+def _build_rules(p: Any, result: Any, out: Path | None) -> None:
+    """Every buildability rule's usage of the designs in every load case (printed for the first
+    :data:`BUILD_SHOWN`, the verdicts of the first 20, and all written to ``out``)."""
+    from rich.console import Console
+
+    from hisopt.cli.console import units_table
+    from hisopt.coupled.buildability import RULES
+    from hisopt.io import write_csv
+    from hisopt.studies.build_views import ALL_CASES, usage_table, verdict_sentence
+    from hisopt.studies.buildability import VERDICT_COLUMNS, load_case_rules, rule_sheet
+    from hisopt.units import display_frame
+
+    cases = load_case_rules(p, result[list(p.variable_names)])
+    table = usage_table(cases)
+    if out is not None:
+        write_csv(table, out)
+        typer.echo(f"wrote {len(table)} rows ({len(result)} designs, each load case and {ALL_CASES!r}) to {out}")
+    console = Console(width=200)
+    names = [c.name for c in cases] + [ALL_CASES]
+    for design in range(min(len(result), BUILD_SHOWN)):
+        usages = table[table["design"] == design].set_index("load_case").loc[names, list(RULES)].T
+        shown = display_frame(usages.rename_axis("rule").reset_index(), dict.fromkeys(["rule", *names], "-"))
+        console.print(units_table(shown, f"design {design}: each rule's usage per load case (at most 1: it holds)", transposed_rows=0))
+        typer.echo(verdict_sentence(rule_sheet(cases, design)))
+    if len(result) > BUILD_SHOWN:
+        verdict = table[table["load_case"] == ALL_CASES][["design", *VERDICT_COLUMNS]].head(20)
+        verdict.attrs = {"units": table.attrs["units"]}
+        console.print(units_table(display_frame(verdict), f"{p.name}: buildability verdict (design: row from 0)", transposed_rows=0))
+        typer.echo(f"each rule of the first {BUILD_SHOWN} of {len(result)} designs shown; --out FILE writes every design's (FILE_build.csv)")
 
 
 def init(

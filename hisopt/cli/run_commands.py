@@ -276,9 +276,11 @@ def sheet(
 
     Writes sheet.md, sheet.html and sheet.toml: its parts and settings (bores, rods,
     accumulators, charge, valves, pipes), its quantities in every load case, its operating
-    envelope and its modes; with physical damper valves, their settings and per load case
-    their RMS flows, equivalent resistances (outside the validated range marked) and the
-    roll and bounce damping. `hisopt evaluate sheet.toml` reproduces it. docs/model.md §17.4.
+    envelope and its modes; its buildability (every rule, constrained or not: where it
+    binds, its value, limit and margin, and the verdict); with physical damper valves, their
+    settings and per load case their RMS flows, equivalent resistances (outside the validated
+    range marked) and the roll and bounce damping. `hisopt evaluate sheet.toml` reproduces
+    it. docs/model.md §17.4.
     """
     from hisopt.folders import SHEET, check_claim
     from hisopt.optim.decision import front_design

@@ -114,15 +114,36 @@ def _ranking(result: Any) -> Any:
     from rich.table import Table
     from rich.text import Text
 
+    from hisopt.studies.buildability import VERDICT_COLUMNS
     from hisopt.units import display_frame
 
-    columns = ["layout", "elements", "catalogue", "sigma_aw_at_limit", "gain_vs_roll_plane_pct", "hv_mean", "hv_std", "k_bounce", "k_roll", "k_warp", "file"]
-    shown = display_frame(result.layouts[columns]).replace("nan", "–")
+    columns = [
+        "layout",
+        "elements",
+        "catalogue",
+        "sigma_aw_at_limit",
+        "gain_vs_roll_plane_pct",
+        *VERDICT_COLUMNS,
+        "hv_mean",
+        "hv_std",
+        "k_bounce",
+        "k_roll",
+        "k_warp",
+        "file",
+    ]
+    shown = display_frame(result.layouts[[c for c in columns if c in result.layouts]]).replace("nan", "–")
     study = result.study
-    title = f"Optimised layouts at equal handling ({study.handling} at most the roll-plane baseline's), best comfort gain over roll_plane first"
+    title = (
+        f"Optimised layouts at equal handling ({study.handling} at most the roll-plane baseline's), best comfort gain over roll_plane first; "
+        "buildable, binding_rule, build_margin: every buildability rule on each layout's design at the limit"
+    )
     table = Table(title=Text(title))
     for col in shown.columns:
-        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith(("layout", "catalogue", "file")) else "right")
+        table.add_column(
+            Text(col.replace(" [", "\n[")),
+            justify="left" if col.startswith(("layout", "catalogue", "file", "binding_rule")) else "right",
+            no_wrap=col.startswith("binding_rule"),
+        )
     for row in shown.itertuples(index=False):
         table.add_row(*[Text(str(v)) for v in row])
     return table

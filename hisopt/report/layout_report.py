@@ -16,6 +16,7 @@ import numpy as np
 from hisopt.plotting.axes import log_axis
 from hisopt.plotting.theme import COLORS, template
 from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.studies.buildability import BUILDABLE, VERDICT_COLUMNS
 from hisopt.units import display_for, display_frame, format_quantity
 
 if TYPE_CHECKING:
@@ -23,6 +24,12 @@ if TYPE_CHECKING:
 
     from hisopt.studies.layout_study import LayoutStudyResult
 
+VERDICT_NOTE = (
+    "buildable, binding_rule, build_margin: the buildability verdict (docs/model.md §21) of each layout's design at the limit, "
+    "the one its sigma_aw_at_limit and best_<variable> columns give; every rule is judged in every load case, whether or not the "
+    "problem constrains it (build_margin: 1 minus the binding rule's usage). The ranking does not use it."
+)
+"""What the verdict columns of a ranking judge (the layout and synthesis reports say it)."""
 _GRID_CSS = ".schematics{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}"
 
 
@@ -170,7 +177,8 @@ def attainment_figure(result: LayoutStudyResult) -> go.Figure:
 
 
 def table_html(result: LayoutStudyResult) -> str:
-    """``layouts.csv`` in engineering units, split into the comparison and the layouts' data."""
+    """``layouts.csv`` in engineering units, split into the comparison, the buildability of each
+    layout's design at the limit (a table of an older hisopt has none) and the layouts' data."""
     t = result.table
     first = [
         "layout",
@@ -192,13 +200,26 @@ def table_html(result: LayoutStudyResult) -> str:
     first = [c for c in first if c in t]  # a table of an older hisopt lacks handling_least and at_limit
     limit = format_quantity(result.handling_limit, t.attrs["units"]["handling_limit"])
     shown = [display_frame(t[cols]).replace("nan", "–") for cols in (first, second)]  # a layout that never meets the limit
-    labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]", "damper_valves [-]")
+    labels = ("layout [-]", "refined [-]", "variables [-]", "at_limit [-]", "damper_valves [-]", "buildable [-]", "binding_rule [-]")
     return (
         '<div style="overflow-x:auto">'
         + html_table(shown[0], f"Equal handling ({result.handling} <= {limit}) and spread across seeds", text_columns=labels)
+        + verdict_html(t, labels)
         + html_table(shown[1], "Stiffness per unit stroke pattern (hisopt layouts) and the best design at the limit", text_columns=labels)
         + "</div>"
     )
+
+
+def verdict_html(table: Any, text_columns: tuple[str, ...]) -> str:
+    """The buildability verdict of each ranked layout's design at the limit (``table``: the
+    layout study's or the synthesis's ranking) with :data:`VERDICT_NOTE`; ``""`` for a table
+    written before hisopt judged it."""
+    if BUILDABLE not in table:
+        return ""
+    columns = [c for c in ("layout", "sigma_aw_at_limit", "gain_vs_roll_plane_pct", *VERDICT_COLUMNS) if c in table]
+    shown = display_frame(table[columns]).replace({"nan": "–", "": "–"})  # no design at the limit: empty here, NaN read back
+    caption = "Buildability of each layout's design at the limit (every rule, constrained or not)"
+    return html_table(shown, caption, text_columns=text_columns) + f'<p class="meta">{html.escape(VERDICT_NOTE)}</p>'
 
 
 def write_layout_report(result: LayoutStudyResult, path: str | Path | None = None) -> Path:

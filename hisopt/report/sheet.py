@@ -11,6 +11,7 @@ import pandas as pd
 from hisopt.evaluation.valve_states import OUTSIDE_VALIDATED_RANGE
 from hisopt.plausibility import bound_labels
 from hisopt.report.tables import REPORT_CSS, html_table
+from hisopt.studies.build_views import rule_cells, verdict_sentence
 from hisopt.studies.damper_valves import OUTSIDE, range_note
 from hisopt.studies.design_sheet import DesignSheet, write_problem
 from hisopt.studies.envelope import CELSIUS_OFFSET, shown_envelope
@@ -72,6 +73,8 @@ def tables(sheet: DesignSheet) -> list[tuple[str, pd.DataFrame]]:
         ("Operating envelope", display_frame(shown_envelope(sheet.envelope))),
         ("Modes with HIS", display_frame(sheet.modes)),
     ]
+    if len(sheet.build):
+        out.append((BUILD_SECTION, rule_cells(sheet.build)))
     if len(sheet.valve_cases):
         out += [
             (VALVE_SECTIONS[0], valves_shown(sheet.valves)),
@@ -83,11 +86,19 @@ def tables(sheet: DesignSheet) -> list[tuple[str, pd.DataFrame]]:
 
 VALVE_SECTIONS = ("Damper valves", "Damper valves per load case", "Roll and bounce damping per load case")
 """The titles of the damper valves' sections (:func:`tables`)."""
+BUILD_SECTION = "Buildability"
+"""The title of the section of every buildability rule (:func:`tables`)."""
 
 
 def notes(sheet: DesignSheet) -> dict[str, str]:
     """A line under a section, by its title: what its columns mean where a number alone does not say."""
     out = {}
+    if len(sheet.build):
+        out[BUILD_SECTION] = (
+            f"{verdict_sentence(sheet.build)} Every rule is computed, whether or not the problem constrains it; each in the load case "
+            "where it binds (its largest usage), its value and limit there (pressure: absolute or gauge, as the rule judges it), "
+            "margin = 1 - usage in % of the limit; – where the layout has no such part (nothing to check). docs/model.md §21."
+        )
     if len(sheet.valve_cases):
         out[VALVE_SECTIONS[0]] = (
             "Each physical damper valve's settings, as [his] takes them (key: the parameter a value comes from where its name differs; "
@@ -113,7 +124,8 @@ def heading(sheet: DesignSheet) -> tuple[str, str]:
     cases = sheet.valve_cases
     outside = sorted(set(cases.loc[cases["validated_range"] == OUTSIDE, "load_case"])) if len(cases) else []
     valves = f" Its damper valves are {OUTSIDE_VALIDATED_RANGE} in: {', '.join(outside)}." if outside else ""
-    return f"Design sheet: {p.name}, design {sheet.design}", f"Front row {sheet.design} of {sheet.source}; {feasible}.{bounds}{valves}"
+    build = f" {verdict_sentence(sheet.build)}" if len(sheet.build) else ""
+    return f"Design sheet: {p.name}, design {sheet.design}", f"Front row {sheet.design} of {sheet.source}; {feasible}.{bounds}{valves}{build}"
 
 
 def markdown(sheet: DesignSheet) -> str:
@@ -148,7 +160,7 @@ def html_page(sheet: DesignSheet) -> str:
     return f"<!DOCTYPE html><html><head>{head}</head><body>{''.join(body)}</body></html>\n"
 
 
-TEXT_COLUMNS = ("item", "note", "quantity", "mode", "motion", "valve", "key", "load_case", "validated_range")
+TEXT_COLUMNS = ("item", "note", "quantity", "mode", "motion", "valve", "key", "load_case", "validated_range", "rule", "check", "pressure", "holds")
 """The columns of words, not numbers (set left in the HTML tables)."""
 
 

@@ -1,7 +1,7 @@
 """``DIR/report.html`` of a topology synthesis (:mod:`hisopt.studies.synthesis`): one offline page.
 
 The candidates per element count and what the screen kept, the ranking of the optimised
-layouts at equal handling, the schematics of the best ten and their trade-off curves (best
+layouts at equal handling (with the buildability verdict of each one's design at the limit), the schematics of the best ten and their trade-off curves (best
 comfort against the handling limit); engineering units throughout. The layout study of the
 survivors keeps its own fuller report in ``DIR/study/report.html``.
 """
@@ -12,6 +12,7 @@ import html
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from hisopt.report.layout_report import verdict_html
 from hisopt.report.tables import REPORT_CSS, html_table
 from hisopt.units import display_frame, format_quantity
 
@@ -95,6 +96,7 @@ def write_synthesis_report(result: SynthesisResult, path: str | Path | None = No
             "than the paper's roll-plane layout there. Each layout's problem file is in layouts/; the study of the survivors, with its fronts, "
             'attainment and decision room, is <a href="study/report.html">study/report.html</a>.</p>',
             '<div style="overflow-x:auto">' + _ranking_html(result) + "</div>",
+            verdict_html(result.layouts, ("layout [-]", "buildable [-]", "binding_rule [-]")),
             f"<h2>The best {min(BEST_SHOWN, len(result.layouts))}</h2>",
             f'<div class="schematics">{cells}</div>',
             "<h2>Trade-off: best comfort against the handling limit</h2>",

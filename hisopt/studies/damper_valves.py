@@ -50,6 +50,10 @@ flows have no fixed point in that load case, and for one breaking a parameter's 
 resistance to judge)."""
 
 
+VALVE_TABLE_COLUMNS = ("design", "load_case", "valve", "flow_rms", "resistance", "validated_range", "converged")
+"""The columns of :func:`valve_table`, in order."""
+
+
 @dataclass(frozen=True)
 class LoadCaseValves:
     """The damper valves of designs ``x`` [SI] ``(n, n_var)`` in one load case: ``name`` (a
@@ -185,7 +189,7 @@ def valve_table(cases: list[LoadCaseValves]) -> pd.DataFrame:
                 }
             )
         )
-    table = pd.concat(frames, ignore_index=True).sort_values(["design"], kind="stable").reset_index(drop=True)
+    table = pd.concat(frames, ignore_index=True).sort_values(["design"], kind="stable").reset_index(drop=True)[list(VALVE_TABLE_COLUMNS)]
     units = {"design": NO_UNIT, "load_case": NO_UNIT, "valve": NO_UNIT, "flow_rms": "m^3/s", "resistance": "Pa s m^-3"}
     table.attrs["units"] = units | {"validated_range": NO_UNIT, "converged": NO_UNIT}
     return table

@@ -1,6 +1,6 @@
 """A design as a sheet to build from (docs/model.md §17.4): its parts and settings, its
-quantities in every load case, its operating envelope and its modes, and the problem file
-that reproduces it.
+quantities in every load case, its operating envelope and its modes, its buildability (every
+rule, docs/model.md §21), and the problem file that reproduces it.
 
 :func:`design_sheet` gathers the numbers (SI, with units in each table's ``attrs``);
 :mod:`hisopt.report.sheet` writes them as Markdown, HTML and TOML.
@@ -21,6 +21,7 @@ from hisopt.hydraulics.layout import DamperValve
 from hisopt.hydraulics.network import resolve
 from hisopt.problem import Problem
 from hisopt.studies import damper_valves
+from hisopt.studies.buildability import load_case_rules, rule_sheet
 from hisopt.studies.envelope import envelope_table
 
 MODE_COLUMNS = ("mode", "motion", "frequency_hz", "damping_ratio")
@@ -56,6 +57,9 @@ class DesignSheet:
     valve_modes : pd.DataFrame
         per load case the roll and bounce (heave) modes' frequency and damping ratio with the
         valves at that case's fixed point (:func:`hisopt.studies.damper_valves.mode_damping`)
+    build : pd.DataFrame
+        every buildability rule, whether or not the problem enforces it: where it binds, its
+        value, limit, usage and margin (:func:`hisopt.studies.buildability.rule_sheet`)
     """
 
     problem: Problem
@@ -68,6 +72,7 @@ class DesignSheet:
     valves: pd.DataFrame = field(default_factory=pd.DataFrame)
     valve_cases: pd.DataFrame = field(default_factory=pd.DataFrame)
     valve_modes: pd.DataFrame = field(default_factory=pd.DataFrame)
+    build: pd.DataFrame = field(default_factory=pd.DataFrame)
 
     def problem_data(self) -> dict[str, Any]:
         """The problem file of the design (its ``[his]`` values are the design's), as TOML data:
@@ -91,7 +96,8 @@ def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str) -> D
     quantities = sheet_problem.evaluate(baseline, log=False)
     modes = modal_analysis(sheet_problem)[list(MODE_COLUMNS)]
     modes.attrs = {"units": {"mode": "-", "motion": "-", "frequency_hz": "Hz", "damping_ratio": "-"}}
-    sheet = DesignSheet(sheet_problem, design, source, parts_table(sheet_problem), quantities, envelope_table(sheet_problem), modes)
+    build = rule_sheet(load_case_rules(sheet_problem, baseline))
+    sheet = DesignSheet(sheet_problem, design, source, parts_table(sheet_problem), quantities, envelope_table(sheet_problem), modes, build=build)
     if not damper_valves.has_damper_valves(sheet_problem):
         return sheet
     cases = damper_valves.load_case_valves(sheet_problem, baseline)

@@ -81,7 +81,10 @@ vorobev_threshold_pct, vorobev_deviation (comfort-handling plane); handling (the
 name), handling_limit, sigma_aw_at_limit (best comfort meeting it), handling_at_best,
 refined (the NLP improved the best sampled design), gain_vs_roll_plane_pct; handling_least
 (the least handling of the layout's feasible designs), at_limit ("met", or why the layout has
-no design at the limit: its sigma_aw_at_limit and gain are then empty); k_bounce ...
+no design at the limit: its sigma_aw_at_limit and gain are then empty); buildable,
+binding_rule, build_margin (docs/model.md §21.3: the verdict of every buildability rule,
+constrained or not, on the design of sigma_aw_at_limit; not buildable and empty without
+one; the ranking does not use them); k_bounce ...
 c_warp, stiffness_coupling (hisopt layouts, at the layout's baseline); damper_valves (a
 layout with physical damper valves: their orifice, cracking pressure and equivalent
 resistance on the baseline road, as hisopt layouts says); best_<variable>: the

@@ -182,7 +182,7 @@ def assemble(
     table = pd.DataFrame(rows)
     reference = table.loc[table["layout"] == REFERENCE_LAYOUT, "sigma_aw_at_limit"].to_numpy()
     table.insert(table.columns.get_loc("refined") + 1, "gain_vs_roll_plane_pct", 100.0 * (1.0 - table["sigma_aw_at_limit"] / reference[0]))
-    table = _with_stiffness_and_designs(table, cases, designs)
+    table = _with_verdicts(_with_stiffness_and_designs(table, cases, designs), cases, designs)
 
     curve = pd.concat(curve_parts, ignore_index=True)
     attain = pd.concat(attain_rows, ignore_index=True)
@@ -236,6 +236,21 @@ def _limit_status(pool: pd.DataFrame, handling: str, limit: float, unit: str) ->
     else:
         status = f"none of {len(pool)} feasible designs meets {handling} <= {format_quantity(limit, unit)} (least {format_quantity(least, unit)})"
     return {"handling_least": least, "at_limit": status}
+
+
+def _with_verdicts(table: pd.DataFrame, cases: list[LayoutCase], designs: dict[str, np.ndarray | None]) -> pd.DataFrame:
+    """``buildable``, ``binding_rule`` and ``build_margin`` of each layout's design at the limit
+    (the ``best_<variable>`` design), after ``at_limit``: every buildability rule, whether or
+    not the problem constrains it (empty, not buildable, without a design)."""
+    from hisopt.studies.build_views import design_verdicts
+
+    verdicts = design_verdicts([c.problem for c in cases], [designs[c.name] for c in cases])
+    at = table.columns.get_loc("at_limit") + 1
+    units = dict(table.attrs.get("units", {})) | verdicts.attrs["units"]
+    for k, name in enumerate(verdicts.columns):
+        table.insert(at + k, name, verdicts[name].to_numpy())
+    table.attrs["units"] = units
+    return table
 
 
 def _with_stiffness_and_designs(table: pd.DataFrame, cases: list[LayoutCase], designs: dict[str, np.ndarray | None]) -> pd.DataFrame:
