@@ -195,6 +195,12 @@ def test_the_pressure_rules_by_hand(rng):
     assert np.all(np.abs(got["pressure_floor_usage"].usage - usage_low) <= budget)
     assert np.all(np.abs(got["pressure_ceiling_usage"].usage - np.max(high / ceiling, axis=1)) <= budget)
     assert got["pressure_floor_usage"].usage[0] == pytest.approx(1.0005, abs=1e-4)  # the baseline: at 1.1 x its precharge (0.05 % below)
+    floor = got["pressure_floor_usage"].usage
+    assert (floor < 1).any() and (floor > 1).any(), floor  # designs on both sides of the floor
+    assert np.all(got["pressure_ceiling_usage"].usage < 1)  # far below 16 MPa and the accumulators' ratings
+    rated_low = b.pressure_rules(model, b.BuildLimits(cylinder_pressure=1e6), b.RoadSwing(*_evaluator_swing(problem, x)), _rating)
+    assert np.all(rated_low["pressure_ceiling_usage"].usage >= np.max(high[:, :8], axis=1) / 1e6 - budget)  # 1 MPa cylinders: the chambers bind
+    assert np.all(rated_low["pressure_ceiling_usage"].usage > 1)
 
 
 def _rating(his):
@@ -255,6 +261,10 @@ def test_the_hoses_velocity_and_reynolds_number_by_hand():
     rho, mu = float(np.ravel(his.params["rho"])[0]), float(np.ravel(his.params["mu"])[0])
     assert rules["hose_reynolds_usage"].value[0] == pytest.approx(rho * velocity * d / mu, rel=1e-12)
     assert rules["hose_velocity_usage"].usage[0] == pytest.approx(velocity / 6.0, rel=1e-12)
+    assert rules["hose_velocity_usage"].usage[0] > 1 > rules["hose_reynolds_usage"].usage[0]  # a -8 hose: 7 m/s, laminar
+    wide = problem.model(problem.design_matrix([np.where(np.array(problem.variable_names) == "pipe_diameter", 19e-3, problem.baseline)]))
+    held = b.hose_rules(wide.his, LIMITS, road_swing_by_hand(problem, wide))
+    assert held["hose_velocity_usage"].usage[0] < 1  # a -12 hose holds
 
 
 def test_a_layout_without_hoses_has_nothing_to_check():
@@ -365,3 +375,27 @@ def test_one_design_without_an_operating_point_does_not_blank_its_batch():
     assert both["sigma_aw"][0] == pytest.approx(alone["sigma_aw"][0], rel=1e-9)
     rules = case_rules(winter, x)
     assert np.isfinite(rules["strut_load_usage"].usage[0]) and np.isnan(rules["strut_load_usage"].usage[1])
+
+
+def test_the_wheel_rules_by_hand_a_cold_hose_locks_the_wheel():
+    """The flagship's baseline: its wheels hop at 5-8 Hz and are damped in the city (both
+    rules hold); at -20 C the oil in its 12.7 mm hoses is 7 times as viscous and the wheels
+    are locked to the body, their modes above 200 Hz and barely damped (both fail). The usages
+    from :func:`hisopt.coupled.modal.wheel_modes` by the rules' equations."""
+    from hisopt.coupled.modal import wheel_modes
+    from hisopt.problem import load_problem
+
+    problem = load_problem(ROOT / "problems" / "his_buildable.toml", warn_implausible=False)
+    x = problem.baseline[None]
+    for case, holds in (("city", True), ("winter_city", False)):
+        space = problem.scenario_space(case)
+        from hisopt.studies.buildability import case_rules
+
+        rules = case_rules(space, x)
+        from hisopt.evaluation.valve_states import valve_states
+
+        model = space.model(x, inputs=valve_states(space, x).inputs)
+        f, zeta = wheel_modes(model)
+        assert rules["wheel_hop_usage"].usage[0] == pytest.approx(f.max() / 30.0, rel=1e-9)
+        assert rules["wheel_damping_usage"].usage[0] == pytest.approx(2 - zeta.min() / 0.1, rel=1e-9)
+        assert (rules["wheel_hop_usage"].usage[0] <= 1) == holds and (rules["wheel_damping_usage"].usage[0] <= 1) == holds
