@@ -96,13 +96,28 @@ def run_with_console(start: Callable[[ProgressFn], OptimizationResult], *, total
         print(f"internal error: {line} (--debug shows a traceback)", file=sys.stderr)
         return 1
     console = Console(width=120)
-    for table in summary_tables(result):
+    for table in summary_tables(result, finished_verdicts(result)):
         console.print(table)
     return 0
 
 
-def summary_tables(result: OptimizationResult) -> list[Any]:
-    """Rich tables summarising a run: totals, then the knee design and the ASF pick (with units)."""
+def finished_verdicts(result: OptimizationResult) -> Any:
+    """The buildability verdicts of a finished run's front, computed once and stored beside it
+    (``buildability.csv``, :func:`hisopt.studies.build_verdicts.write_run_verdicts`) for the
+    report and the decision room to read; a DataFrame, one row per front design."""
+    from hisopt.studies.build_verdicts import BUILDABILITY_CSV, run_verdicts, write_run_verdicts
+
+    front, problem = result.front, result.problem
+    if result.run_dir is None:
+        return run_verdicts(None, problem, front[list(problem.variable_names)].to_numpy(dtype=float))
+    print(f"judging the buildability of {len(front)} front designs -> {result.run_dir / BUILDABILITY_CSV}", file=sys.stderr)
+    return write_run_verdicts(result.run_dir, problem, front)
+
+
+def summary_tables(result: OptimizationResult, verdicts: Any = None) -> list[Any]:
+    """Rich tables summarising a run: totals, then the knee design and the ASF pick (with
+    units and their buildability verdicts); ``verdicts`` those of the front's designs, in its
+    order (:func:`finished_verdicts`; default: read from the run directory or computed)."""
     from rich.table import Table
     from rich.text import Text
 
@@ -143,6 +158,9 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
     valves = front_valves(result)
     if valves is not None:
         rows.insert(2, ("damper valves", valves[0]))
+    build = front_buildability(result, verdicts)
+    if build is not None:
+        rows.insert(1, ("buildable", build[0]))
     for item, value in rows:
         totals.add_row(item, Text(value))
     tables: list[Any] = [totals]
@@ -178,18 +196,52 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
             picks.add_row(Text(shown.label(name)), *[Text(shown.number(d[name]) + n) for d, n in zip((knee, asf), notes, strict=True)])
         for label, marks in [] if valves is None else valves[1]:
             picks.add_row(Text(label), *(Text(m) for m in marks))
+        for label, marks in [] if build is None else build[1]:
+            picks.add_row(Text(label), *(Text(m) for m in marks))
         caption = []
         if marked:
             caption.append(
                 f"at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
                 "that bound; the box, not the physics, chose that value"
             )
+        if build is not None:
+            caption.append(BUILD_CAPTION)
         if valves is not None:
             caption.append("outside: a damper valve outside the linearisation's validated range in some load case (hisopt sheet, evaluate --valves)")
         if caption:
             picks.caption = Text("\n".join(caption))
         tables.append(picks)
     return tables
+
+
+BUILD_CAPTION = (
+    "buildable: every buildability rule (docs/model.md §21) within its limit in every load case, constrained or not; "
+    "binding_rule: the rule with the largest usage; build_margin: 1 minus that usage"
+)
+"""What the summary's and the report's verdict rows mean."""
+
+
+def front_buildability(result: OptimizationResult, verdicts: Any = None) -> tuple[str, list[tuple[str, tuple[str, ...]]]] | None:
+    """A summary row counting the front's buildable designs (naming the rules failing most
+    often when none is), and the knee's and the ASF pick's ``buildable``, ``binding_rule``
+    and ``build_margin`` rows (:mod:`hisopt.studies.build_verdicts`); None without a front."""
+    import numpy as np
+    import pandas as pd
+
+    from hisopt.studies.build_verdicts import BUILDABILITY_CSV, buildable_line, run_verdicts, verdict_cells, verdicts_of
+
+    problem, front = result.problem, result.front
+    if not len(front):
+        return None
+    names = list(problem.variable_names)
+    if verdicts is None:
+        verdicts = run_verdicts(result.run_dir, problem, front[names].to_numpy(dtype=float))
+    stored = pd.concat([front[names].reset_index(drop=True), verdicts.reset_index(drop=True)], axis=1)
+    picks = [result.knee, result.asf_pick()]
+    chosen = verdicts_of(problem, np.array([[float(d[n]) for n in names] for d in picks]), stored)
+    cells = [verdict_cells(chosen.iloc[k]) for k in range(len(picks))]
+    where = f" ({BUILDABILITY_CSV})" if result.run_dir is not None and (result.run_dir / BUILDABILITY_CSV).is_file() else ""
+    return buildable_line(verdicts) + where, [(label, tuple(c[label] for c in cells)) for label in cells[0]]
 
 
 def front_valves(result: OptimizationResult) -> tuple[str, list[tuple[str, tuple[str, ...]]]] | None:
