@@ -312,3 +312,33 @@ def test_a_rule_is_judged_in_every_load_case_and_its_worst_constrained(tmp_path)
     assert not df.loc[0, "feasible"]
     hot = problem_from_dict(charged() | {"temperature": 333.15}, warn_implausible=False)
     assert b.static_rules(hot.model(hot.baseline[None]), LIMITS)["strut_load_usage"].value[0] == pytest.approx(1.27, abs=0.005)
+
+
+def test_the_casadi_model_takes_the_static_rules_and_refuses_the_road_ones():
+    pytest.importorskip("casadi")
+    import casadi as ca
+
+    from hisopt.errors import RunError
+    from hisopt.optim.gradient.casadi_model import CasadiModel
+
+    static = problem_from_dict(charged() | {"constraints": [{"name": "strut_load_usage", "limit": 1.0}]}, warn_implausible=False)
+    model = CasadiModel(static, compile=False)
+    x = ca.MX.sym("x", len(static.variable_names))
+    f = ca.Function("f", [x], [model.build_rule(x, "strut_load_usage")])
+    numeric = static.evaluator()(static.baseline[None])["strut_load_usage"][0]
+    assert float(f(static.baseline)) == pytest.approx(numeric, rel=64 * EPS)
+    road = problem_from_dict(charged() | {"constraints": [{"name": "pressure_floor_usage", "limit": 1.0}]}, warn_implausible=False)
+    with pytest.raises(RunError, match="--method slp"):
+        CasadiModel(road)
+
+
+def test_a_rule_with_an_uncertain_road_roughness_is_refused(tmp_path):
+    path = tmp_path / "uncertain.toml"
+    text = (ROOT / "problems" / "roll_plane_his_uncertain.toml").read_text()
+    text += (
+        '\n[[constraints]]\nname = "strut_load_usage"\nlimit = 1.0\n\n[[uncertain]]\ninput = "road.class"\ndistribution = "uniform"\nlower = "B"\nupper = "C"\n'
+    )
+    path.write_text(text)
+    result = run_cli("evaluate", str(path))
+    assert result.code == 2 and len(result.stderr.strip().splitlines()) == 1
+    assert "no factor of an uncertain road.class scales it" in result.stderr

@@ -116,6 +116,9 @@ RULES: dict[str, Rule] = {
 }
 """Every rule, in the order the design sheet lists them."""
 
+STATIC_RULES = ("strut_load_usage", "area_ratio_usage", "annulus_wall_usage")
+"""The rules that need no road and no modes: numpy and CasADi alike (:func:`static_rule_elements`)."""
+
 BUILD_USAGE = "build_usage"
 """The largest usage of all the rules: at most 1 for a buildable design."""
 

@@ -38,7 +38,7 @@ from hisopt.specification.build_settings import Build
 from hisopt.specification.problem_units import convert_problem_units
 from hisopt.specification.text_files import read_file
 from hisopt.specification.tolerances import parse_tolerances
-from hisopt.specification.uncertain import UncertainInput, resolve_uncertain
+from hisopt.specification.uncertain import ROAD_CLASS, ROAD_ROUGHNESS, UncertainInput, resolve_uncertain
 from hisopt.specification.validation import bounds_problem, design_parameters, implausible_number, switched_off
 from hisopt.specification.valve_checks import damper_valve_problem
 from hisopt.units import format_quantity
@@ -466,6 +466,18 @@ class ProblemSpec(_Strict):
             raise ValueError(
                 f"{keys[0]}: accumulator_swing measures the oil swing against the oil an accumulator holds, and the paper's idealisation "
                 "([his] without [his.charge]) holds none; expected a [his.charge] table (see problems/roll_plane_his_envelope.toml)"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _build_rules_see_the_road_as_it_is(self) -> ProblemSpec:
+        build = [f"objectives.{i}" for i, o in enumerate(self.objectives) if METRICS[o].kind == "build"]
+        build += [f"constraints.{i}.name" for i, c in enumerate(self.constraints) if METRICS[c.name].kind == "build"]
+        rough = [u.input for u in self.uncertain if u.input in (ROAD_ROUGHNESS, ROAD_CLASS)]
+        if build and rough:
+            raise ValueError(
+                f"{build[0]}: a buildability rule adds the road's swing to a static value, so no factor of an uncertain {rough[0]} scales it; "
+                "expected the road's roughness fixed (a scenario per road class) or no buildability rule"
             )
         return self
 

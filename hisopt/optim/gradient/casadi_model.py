@@ -41,7 +41,8 @@ from typing import TYPE_CHECKING, Any, cast
 import casadi as ca
 import numpy as np
 
-from hisopt.coupled.model import coupled_stiffness
+from hisopt.coupled.buildability import STATIC_RULES, static_rule_elements, symbolic_usage
+from hisopt.coupled.model import CoupledModel, coupled_stiffness
 from hisopt.coupled.operating_point import accumulator_quantities
 from hisopt.errors import RunError
 from hisopt.evaluation.psd import channel_power, comfort_gain_squared, reduce_metrics, roll_gradient
@@ -194,6 +195,12 @@ class CasadiModel:
         if swing:  # the condensed stroke model has no hydraulic unknowns to read the oil volumes from
             raise RunError(
                 f"--method ipopt: the CasADi model has no accumulator oil volumes for {swing[0]}; "
+                "expected --method slp (the default), which refines on the evaluator"
+            )
+        road_rules = [m.name for m in ev.metrics if m.kind == "build" and m.name not in STATIC_RULES]
+        if road_rules:  # the road's swing of the chambers' pressures and the wheel modes are the evaluator's
+            raise RunError(
+                f"--method ipopt: the CasADi model computes only the static buildability rules ({', '.join(STATIC_RULES)}), not {road_rules[0]}; "
                 "expected --method slp (the default), which refines on the evaluator"
             )
         check_valve_flows_given(problem)
@@ -366,6 +373,13 @@ class CasadiModel:
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
         return accumulator_quantities(self.problem.hydraulic_system(params))
 
+    def build_rule(self, x: ca.MX, name: str) -> ca.MX:
+        """[-] A static buildability rule's usage (:func:`hisopt.coupled.buildability.static_rule_elements`)."""
+        params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
+        model = CoupledModel(self.problem.vehicle, self.problem.hydraulic_system(params))
+        elements, limit = static_rule_elements(model, self.problem.spec.build.limits())[name]
+        return symbolic_usage(name, elements, limit)
+
     def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool, transient: Any = None) -> dict[str, ca.MX]:
         def integral(output: str, weighting: str | None) -> ca.MX:
             weights = fs.weight_hz if weighting is None else fs.comfort_weight[output]
@@ -383,6 +397,8 @@ class CasadiModel:
             maximum,
             lambda name: self.roll_gradient(x) if name == "roll_gradient" else self.accumulators(x)[name],
             transient,
+            None,
+            lambda name: self.build_rule(x, name),
         )
 
     def integrals(self, x: ca.MX, fs: FrequencySet, spectra: ca.MX | None = None, transient: Any = None) -> dict[str, ca.MX]:
