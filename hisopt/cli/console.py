@@ -122,6 +122,7 @@ def summary_tables(result: OptimizationResult, verdicts: Any = None) -> list[Any
     from rich.text import Text
 
     from hisopt.plausibility import BOUND_TOLERANCE, bound_note
+    from hisopt.studies.build_verdicts import VERDICT_NOTE
     from hisopt.units import display_for, hypervolume_unit
 
     totals = Table(title=f"{result.problem.name}: {result.settings.algorithm.upper()} run summary", show_header=False)
@@ -205,7 +206,7 @@ def summary_tables(result: OptimizationResult, verdicts: Any = None) -> list[Any
                 "that bound; the box, not the physics, chose that value"
             )
         if build is not None:
-            caption.append(BUILD_CAPTION)
+            caption.append(VERDICT_NOTE)
         if valves is not None:
             caption.append("outside: a damper valve outside the linearisation's validated range in some load case (hisopt sheet, evaluate --valves)")
         if caption:
@@ -214,34 +215,20 @@ def summary_tables(result: OptimizationResult, verdicts: Any = None) -> list[Any
     return tables
 
 
-BUILD_CAPTION = (
-    "buildable: every buildability rule (docs/model.md §21) within its limit in every load case, constrained or not; "
-    "binding_rule: the rule with the largest usage; build_margin: 1 minus that usage"
-)
-"""What the summary's and the report's verdict rows mean."""
-
-
 def front_buildability(result: OptimizationResult, verdicts: Any = None) -> tuple[str, list[tuple[str, tuple[str, ...]]]] | None:
     """A summary row counting the front's buildable designs (naming the rules failing most
     often when none is), and the knee's and the ASF pick's ``buildable``, ``binding_rule``
     and ``build_margin`` rows (:mod:`hisopt.studies.build_verdicts`); None without a front."""
-    import numpy as np
-    import pandas as pd
-
-    from hisopt.studies.build_verdicts import BUILDABILITY_CSV, buildable_line, run_verdicts, verdict_cells, verdicts_of
+    from hisopt.studies.build_verdicts import BUILDABILITY_CSV, buildable_line, run_verdicts, verdict_rows, with_variables
 
     problem, front = result.problem, result.front
     if not len(front):
         return None
-    names = list(problem.variable_names)
     if verdicts is None:
-        verdicts = run_verdicts(result.run_dir, problem, front[names].to_numpy(dtype=float))
-    stored = pd.concat([front[names].reset_index(drop=True), verdicts.reset_index(drop=True)], axis=1)
-    picks = [result.knee, result.asf_pick()]
-    chosen = verdicts_of(problem, np.array([[float(d[n]) for n in names] for d in picks]), stored)
-    cells = [verdict_cells(chosen.iloc[k]) for k in range(len(picks))]
+        verdicts = run_verdicts(result.run_dir, problem, front[list(problem.variable_names)].to_numpy(dtype=float))
+    rows = verdict_rows(problem, {"knee": result.knee, "ASF pick": result.asf_pick()}, with_variables(problem, front, verdicts))
     where = f" ({BUILDABILITY_CSV})" if result.run_dir is not None and (result.run_dir / BUILDABILITY_CSV).is_file() else ""
-    return buildable_line(verdicts) + where, [(label, tuple(c[label] for c in cells)) for label in cells[0]]
+    return buildable_line(verdicts) + where, rows
 
 
 def front_valves(result: OptimizationResult) -> tuple[str, list[tuple[str, tuple[str, ...]]]] | None:

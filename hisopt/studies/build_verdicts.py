@@ -34,6 +34,11 @@ reader can tell the file belongs to the front beside it), each rule's largest us
 load cases and :data:`~hisopt.studies.buildability.VERDICT_COLUMNS`."""
 FAILING_SHOWN = 3
 """Rules named where no design is buildable: the commonest failures."""
+VERDICT_NOTE = (
+    "buildable: every buildability rule (docs/model.md §21) within its limit in every load case, constrained or not; "
+    "binding_rule: the rule with the largest usage; build_margin: 1 minus that usage"
+)
+"""What the verdict's rows mean, where a table shows them."""
 
 
 # --- the verdicts of designs, stored ones reused ---------------------------------------------
@@ -138,10 +143,19 @@ def verdict_cells(verdict: Mapping[str, Any]) -> dict[str, str]:
     }
 
 
-def picks_verdicts(run_dir: str | Path | None, problem: DesignSpace, picks: Mapping[str, Mapping[str, Any]]) -> dict[str, dict[str, str]]:
-    """:func:`verdict_cells` of each named design of ``picks`` (a design: its variables by
-    name, e.g. a front row), from the run's stored verdicts where it holds them."""
+def verdict_rows(problem: DesignSpace, picks: Mapping[str, Mapping[str, Any]], stored: pd.DataFrame | None) -> list[tuple[str, tuple[str, ...]]]:
+    """The rows ``buildable``, ``binding_rule`` and ``build_margin [%]`` of the named designs
+    ``picks`` (a design: its variables by name, e.g. a front row), one cell per design, from
+    ``stored`` verdicts where they hold the design (:func:`verdicts_of`)."""
     names = list(problem.variable_names)
     x = np.array([[float(d[n]) for n in names] for d in picks.values()])
-    verdicts = run_verdicts(run_dir, problem, x)
-    return {label: verdict_cells(verdicts.iloc[k]) for k, label in enumerate(picks)}
+    verdicts = verdicts_of(problem, x, stored)
+    cells = [verdict_cells(verdicts.iloc[k]) for k in range(len(picks))]
+    return [(label, tuple(c[label] for c in cells)) for label in cells[0]]
+
+
+def with_variables(problem: DesignSpace, designs: pd.DataFrame, verdicts: pd.DataFrame) -> pd.DataFrame:
+    """``verdicts`` of ``designs`` (rows in the same order) beside their variables: the form
+    :func:`verdicts_of` looks designs up in."""
+    names = list(problem.variable_names)
+    return pd.concat([designs[names].reset_index(drop=True), verdicts.reset_index(drop=True)], axis=1)
