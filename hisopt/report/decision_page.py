@@ -28,11 +28,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.coupled.buildability import RULES
 from hisopt.errors import ConfigError, RunError
 from hisopt.evaluation.valve_states import OUTSIDE_VALIDATED_RANGE, VALIDATED_RESISTANCE
 from hisopt.plausibility import BOUND_TOLERANCE
 from hisopt.report.tables import REPORT_CSS
-from hisopt.coupled.buildability import RULES
 from hisopt.studies.buildability import BINDING_RULE, BUILDABLE
 from hisopt.studies.decision_room import KINDS
 from hisopt.units import display_for, is_psd
