@@ -95,8 +95,18 @@ def run_with_console(start: Callable[[ProgressFn], OptimizationResult], *, total
             line = f"{type(exc).__name__}: {exc}; {line}"
         print(f"internal error: {line} (--debug shows a traceback)", file=sys.stderr)
         return 1
+    try:
+        verdicts = finished_verdicts(result)
+    except KeyboardInterrupt as exc:
+        print(f"interrupted while judging the front's buildability; the run is finished in {run_dir} (hisopt report judges it)", file=sys.stderr)
+        return interrupt.exit_code(exc)
+    except Exception as exc:
+        if debug:
+            raise
+        print(f"internal error judging the front's buildability: {type(exc).__name__}: {exc}; the run is finished in {run_dir}", file=sys.stderr)
+        verdicts = False
     console = Console(width=120)
-    for table in summary_tables(result, finished_verdicts(result)):
+    for table in summary_tables(result, verdicts):
         console.print(table)
     return 0
 
@@ -104,10 +114,13 @@ def run_with_console(start: Callable[[ProgressFn], OptimizationResult], *, total
 def finished_verdicts(result: OptimizationResult) -> Any:
     """The buildability verdicts of a finished run's front, computed once and stored beside it
     (``buildability.csv``, :func:`hisopt.studies.build_verdicts.write_run_verdicts`) for the
-    report and the decision room to read; a DataFrame, one row per front design."""
+    report and the decision room to read; a DataFrame, one row per front design (None
+    without a front)."""
     from hisopt.studies.build_verdicts import BUILDABILITY_CSV, run_verdicts, write_run_verdicts
 
     front, problem = result.front, result.problem
+    if not len(front):
+        return None
     if result.run_dir is None:
         return run_verdicts(None, problem, front[list(problem.variable_names)].to_numpy(dtype=float))
     print(f"judging the buildability of {len(front)} front designs -> {result.run_dir / BUILDABILITY_CSV}", file=sys.stderr)
@@ -117,7 +130,8 @@ def finished_verdicts(result: OptimizationResult) -> Any:
 def summary_tables(result: OptimizationResult, verdicts: Any = None) -> list[Any]:
     """Rich tables summarising a run: totals, then the knee design and the ASF pick (with
     units and their buildability verdicts); ``verdicts`` those of the front's designs, in its
-    order (:func:`finished_verdicts`; default: read from the run directory or computed)."""
+    order (:func:`finished_verdicts`; None: read from the run directory or computed; False:
+    none shown)."""
     from rich.table import Table
     from rich.text import Text
 
@@ -159,7 +173,7 @@ def summary_tables(result: OptimizationResult, verdicts: Any = None) -> list[Any
     valves = front_valves(result)
     if valves is not None:
         rows.insert(2, ("damper valves", valves[0]))
-    build = front_buildability(result, verdicts)
+    build = None if verdicts is False else front_buildability(result, verdicts)
     if build is not None:
         rows.insert(1, ("buildable", build[0]))
     for item, value in rows:
