@@ -65,9 +65,7 @@ METRICS: dict[str, Metric] = {
         Metric(
             "static_gas_fraction", "static", None, "-", "largest static gas share V/V0 of any accumulator (1: no oil in it; a constraint only)", objective=False
         ),
-        Metric(
-            "static_pressure_ratio", "static", None, "-", "largest static accumulator pressure over precharge (absolute; a constraint only)", objective=False
-        ),
+        Metric("static_pressure_ratio", "static", None, "-", "largest static accumulator pressure over precharge (gauge; a constraint only)", objective=False),
         Metric(
             "pressure_rating_usage",
             "static",

@@ -31,18 +31,24 @@ def random_designs(problem: hisopt.Problem, n: int, rng: np.random.Generator, co
     return x
 
 
-def every_quantity(steps: bool = True, swing: bool = False, build: bool = False) -> tuple[list[str], list[dict[str, object]]]:
+RATING_QUANTITIES = ("static_pressure_ratio", "pressure_rating_usage")
+"""The accumulator rating quantities: +inf (beyond any rating) at a zero gauge precharge, a
+corner of the paper's box (docs/model.md §16.8)."""
+
+
+def every_quantity(steps: bool = True, swing: bool = False, rating: bool = False, build: bool = False) -> tuple[list[str], list[dict[str, object]]]:
     """Objectives and constraints of a problem that evaluates every registered quantity: those
     that may be minimised as objectives, the others as constraints with a limit never met
     (``steps=False``: without the step-response quantities, docs/model.md §6.6; ``swing``:
-    with ``accumulator_swing``, which only a charged HIS has, §16.9; ``build``: with the
+    with ``accumulator_swing``, which only a charged HIS has, §16.9; ``rating``: with
+    :data:`RATING_QUANTITIES`, +inf for a design without precharge, §16.8; ``build``: with the
     buildability rules' usages, §21, tested in tests/test_buildability.py)."""
     from hisopt.evaluation.transient import STEP_NAMES
     from hisopt.metrics import METRICS
 
     kinds = {"swing": swing, "build": build}
     objectives = [name for name, m in METRICS.items() if m.objective and (steps or name not in STEP_NAMES) and kinds.get(m.kind, True)]
-    return objectives, [{"name": name, "limit": 1e-12} for name, m in METRICS.items() if not m.objective]
+    return objectives, [{"name": name, "limit": 1e-12} for name, m in METRICS.items() if not m.objective and (rating or name not in RATING_QUANTITIES)]
 
 
 def _summary_lines() -> list[str]:

@@ -86,7 +86,7 @@ def numpy_quantities(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: n
             out[m.name] = y.max() if at is None else y[at[m.name]]
             out[f"{m.name}_node"] = int(np.argmax(y))
         else:
-            out[m.name] = roll_gradient(model)[0]
+            out[m.name] = roll_gradient(model, problem.spec.handling.gravity_moment)[0]
     return out
 
 
@@ -226,3 +226,28 @@ def test_compiled_function_gives_the_same_numbers(problem, tmp_path, monkeypatch
     for k in range(fs.size):
         for a, b in zip(fn(x, fs.params[:, k]), fast(x, fs.params[:, k]), strict=True):
             np.testing.assert_allclose(np.array(b), np.array(a), rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("gravity", [False, True])
+def test_roll_gradient_equals_numpy_in_both_conventions(handling, rng, gravity):
+    # issue 40: [handling] gravity_moment (the body's weight moment m_s g h_0s phi) read alike by
+    # the CasADi model and the numpy evaluator; one static 7 x 7 solve each, by CasADi and by
+    # LAPACK: the rounding of a well-conditioned solve
+    import casadi as ca
+
+    from hisopt.evaluation.evaluate import roll_gradient
+    from hisopt.problem import problem_from_dict
+
+    data = handling.spec.model_dump(by_alias=True)
+    data["handling"]["gravity_moment"] = gravity
+    p = problem_from_dict(data, f"gravity {gravity}")
+    sym = ca.MX.sym("x", len(p.variable_names))
+    fn = ca.Function("rg", [sym], [CasadiModel(p, compile=False).roll_gradient(sym)])
+    x_all = random_designs(p, 4, rng)
+    numpy_values = p.evaluator()(x_all)["roll_gradient"]
+    other = roll_gradient(p.model(x_all), not gravity)
+    for k, x in enumerate(x_all):
+        assert float(fn(x)) == pytest.approx(numpy_values[k], rel=1e-12)
+        # the other convention: phi_g = phi / (1 - phi) [rad/g] (Sherman-Morrison on the roll entry)
+        with_g, without = (numpy_values[k], other[k]) if gravity else (other[k], numpy_values[k])
+        assert with_g == pytest.approx(without / (1 - without), rel=1e-12) and with_g > without * 1.005

@@ -147,8 +147,10 @@ def test_bad_choices_are_one_line_naming_the_key(tmp_path, entry, key, message):
 @pytest.mark.parametrize(
     "csv, message",
     [
-        ("bore\n40\n50\n", "expected one column named with its unit"),
-        ("bore [mm],rod [mm]\n40,20\n", "expected one column named with its unit"),
+        ("bore\n40\n50\n", "expected columns named with their units"),
+        ("bore [mm],rod\n40,20\n", "expected columns named with their units"),
+        ("bore [mm],rod [mm]\n40,20\n50\n", "row 3"),  # a second column needs a value in every row
+        ("bore [mm],rod [mm]\n40,20\n50,x\n", "row 3: rod 'x'; expected a positive finite number [mm]"),
         ("bore [mm]\n40\nfifty\n", "row 3"),
         ("bore [mm]\n50\n40\n", "increasing order"),
         ("# only a comment\n", "empty"),

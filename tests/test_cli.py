@@ -231,6 +231,7 @@ def test_set_keys_are_derived_from_the_his_model(tmp_path, monkeypatch):
         "valve_flow_rms",
         "separator",
         "pressure_rating",
+        "max_working_pressure",
         "pipe_model",
         "layout",
     )

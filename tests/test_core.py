@@ -122,7 +122,7 @@ def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.
         lambda n: ev.outputs[n].weighting,
         integral,
         lambda output: float(psd[:, ev.output_index[output]].max()),
-        lambda name: float(hisopt.evaluation.evaluate.static_quantity(model, name)[0]),
+        lambda name: float(hisopt.evaluation.evaluate.static_quantity(model, name, spec.handling.gravity_moment)[0]),
     )
     return {k: float(np.squeeze(v)) for k, v in values.items()}
 

@@ -18,7 +18,8 @@ import plotly.graph_objects as go
 import pytest
 
 import hisopt
-from hisopt.coupled.modal import _MOTION_BASIS, MODE_NAMES, mac, mechanical_mode_shapes
+from hisopt.coupled.modal import MODE_NAMES, mac, mechanical_mode_shapes
+from hisopt.coupled.mode_energy import MOTION_BASIS
 from hisopt.errors import ConfigError
 from hisopt.io import read_csv
 from hisopt.simulation.droptest import (
@@ -227,7 +228,7 @@ def test_a_signal_of_no_single_mode_is_reported_mixed_never_as_an_error(problem,
     unit = shapes / np.linalg.norm(shapes, axis=0)
     b, pt = MODE_NAMES.index("bounce"), MODE_NAMES.index("pitch")
     mixed = unit[:, b] + unit[:, pt]  # motion coordinates, sqrt(kg) m/s
-    weighted_dof = _MOTION_BASIS.T @ mixed  # the basis is orthonormal
+    weighted_dof = MOTION_BASIS.T @ mixed  # the basis is orthonormal
     shape_dof = weighted_dof / np.sqrt(np.diag(model.mass))
     pole = 0.5 * (roots[b] + roots[pt])
     expected = mac(mixed[:, None], shapes)[0]
@@ -256,7 +257,7 @@ def test_a_signal_of_no_single_mode_is_reported_mixed_never_as_an_error(problem,
     # Pure roll shape at 1.5 x the highest body mode's frequency: no mode near it.
     r = MODE_NAMES.index("roll")
     far = complex(roots[r].real, (1.0 + PAIRING_WINDOW) * 1.2 * max(roots[:3].imag))
-    roll_dof = (_MOTION_BASIS.T @ shapes[:, r]) / np.sqrt(np.diag(model.mass))
+    roll_dof = (MOTION_BASIS.T @ shapes[:, r]) / np.sqrt(np.diag(model.mass))
     record = _single_pole_record(problem, roll_dof, far)
     lonely = process_record(problem, "left_side", 2e6, record, "measured")
     assert lonely.mode == "none" and np.isnan(lonely.row()["error_pct"])
@@ -275,14 +276,14 @@ def test_a_signal_close_to_two_modes_alike_is_mixed():
     halfway = u_b + u_p * np.exp(1j * np.angle(np.vdot(u_p, u_b)))  # in phase: the bisector
     expected = mac(halfway[:, None], shapes)[0]
     assert min(expected[b], expected[pt]) >= MAC_MIN  # the construction is what the test is about
-    shape_dof = (_MOTION_BASIS.T @ halfway) / np.sqrt(np.diag(model.mass))
+    shape_dof = (MOTION_BASIS.T @ halfway) / np.sqrt(np.diag(model.mass))
     identified = IdentifiedMode(roots[b].imag / (2 * np.pi), 0.25, 0.0, 0.0, 10, shape_dof)
     pairing = pair_mode(model, identified)
     assert pairing.mode in ("mixed: bounce+pitch", "mixed: pitch+bounce") and not pairing.paired
     assert np.isnan(pairing.frequency_model_hz)
     # Either mode's own shape still pairs with it: the rule is not merely strict.
     for j, name in ((b, "bounce"), (pt, "pitch")):
-        own = (_MOTION_BASIS.T @ shapes[:, j]) / np.sqrt(np.diag(model.mass))
+        own = (MOTION_BASIS.T @ shapes[:, j]) / np.sqrt(np.diag(model.mass))
         assert pair_mode(model, replace(identified, shape=own)).mode == name
 
 

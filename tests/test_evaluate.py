@@ -7,13 +7,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hisopt.coupled.operating_point import accumulator_quantities
 from hisopt.evaluation.channels import DirectOutputs
 from hisopt.evaluation.evaluate import Evaluator
 from hisopt.evaluation.reference import converged_grid, grid_quantities
 from hisopt.linalg import join
 from hisopt.metrics import METRICS
 from hisopt.problem import problem_from_dict
-from tests.conftest import every_quantity, random_designs
+from tests.conftest import RATING_QUANTITIES, every_quantity, random_designs
 from tests.error_budget import assert_discriminating, pole_budget, solve_budget
 
 REFERENCE = {  # docs/model.md §7.1 (default vehicle, class C, 10 m/s, 0.5-80 Hz)
@@ -100,7 +101,14 @@ def test_nan_free_over_whole_box_without_warnings(all_metrics_problem, rng):
     assert q["valid"].all()
     for name in p.evaluator().names:
         assert np.all(np.isfinite(q[name])) and np.all(q[name] > 0), name
-    assert set(p.evaluator().names) == {name for name, m in METRICS.items() if m.kind not in ("swing", "build")}  # all but the charged HIS's
+    # all but the charged HIS's and the rating's, +inf at p0 = 0 (docs/model.md §16.8), checked here alone
+    assert set(p.evaluator().names) == {name for name, m in METRICS.items() if m.kind not in ("swing", "build") and name not in RATING_QUANTITIES}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rating = accumulator_quantities(p.model(np.vstack([x, edges, lo, hi])).his)
+    at_zero = np.vstack([x, edges, lo, hi])[:, 0] == 0.0
+    for name in RATING_QUANTITIES:
+        assert np.all(rating[name][at_zero] == np.inf) and np.all(np.isfinite(rating[name][~at_zero])) and np.any(at_zero), name
 
 
 def test_singular_designs_give_nan_and_never_raise(problem):
@@ -156,17 +164,38 @@ def test_band_method_agrees_with_filter_method(problem, rng):
 
 
 def test_roll_gradient_closed_form_without_his(all_metrics_problem):
-    """Reference car: roll moment on springs in series with tyres, exact; HIS reduces it."""
+    """Reference car: roll moment on springs in series with tyres, exact; HIS reduces it.
+
+    Per g the body carries the lateral force's moment ``M = m_s g h_0s`` and, with the
+    gravity moment (issue 40), its weight's ``M phi`` once it rolls by ``phi`` about the roll
+    axis. Suspension and tyres carry that moment in series (the wheels are free on their
+    tyres), ``phi = (M + M phi) c`` with ``c = 1 / k_phi,s + 1 / k_phi,t``, so
+    ``phi = M c / (1 - M c)``; the paper's convention drops ``M phi``: ``phi = M c``.
+    """
     p = all_metrics_problem
     v = p.spec.vehicle
     from hisopt.evaluation.evaluate import roll_gradient
 
+    assert not p.spec.handling.gravity_moment  # the paper's problem keeps the paper's convention
     k_s = 2 * v.k_sf * v.t_f**2 + 2 * v.k_sr * v.t_r**2
     k_t = 2 * v.k_tf * v.t_f**2 + 2 * v.k_tr * v.t_r**2
-    expected = v.m_s * 9.81 * v.h_0s * (1 / k_s + 1 / k_t)
-    assert roll_gradient(p.model(his=False))[0] == pytest.approx(expected, rel=1e-9)
+    paper = v.m_s * 9.81 * v.h_0s * (1 / k_s + 1 / k_t)
+    with_gravity = paper / (1 - paper)
+    bare = p.model(his=False)
+    assert roll_gradient(bare, gravity_moment=False)[0] == pytest.approx(paper, rel=1e-9)
+    assert roll_gradient(bare, gravity_moment=True)[0] == pytest.approx(with_gravity, rel=1e-9)
+    assert with_gravity / paper == pytest.approx(1.109, abs=1e-3)  # 11 % more without HIS
+    data = p.spec.model_dump(by_alias=True)
+    data["handling"]["gravity_moment"] = True
+    gravity = problem_from_dict(data, "with gravity")
+    assert roll_gradient(bare)[0] == roll_gradient(gravity.model(his=False), gravity.spec.handling.gravity_moment)[0]  # true is the default
     with_his = p.evaluator()(p.baseline[None])["roll_gradient"][0]
-    assert with_his < 0.6 * expected
+    assert with_his < 0.6 * paper
+    # with HIS the gravity moment changes only the roll entry of K_static, so by the
+    # Sherman-Morrison formula phi_g = phi / (1 - phi) [rad/g] for any stiffness: 3.2 % here
+    raised = gravity.evaluator()(gravity.baseline[None])["roll_gradient"][0]
+    assert raised == pytest.approx(with_his / (1 - with_his), rel=1e-12)
+    assert 1.02 < raised / with_his < 1.04
 
 
 def test_distributed_pipe_path_is_batched_and_matches_lumped_pipes(problem, rng):

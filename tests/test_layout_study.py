@@ -84,13 +84,13 @@ def test_equal_handling_is_feasible_and_beats_every_sampled_design(serial):
     assert serial.handling == "roll_gradient"
     # the default limit: the roll-plane baseline's own roll gradient, computed independently
     base = serial.cases[0].problem
-    assert limit == pytest.approx(float(roll_gradient(base.model(base.baseline[None, :]))[0]), rel=1e-12)
+    assert limit == pytest.approx(float(roll_gradient(base.model(base.baseline[None, :]), base.spec.handling.gravity_moment)[0]), rel=1e-12)
     assert serial.table["refined"].any()  # the NLP found better designs than the sampled ones
     for case in serial.cases:
         row = serial.table.set_index("layout").loc[case.name]
         names = list(case.problem.variable_names)
         x = np.array([[row[f"best_{n}"] for n in names]])
-        rg = float(roll_gradient(case.problem.model(x))[0])
+        rg = float(roll_gradient(case.problem.model(x), case.problem.spec.handling.gravity_moment)[0])
         assert rg <= limit * (1 + 1e-6)
         assert rg == pytest.approx(row["handling_at_best"], rel=1e-9)
         again = case.problem.evaluate(x)
@@ -100,7 +100,7 @@ def test_equal_handling_is_feasible_and_beats_every_sampled_design(serial):
         for seed in (1, 2):
             hist = pd.read_parquet(serial.out / case.name / f"seed-{seed}" / rundir.EVALUATIONS)
             hist = hist[hist["feasible"]]
-            meets = roll_gradient(case.problem.model(hist[names].to_numpy())) <= limit
+            meets = roll_gradient(case.problem.model(hist[names].to_numpy()), case.problem.spec.handling.gravity_moment) <= limit
             sampled.append(hist.loc[meets, "sigma_aw"].to_numpy())
         best_sampled = np.concatenate(sampled).min()
         assert row["sigma_aw_at_limit"] <= best_sampled

@@ -25,6 +25,7 @@ from hisopt.hydraulics.layout import Accumulator
 from hisopt.hydraulics.network import compile_network
 from hisopt.hydraulics.roll_plane import roll_plane_layout
 from hisopt.problem import problem_from_dict
+from hisopt.studies.layout_cases import catalogue_case
 from hisopt.studies.screening import STROKE_PATTERNS, mode_stiffness, pattern_matrix
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
@@ -372,6 +373,38 @@ def test_hisopt_layouts_prints_the_table_with_units():
     assert "[kN/m]" in out.stdout and "[N s/m]" in out.stdout and "211.8" in out.stdout
     own = run_cli("layouts", ROOT / "problems" / "layout_custom_roll_plane.toml")
     assert own.code == 0 and "custom" in own.stdout
+
+
+def test_hisopt_layouts_on_a_charged_problem_is_its_models_stiffness():
+    # issue 40: the envelope problem's HIS is charged ([his.charge]): at its own load case
+    # (20 C = the charge temperature, unladen, X = 0) each circuit sits at its charge
+    # pressure p_c = p0_abs / phi with gas V = phi V0 in each accumulator, so by hand
+    # C = V / (gamma p_c) = phi^2 V0 / (gamma p0_abs) and (lumped pipes, no other compliance)
+    # k_roll = 2 (2 S)^2 / C, k_bounce = 2 (2 dA)^2 / C with S = A_t + A_b (module docstring).
+    path = ROOT / "problems" / "roll_plane_his_envelope.toml"
+    with pytest.warns(hisopt.PlausibilityWarning):  # its -20 C case's extrapolated viscosity
+        problem = hisopt.load_problem(path)
+    his = problem.spec.his
+    phi, p0_abs = his.charge.gas_fraction, his.p0 + P_ATM
+    compliance = phi**2 * his.V0 / (his.gamma * p0_abs)
+    a_b = his.dA / (1.0 - his.lam)
+    by_hand = {"k_roll": 2 * (2 * (his.lam * a_b + a_b)) ** 2 / compliance, "k_bounce": 2 * (2 * his.dA) ** 2 / compliance}
+    table = mode_stiffness(problem).set_index("layout")
+    for name, value in by_hand.items():
+        assert table.loc["roll_plane", name] == pytest.approx(value, rel=1e-9)
+    assert table.loc["roll_plane", "k_roll"] == pytest.approx(432_273, rel=1e-5)  # twice the uncharged 211.8 kN/m: phi^2 ~ 1/2
+    # the stiffness of the model the evaluator builds (its K_his) for every layout of the table
+    u = pattern_matrix()
+    for name in ("roll_plane", "axle_roll"):
+        space = problem if name == his.layout else catalogue_case(problem, name).problem
+        k_his = u @ np.asarray(space.model().his.static_stiffness())[0] @ u.T
+        np.testing.assert_allclose(table.loc[name, [f"k_{p}" for p in PATTERNS]].to_numpy(dtype=float), np.diag(k_his), rtol=1e-12)
+    out = run_cli("layouts", path)
+    assert out.code == 0, out.stderr
+    assert "432.3" in out.stdout and "211.8" not in out.stdout
+    # an uncharged problem keeps the precharge's stiffness: C = V0 / (gamma p0_abs)
+    plain = mode_stiffness(hisopt.load_problem(ROOT / "problems" / "roll_plane_his_handling.toml")).set_index("layout")
+    assert plain.loc["roll_plane", "k_roll"] == pytest.approx(2 * (2 * (0.5 * 20e-4 + 20e-4)) ** 2 * 1.4 * (2e6 + P_ATM) / 1e-3, rel=1e-9)
 
 
 # --- every layout through the engines ---------------------------------------------------------

@@ -171,7 +171,7 @@ def test_a_root_newton_lands_on_exactly_does_not_fail_the_batch():
     """refine_roots' step needs tr(K^-1 dK/ds); where K is singular to working precision
     (Newton landed on a root exactly: seen with pipes of 1e-10 m) the step is 0 for that
     root only, not a LinAlgError that made the repair flag a whole batch of 256 designs."""
-    from hisopt.coupled.modal import _log_det_slope
+    from hisopt.coupled.roots import _log_det_slope
 
     rng = np.random.default_rng(3)
     k = rng.standard_normal((3, 7, 7)) + 1j * rng.standard_normal((3, 7, 7))

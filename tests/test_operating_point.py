@@ -18,7 +18,9 @@ import pytest
 
 import hisopt
 from hisopt.constants import G_MPS2, P_ATM_PA
+from hisopt.coupled.operating_point import accumulator_quantities
 from hisopt.errors import ConfigError
+from hisopt.hydraulics import laws
 from hisopt.hydraulics.fluid import Oil, expanded_density, thermal_ratios
 from hisopt.problem import problem_from_dict
 from tests.cli_inprocess import run_cli
@@ -230,13 +232,18 @@ def test_the_idealisation_holds_no_oil_and_a_payload_compresses_its_gas_by_hand(
     ideal = with_quantities(problem_at())
     x = random_designs(ideal, 5, rng)
     out = ideal.evaluate(x)
-    assert np.all(out["static_gas_fraction"] == 1.0) and np.all(out["static_pressure_ratio"] == 1.0)
+    charged = x[:, 0] > 0  # the ratio is in gauge: a zero precharge is rated for nothing (+inf, a failed design)
+    assert np.all(out["static_gas_fraction"][charged] == 1.0) and np.all(out["static_pressure_ratio"][charged] == 1.0)
+    assert np.all(out["status"][~charged] == "failed") and np.any(~charged)
+    assert np.all(accumulator_quantities(ideal.model(x).his)["static_pressure_ratio"] == np.where(charged, 1.0, np.inf))
     laden = with_quantities(problem_at(None, None, {"mass": 400.0, "x": -0.5}))
     dp = laden.model(x).his.static_rise  # (n, 2)
     p_abs0 = x[:, :1] + P_ATM_PA
     out = laden.evaluate(x)
-    np.testing.assert_allclose(out["static_gas_fraction"], np.max((p_abs0 / (p_abs0 + dp)) ** (1 / 1.4), axis=1), rtol=1e-14)
-    np.testing.assert_allclose(out["static_pressure_ratio"], np.max((p_abs0 + dp) / p_abs0, axis=1), rtol=1e-14)
+    np.testing.assert_allclose(out["static_gas_fraction"][charged], np.max((p_abs0 / (p_abs0 + dp)) ** (1 / 1.4), axis=1)[charged], rtol=1e-14)
+    with np.errstate(divide="ignore"):
+        by_hand = np.max((x[:, :1] + dp) / x[:, :1], axis=1)  # gauge: p0 + dp over p0
+    np.testing.assert_allclose(out["static_pressure_ratio"][charged], by_hand[charged], rtol=1e-14)
 
 
 def test_a_charged_accumulator_at_its_charge_holds_the_gas_fraction_it_was_charged_to(rng):
@@ -245,7 +252,27 @@ def test_a_charged_accumulator_at_its_charge_holds_the_gas_fraction_it_was_charg
     x = x[x[:, 0] > 0]  # p0 = 0 has its own plausibility warning, not this test's subject
     out = charged.evaluate(x)
     np.testing.assert_allclose(out["static_gas_fraction"], 0.65, rtol=1e-14)
-    np.testing.assert_allclose(out["static_pressure_ratio"], 1 / 0.65, rtol=1e-14)
+    p0_abs = x[:, 0] + P_ATM_PA  # charged to p0_abs / 0.65; the ratio in gauge
+    np.testing.assert_allclose(out["static_pressure_ratio"], (p0_abs / 0.65 - P_ATM_PA) / x[:, 0], rtol=1e-13)
+
+
+def test_the_rating_is_checked_on_gauge_pressures():
+    """The makers' ratio p2/p0 is in bar gauge: 9 bar over a 1 bar precharge is 9, not the
+    absolute 10/2 = 5; a precharge at or below atmospheric is rated for nothing (+inf, never
+    NaN), so the issue's zero precharge at 43 kPa above atmospheric fails where the absolute
+    ratio passed it at (101.325 + 43) / 101.325 / 8 = 0.18 of a diaphragm's rating."""
+    import casadi as ca
+
+    bar = 1e5
+    p = np.array([9.0 * bar, 43e3, 43e3, 2.0 * bar]) + P_ATM_PA
+    p0 = np.array([1.0 * bar, 0.0, -0.1 * bar, 2.0 * bar]) + P_ATM_PA
+    np.testing.assert_array_equal(laws.gauge_pressure_ratio(p, p0), [9.0, np.inf, np.inf, 1.0])
+    assert (143.325e3 / P_ATM_PA) / 8 < 1.0  # the absolute ratio that let it pass
+    x = ca.SX.sym("p0_abs")
+    fn = ca.Function("r", [x], [laws.gauge_pressure_ratio(9.0 * bar + P_ATM_PA, x), ca.gradient(laws.gauge_pressure_ratio(9.0 * bar + P_ATM_PA, x), x)])
+    assert [float(v) for v in fn(P_ATM_PA)] == [math.inf, 0.0]  # the unchosen branch adds nothing, not NaN
+    value, slope = (float(v) for v in fn(1.0 * bar + P_ATM_PA))
+    assert value == pytest.approx(9.0, rel=1e-15) and slope == pytest.approx(-9.0 / bar, rel=1e-12)  # d(pg / (x - patm))/dx
 
 
 def test_numpy_and_casadi_give_the_same_accumulator_quantities(rng):

@@ -218,9 +218,9 @@ def test_a_payload_over_the_sprung_mass_warns_once_and_goes_on(tmp_path):
 
 
 def test_a_step_over_1_2_g_warns(tmp_path):
-    path = edited(tmp_path, "[road]\n", "[handling]\nstep_g = 5.0\n\n[road]\n")
+    path = edited(tmp_path, "gravity_moment = false", "step_g = 5.0\ngravity_moment = false")
     warned(run_cli("evaluate", path), f"{path}: handling.step_g:", "5 g", "grip of road tyres")
-    assert run_cli("evaluate", edited(tmp_path, "[road]\n", "[handling]\nstep_g = 1.2\n\n[road]\n")).error_lines == []
+    assert run_cli("evaluate", edited(tmp_path, "gravity_moment = false", "step_g = 1.2\ngravity_moment = false")).error_lines == []
 
 
 def test_a_precharge_under_0_1_MPa_warns_from_the_file_and_from_set(tmp_path):
@@ -277,7 +277,7 @@ def test_the_library_issues_plausibility_warnings():
 def test_a_run_warns_once_and_its_report_not_again(tmp_path):
     """optimize reads the problem, copies it and re-reads the copy: one warning line; refine and
     report read the run's copy: none."""
-    path = edited(tmp_path, "[road]\n", "[handling]\nstep_g = 2.0\n\n[road]\n")
+    path = edited(tmp_path, "gravity_moment = false", "step_g = 2.0\ngravity_moment = false")
     out = run_cli("optimize", path, "--pop", "8", "--gens", "1", "--out", tmp_path / "run")
     assert out.code == 0 and [line for line in out.error_lines if line.startswith("warning: ")] == [
         f"warning: {path}: handling.step_g: a lateral step of 2 g is beyond the grip of road tyres (about 1.2 g): "

@@ -263,9 +263,6 @@ def test_variable_units_come_from_the_declared_units_not_descriptions(problem):
 
 # --- problem files ----------------------------------------------------------------------------
 SI_EXTRA = """
-[handling]
-step_g = 0.4
-
 [payload]
 mass = 80.0
 x = -0.5
@@ -277,9 +274,6 @@ limit = 0.05
 """
 
 UNITS_EXTRA = """
-[handling]
-step_g = "3.924 m/s^2"
-
 [payload]
 mass = "80 kg"
 x = "-500 mm"
@@ -310,8 +304,9 @@ UNIT_EDITS = (
 
 
 def test_a_problem_file_with_units_evaluates_as_the_si_one(tmp_path):
-    si = write(tmp_path, TEXT + SI_EXTRA, "si.toml")
-    units = write(tmp_path, replaced(TEXT, *UNIT_EDITS) + UNITS_EXTRA, "units.toml")
+    step = "gravity_moment = false"  # [handling] of the paper's problem, with a step in SI and in a unit
+    si = write(tmp_path, replaced(TEXT, (step, f"{step}\nstep_g = 0.4")) + SI_EXTRA, "si.toml")
+    units = write(tmp_path, replaced(TEXT, *UNIT_EDITS, (step, f'{step}\nstep_g = "3.924 m/s^2"')) + UNITS_EXTRA, "units.toml")
     a, b = hisopt.load_problem(si), hisopt.load_problem(units)
     assert b.spec.road.speed == pytest.approx(10.0, rel=CONVERSION_RTOL) and b.spec.his.V0 == pytest.approx(1e-3, rel=CONVERSION_RTOL)
     assert b.spec.constraints[0].limit == pytest.approx(0.05, rel=CONVERSION_RTOL)  # 2.8648 deg is 0.05 rad

@@ -24,7 +24,7 @@ import hisopt
 import hisopt.evaluation.channels as channels
 from hisopt.constants import G_MPS2
 from hisopt.evaluation.symmetry import split, state_mirror
-from hisopt.evaluation.transient import RESIDUE_CHECK, modal_form, roll_moment_input, static_roll_gain
+from hisopt.evaluation.transient import RESIDUE_CHECK, gravity_softened, modal_form, roll_moment_input, static_roll_gain
 from hisopt.problem import problem_from_dict
 from hisopt.specification.validation import admissible
 from hisopt.studies.decision_room import design_curves
@@ -75,7 +75,8 @@ def _step_budget(p: hisopt.Problem, x: np.ndarray, step_g: float) -> np.ndarray:
     for rows, model in p.model(x).groups():
         a = model.state_space().a
         b = np.broadcast_to(roll_moment_input(model.car, a.shape[-1]), a.shape[:-1])
-        form, _ = modal_form(a, b, static_roll_gain(model))
+        gravity = p.spec.handling.gravity_moment
+        form, _ = modal_form(gravity_softened(a, b) if gravity else a, b, static_roll_gain(model, gravity))
         out[rows] = 2 * RESIDUE_CHECK * step_g * G_MPS2 * np.sum(np.abs(form.res / form.lam), axis=1)
     return out
 

@@ -30,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 
 from hisopt.constants import G_MPS2, P_ATM_PA
-from hisopt.coupled.model import CoupledModel
+from hisopt.coupled.model import CoupledModel, gravity_stiffness
 from hisopt.hydraulics import backend as bk
 from hisopt.hydraulics import laws
 from hisopt.hydraulics.coupling import HydraulicSystem
@@ -48,6 +48,8 @@ class BuildLimits:
     sigmas: float = 3.0
     """[-] Standard deviations of the road's swing a pressure keeps from its limits: a
     Gaussian road stays within three 99.73 % of the time."""
+    gravity_moment: bool = True
+    """[-] Count the body's gravity moment in the cornering roll (``[handling] gravity_moment``)."""
     cornering_g: float = 0.8
     """[g] Steady lateral acceleration of the quasi-static swing: a passenger car's limit on
     dry asphalt (tyre friction about 0.8-0.9)."""
@@ -190,17 +192,18 @@ def port_values(his: HydraulicSystem, per_circuit: np.ndarray) -> np.ndarray:
     return np.asarray(per_circuit)[..., his.network.port_circuit]
 
 
-def cornering_swing(model: CoupledModel, lateral_g: float) -> np.ndarray:
+def cornering_swing(model: CoupledModel, lateral_g: float, gravity_moment: bool) -> np.ndarray:
     """[Pa] Each circuit's quasi-static pressure change in a steady turn at ``lateral_g``,
     ``B + (n_circuits,)`` (its magnitude counts: the car turns both ways). The roll moment
-    ``m_s a_y h_0s`` on the static stiffness (the roll gradient's load) strokes the struts by
+    ``m_s a_y h_0s`` on the static stiffness (the roll gradient's load, with the body's
+    gravity moment when ``gravity_moment``: :func:`~hisopt.coupled.model.gravity_stiffness`) strokes the struts by
     ``delta = G X``; at rest each circuit is one compliance ``C_c`` filled through
     ``a_c = sum of its ports' rows of N``, so ``dp_c = a_c . delta / C_c``."""
     his = model.his
     assert his is not None
     v = model.vehicle
     moment = np.asarray(v.m_s, dtype=float) * lateral_g * G_MPS2 * np.asarray(v.h_0s, dtype=float)
-    k = model.stiffness()
+    k = gravity_stiffness(model.stiffness(), v, gravity_moment)
     load = np.zeros(np.broadcast_shapes(np.shape(moment), k.shape[:-2]) + (7, 1))
     load[..., 1, 0] = moment
     x = np.linalg.solve(k, load)[..., 0]
@@ -242,7 +245,7 @@ def pressure_extremes(model: CoupledModel, limits: BuildLimits, swing: RoadSwing
     his = model.his
     assert his is not None
     static = circuit_pressures(his)
-    corner = cornering_swing(model, limits.cornering_g)
+    corner = cornering_swing(model, limits.cornering_g, limits.gravity_moment)
     port_static, port_corner = port_values(his, static), port_values(his, corner)
     port_road = limits.sigmas * swing.port_pressure
     circuits = [c for _, (c, e) in enumerate(his.network.elements) if isinstance(e, Accumulator)]

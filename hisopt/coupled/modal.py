@@ -1,12 +1,16 @@
 """Modal analysis of the coupled model (paper Eq. 4-5, Table 1).
 
 Lumped circuits: exact, from the eigenvalues of the state-space realisation. Distributed
-pipes: the lumped roots refined by Newton's method on ``det K_dyn(s) = 0`` using
-``d ln det K / ds = tr(K^-1 dK/ds)``.
+pipes: the lumped roots refined by Newton's method on ``det K_dyn(s) = 0``
+(:func:`hisopt.coupled.roots.refine_roots`).
 
-Mode names (docs/model.md §8.2) come from the mode shape alone (:func:`name_modes`), so a
-physical mode keeps its name across designs and with or without HIS; along a sequence of
-designs (a sweep) :func:`track_modes` follows each mode continuously instead.
+Mode names (docs/model.md §8.2) come from the mode shape alone, by the kinetic energy of
+the car's motion with the oil it drives through the pipes (:mod:`hisopt.coupled.mode_energy`,
+:func:`name_modes`), so a physical mode keeps its name across designs and with or without
+HIS, and a wheel's hop carries its hoses' oil; the other modes of a pipe network, oil moving
+against the hydraulic compliance, are ``oil_column_<k>``. Along a sequence of designs (a
+sweep) :func:`track_modes` follows each mode continuously instead. The four wheel modes of a
+whole batch of designs at once: :func:`wheel_modes`.
 
 Names and their documented aliases (the names of hisopt 0.x, still accepted by
 :func:`canonical_mode_name`):
@@ -27,7 +31,6 @@ name                   alias            motion
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -36,60 +39,36 @@ from scipy.optimize import linear_sum_assignment
 
 from hisopt.arguments import integer, number, problem_argument
 from hisopt.constants import DOF_NAMES
+from hisopt.coupled.mode_energy import (
+    MODE_ALIASES,
+    MODE_NAMES,
+    ModeSet,
+    mode_set,
+    motion_coordinates,
+    name_slots,
+    wheel_modes,
+)
 from hisopt.coupled.model import CoupledModel
+from hisopt.coupled.roots import refine_roots
 from hisopt.errors import ConfigError
 from hisopt.units import attach_units
 
-MODE_NAMES = ("bounce", "roll", "pitch", "front_axle_hop", "front_axle_tramp", "rear_axle_hop", "rear_axle_tramp")
-"""Mechanical mode names, in table order (docs/model.md §8.2)."""
-
-MODE_ALIASES: dict[str, str] = {
-    "wheel_hop_fl": "front_axle_hop",
-    "wheel_hop_fr": "front_axle_tramp",
-    "wheel_hop_rl": "rear_axle_hop",
-    "wheel_hop_rr": "rear_axle_tramp",
-}
-"""Older wheel-mode names (alias -> name); :func:`canonical_mode_name` accepts either."""
+__all__ = [
+    "MODE_ALIASES",
+    "MODE_NAMES",
+    "canonical_mode_name",
+    "mac",
+    "mechanical_mode_shapes",
+    "modal_analysis",
+    "modal_table",
+    "motion_coordinates",
+    "name_modes",
+    "refine_roots",
+    "track_modes",
+    "wheel_modes",
+]
 
 _SHAPE_COLUMNS = tuple(f"shape_{n}" for n in DOF_NAMES)
-
-# Orthonormal basis of the 7 DOFs by motion pattern (wheel pairs of an axle as sum and
-# difference); rows are the "motion coordinates" of a mass-weighted mode shape.
-_R = 1 / np.sqrt(2)
-_MOTION_BASIS = np.array(
-    [
-        [1, 0, 0, 0, 0, 0, 0],  # 0 body bounce
-        [0, 1, 0, 0, 0, 0, 0],  # 1 body roll
-        [0, 0, 1, 0, 0, 0, 0],  # 2 body pitch
-        [0, 0, 0, _R, _R, 0, 0],  # 3 front axle hop (wheels in phase)
-        [0, 0, 0, _R, -_R, 0, 0],  # 4 front axle tramp (wheels in anti-phase)
-        [0, 0, 0, 0, 0, _R, _R],  # 5 rear axle hop
-        [0, 0, 0, 0, 0, _R, -_R],  # 6 rear axle tramp
-    ]
-)
-_COORDINATE = {name: i for i, name in enumerate(MODE_NAMES)}  # the basis rows are in name order
-
-
-@dataclass(frozen=True)
-class _Group:
-    """Modes sharing a left-right symmetry and body-or-wheel character.
-
-    ``coords``: the motion coordinates spanning the group; ``names``: one per mode; for a
-    two-mode group the first name goes to the mode closest to the direction ``angle`` [rad]
-    in the plane of the two coordinates.
-    """
-
-    coords: tuple[int, ...]
-    names: tuple[str, ...]
-    angle: float
-
-
-_GROUPS = (
-    _Group((0, 2), ("bounce", "pitch"), 0.0),  # left-right symmetric, body
-    _Group((1,), ("roll",), 0.0),  # antisymmetric, body
-    _Group((3, 5), ("front_axle_hop", "rear_axle_hop"), np.pi / 8),  # symmetric, wheels
-    _Group((4, 6), ("front_axle_tramp", "rear_axle_tramp"), np.pi / 8),  # antisymmetric, wheels
-)
 
 
 def canonical_mode_name(name: str) -> str:
@@ -107,55 +86,9 @@ def canonical_mode_name(name: str) -> str:
     raise ValueError(f"unknown mode {name!r}; expected one of {', '.join(MODE_NAMES)} (or an alias: {', '.join(MODE_ALIASES)})")
 
 
-def motion_coordinates(shapes: np.ndarray, mass_diag: np.ndarray) -> np.ndarray:
-    """[sqrt(kg) x shape unit] Mass-weighted shapes in the motion basis.
-
-    Parameters
-    ----------
-    shapes : np.ndarray
-        [m, rad] mode shapes over ``DOF_NAMES`` (displacements or velocities), ``(7, m)``
-    mass_diag : np.ndarray
-        [kg, kg m^2] diagonal of the mass matrix, ``(7,)``
-
-    Returns
-    -------
-    np.ndarray
-        ``(7, m)`` complex: bounce, roll, pitch, front hop, front tramp, rear hop, rear tramp;
-        ``|u|^2`` per coordinate is the kinetic energy of that motion (for velocity shapes).
-    """
-    return _MOTION_BASIS @ (np.sqrt(mass_diag)[:, None] * shapes)
-
-
-def _first_in_pair(u0: np.ndarray, u1: np.ndarray, angle: float) -> np.ndarray:
-    """[-] Closeness of each mode to the direction ``angle`` in the ``(u0, u1)`` plane, ``(m,)``."""
-    return np.abs(np.cos(angle) * u0 + np.sin(angle) * u1) ** 2 / (np.abs(u0) ** 2 + np.abs(u1) ** 2)
-
-
 def name_modes(u: np.ndarray, total_energy: np.ndarray) -> list[str | None]:
-    """Name each mode from its shape (``None``: not one of the seven mechanical modes).
-
-    Two steps, both on kinetic energy:
-
-    1. Group: each mode goes to one of four groups, left-right symmetric body (bounce,
-       pitch), antisymmetric body (roll), symmetric wheels (axle hops), antisymmetric wheels
-       (axle tramps), by an optimal one-to-one assignment of modes to the seven places on
-       each mode's energy in the group's motions (as a share of its total kinetic energy,
-       fluid included, so fluid modes of pipes stay unnamed). A left-right symmetric car's
-       modes are exactly symmetric or antisymmetric and body and wheel modes lie a decade
-       apart in frequency, so the groups never change with the design.
-    2. Within a two-mode group: the mode closer to a reference direction in the plane of the
-       group's two motions takes the first name. Body: the direction is pure bounce, so
-       ``bounce`` is the mode with the larger bounce share and ``pitch`` the other (where the
-       two modes of this car exchange character, p0 near 0.65 MPa at the baseline, the names
-       exchange with it; :func:`track_modes` follows curves instead). Wheels: the direction
-       is 22.5 degrees from front towards rear in phase, ``(cos 22.5, sin 22.5)`` in (front,
-       rear) coordinates. A car whose axles differ has front- and rear-dominated wheel modes
-       (near 0 and 90 degrees): the front-dominated one is ``front_axle_*``. A car with
-       identical wheel stations front and rear (the default car) has wheel modes in which
-       both axles move equally, front and rear in phase (+45 degrees) or opposite (-45
-       degrees), for every design: the in-phase one is ``front_axle_*``, the opposite one
-       (for tramps the wheel warp, untouched by a roll-plane HIS) ``rear_axle_*``. Both
-       cases lie 22.5 degrees from the decision boundary, so neither flips with the design.
+    """Name each mode of one design from its shape (``None``: not one of the seven mechanical
+    modes), by the rule of :func:`hisopt.coupled.mode_energy.name_slots`.
 
     Parameters
     ----------
@@ -163,37 +96,22 @@ def name_modes(u: np.ndarray, total_energy: np.ndarray) -> list[str | None]:
         [sqrt(kg) m/s] velocity shapes in motion coordinates (:func:`motion_coordinates`),
         ``(7, m)``
     total_energy : np.ndarray
-        [J] kinetic energy of each mode including fluid inertance, ``(m,)``
+        [J] each mode's energy budget (its kinetic energy including the oil's), ``(m,)``
 
     Returns
     -------
     list[str | None]
         A name of :data:`MODE_NAMES` or ``None`` per mode (``m`` entries).
     """
-    energy = np.abs(u) ** 2
-    slots = [(g, k) for g in _GROUPS for k in range(len(g.names))]
-    score = np.array([energy[list(g.coords)].sum(0) / total_energy for g, _ in slots])
-    rows, cols = linear_sum_assignment(-score)
-    members: dict[int, list[int]] = {}
-    for r, c in zip(rows, cols, strict=True):
-        members.setdefault(_GROUPS.index(slots[r][0]), []).append(int(c))
-    names: list[str | None] = [None] * u.shape[1]
-    for gi, modes in members.items():
-        g = _GROUPS[gi]
-        if len(g.names) == 1:
-            names[modes[0]] = g.names[0]
-            continue
-        closeness = _first_in_pair(u[g.coords[0], modes], u[g.coords[1], modes], g.angle)
-        first = int(np.argmax(closeness)) if len(modes) == 2 else (0 if closeness[0] > 0.5 else -1)
-        for k, mode in enumerate(modes):
-            names[mode] = g.names[0] if k == first else g.names[1]
-    return names
+    slots = name_slots(np.asarray(u)[None], np.asarray(total_energy)[None])[0]
+    return [MODE_NAMES[k] if k >= 0 else None for k in slots]
 
 
 def _describe(name: str, u: np.ndarray) -> tuple[str, float]:
-    """Motion description of a named mode and the energy share of the motion its name says."""
+    """Motion description of a named mode and the energy share of the motion its name says
+    (of its rigid-oil motion's energy, ``u`` in motion coordinates)."""
     energy = np.abs(u) ** 2
-    share = float(energy[_COORDINATE[name]] / energy.sum())
+    share = float(energy[MODE_NAMES.index(name)] / energy.sum())  # the basis rows are in name order
     if name == "roll":
         return "body roll", share
     if name in ("bounce", "pitch"):
@@ -206,94 +124,79 @@ def _describe(name: str, u: np.ndarray) -> tuple[str, float]:
     return f"{kind}: front {front:.0%}, rear {1 - front:.0%}, axles {sense}".replace("%", " %"), share
 
 
-@dataclass(frozen=True)
-class _Modes:
-    """Oscillating modes of one design: roots ``(m,)``, state vectors ``(n, m)``, names."""
-
-    lam: np.ndarray
-    vec: np.ndarray
-    u: np.ndarray
-    total_energy: np.ndarray
-    names: list[str | None]
-
-    def named(self) -> tuple[np.ndarray, np.ndarray]:
-        """Roots ``(7,)`` and motion coordinates ``(7, 7)`` in :data:`MODE_NAMES` order (NaN if absent)."""
-        lam = np.full(len(MODE_NAMES), np.nan, dtype=complex)
-        u = np.full((7, len(MODE_NAMES)), np.nan, dtype=complex)
-        for c, name in enumerate(self.names):
-            if name is not None:
-                lam[MODE_NAMES.index(name)], u[:, MODE_NAMES.index(name)] = self.lam[c], self.u[:, c]
-        return lam, u
+def _describe_oil(modes: ModeSet, c: int) -> str:
+    """What an oil-column mode (column ``c`` of a one-design :class:`ModeSet`) moves: the shares
+    of its kinetic energy in the oil of the pipes each axle drives and in the car."""
+    pipes = modes.pipe_energy[0, :, c]
+    axle = modes.pipe_axle[0]
+    total = modes.total[0, c]
+    front, rear = (float(pipes[axle == k].sum() / total) for k in (0, 1))
+    text = f"oil column: front pipes {front:.0%}, rear pipes {rear:.0%}"
+    other = 1.0 - front - rear - float(modes.mechanical[0, c])
+    if other > 0.005:
+        text += f", other pipes {other:.0%}"
+    return (text + f", car {modes.mechanical[0, c]:.0%}").replace("%", " %")
 
 
-def _modes_from(a: np.ndarray, weights: np.ndarray, mass_diag: np.ndarray, tol: float) -> _Modes:
-    """Oscillating modes (one root of each conjugate pair) of a single state matrix ``a``."""
-    lam, vec = np.linalg.eig(a)
-    scale = np.abs(lam).max()
-    keep = lam.imag > tol * scale  # real (overdamped) roots dropped
-    lam, vec = lam[keep], vec[:, keep]
-    total = (weights[:, None] * np.abs(vec) ** 2).sum(0)
-    u = motion_coordinates(vec[7:14], mass_diag)
-    return _Modes(lam, vec, u, total, name_modes(u, total))
-
-
-def _state(model: CoupledModel) -> tuple[np.ndarray, np.ndarray]:
-    """State matrices ``(b, n, n)`` and kinetic weights ``(b, n)`` of a model, batch flattened."""
-    ss = model.state_space()
-    a = np.asarray(ss.a)
-    weights = np.broadcast_to(np.asarray(ss.kinetic_weights), a.shape[:-1])
-    return a.reshape((-1,) + a.shape[-2:]), weights.reshape((-1, a.shape[-1]))
+def _single(model: CoupledModel, tol: float, what: str) -> ModeSet:
+    """The :class:`ModeSet` of a one-design model (``what``: the caller, for the message)."""
+    modes = mode_set(model, tol)
+    if modes.lam.shape[0] != 1:
+        raise ValueError(f"{what} expects a single design; pass one design at a time")
+    return modes
 
 
 def modal_table(model: CoupledModel, tol: float = 1e-8) -> pd.DataFrame:
     """Modes of a single-design model as a table, mechanical modes first.
 
-    Columns: ``mode`` (:data:`MODE_NAMES`; fluid-dominated modes of pipes are
-    ``hydraulic_<k>``), ``frequency_hz`` (undamped, ``|s| / 2 pi``), ``damped_frequency_hz``,
-    ``damping_ratio``, ``dominant`` (DOF with the largest kinetic-energy share), ``motion``
-    (what the mode does: bounce and pitch shares of the body's energy; for wheel modes the
-    front and rear axles' shares and whether they move in the same or opposite sense),
-    ``motion_share`` (share of the mode's mechanical kinetic energy in the motion its name
-    says, e.g. 0.5 for each axle of the default car's tramps), ``mechanical_share`` (mechanical
-    part of the kinetic energy) and the mode shape ``shape_<dof>`` normalised to a largest
-    entry of +1 (paper Sec. II-A).
+    Columns: ``mode`` (:data:`MODE_NAMES`; the other modes of pipe networks, oil columns
+    moving against the hydraulic compliance, are ``oil_column_<k>`` in order of frequency),
+    ``frequency_hz`` (undamped, ``|s| / 2 pi``), ``damped_frequency_hz``, ``damping_ratio``,
+    ``dominant`` (DOF with the largest kinetic-energy share), ``motion`` (what the mode does:
+    bounce and pitch shares of the body's energy; for wheel modes the front and rear axles'
+    shares and whether they move in the same or opposite sense; for an oil column the
+    shares of its energy in each axle's pipes and in the car), ``motion_share`` (share of
+    the mode's rigid-oil energy, the car with the oil it drives, in the motion its name
+    says, e.g. 0.5 for each axle of the default car's tramps; 0 for oil columns),
+    ``mechanical_share`` (the car's part of the kinetic energy) and the mode shape
+    ``shape_<dof>`` normalised to a largest entry of +1 (paper Sec. II-A).
 
-    Names come from the shape by the rule of :func:`name_modes`: symmetry and body or wheel
-    character fix the group (bounce/pitch, roll, axle hops, axle tramps); within a group,
-    bounce is the mode with the larger bounce share, and of two wheel modes the
-    front-dominated one, or, when both axles move equally (identical wheel stations front
-    and rear), the one with front and rear in phase, is ``front_axle_*``. Older names are
-    aliases (:data:`MODE_ALIASES`).
+    Names come from the kinetic energy of each mode's motion with the oil it drives, by the
+    rule of :func:`hisopt.coupled.mode_energy.name_slots` (docs/model.md §8.2): symmetry
+    and body or wheel character fix the group (bounce/pitch, roll, axle hops, axle tramps);
+    within a group, bounce is the mode with the larger bounce share, and of two wheel modes
+    the front-dominated one, or, when both axles move equally (identical wheel stations
+    front and rear), the one with front and rear in phase, is ``front_axle_*``. Older names
+    are aliases (:data:`MODE_ALIASES`).
     """
-    a, weights = _state(model)
-    if a.shape[0] != 1:
-        raise ValueError("modal_table expects a single design; pass one design at a time")
-    modes = _modes_from(a[0], weights[0], np.diag(model.mass), tol)
-    lam, vec = modes.lam, modes.vec
-    mechanical = (weights[0, 7:14, None] * np.abs(vec[7:14]) ** 2).sum(0) / modes.total_energy
+    modes = _single(model, tol, "modal_table")
+    keep = np.flatnonzero(modes.oscillating[0])
+    lam, vec = modes.lam[0, keep], modes.vec[0][:, keep]
     if model.pipe_model == "distributed" and model.his is not None:
         lam = refine_roots(model, lam)
     records: list[dict[str, Any]] = []
-    hydraulic = 0
-    for c in np.argsort(np.abs(lam), kind="stable"):
-        shape = vec[:7, c] / vec[np.argmax(np.abs(vec[:7, c])), c]
-        name = modes.names[c]
-        if name is None:
-            hydraulic += 1
-            name, motion, share = f"hydraulic_{hydraulic}", "fluid", 0.0
+    oil = 0
+    for i in np.argsort(np.abs(lam), kind="stable"):
+        c = keep[i]
+        shape = vec[:7, i] / vec[np.argmax(np.abs(vec[:7, i])), i]
+        slot = modes.slots[0, c]
+        if slot < 0:
+            oil += 1
+            name, motion, share = f"oil_column_{oil}", _describe_oil(modes, c), 0.0
         else:
-            motion, share = _describe(name, modes.u[:, c])
-        e = np.diag(model.mass) * np.abs(vec[:7, c]) ** 2
+            name = MODE_NAMES[slot]
+            motion, share = _describe(name, modes.u[0, :, c])
+        e = np.diag(model.mass) * np.abs(vec[:7, i]) ** 2
         records.append(
             {
                 "mode": name,
-                "frequency_hz": np.abs(lam[c]) / (2 * np.pi),
-                "damped_frequency_hz": lam[c].imag / (2 * np.pi),
-                "damping_ratio": -lam[c].real / np.abs(lam[c]),
+                "frequency_hz": np.abs(lam[i]) / (2 * np.pi),
+                "damped_frequency_hz": lam[i].imag / (2 * np.pi),
+                "damping_ratio": -lam[i].real / np.abs(lam[i]),
                 "dominant": DOF_NAMES[int(np.argmax(e))],
                 "motion": motion,
                 "motion_share": share,
-                "mechanical_share": mechanical[c],
+                "mechanical_share": modes.mechanical[0, c],
                 **dict(zip(_SHAPE_COLUMNS, shape.real, strict=True)),
             }
         )
@@ -303,11 +206,25 @@ def modal_table(model: CoupledModel, tol: float = 1e-8) -> pd.DataFrame:
     return table.iloc[np.lexsort((table["frequency_hz"].to_numpy(), order))].reset_index(drop=True)
 
 
+def _named(modes: ModeSet) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per design of ``modes``: the roots ``(7,)`` of the seven named modes and the car's
+    motion in motion coordinates ``(7, 7)``, in :data:`MODE_NAMES` order (NaN if absent)."""
+    out = []
+    for d in range(modes.lam.shape[0]):
+        lam = np.full(len(MODE_NAMES), np.nan, dtype=complex)
+        u = np.full((7, len(MODE_NAMES)), np.nan, dtype=complex)
+        for c in np.flatnonzero(modes.slots[d] >= 0):
+            lam[modes.slots[d, c]], u[:, modes.slots[d, c]] = modes.lam[d, c], modes.shapes[d, :, c]
+        out.append((lam, u))
+    return out
+
+
 def mechanical_mode_shapes(model: CoupledModel, tol: float = 1e-8) -> tuple[np.ndarray, np.ndarray]:
     """Roots and complex shapes of the seven mechanical modes of a single-design model.
 
-    The names are :func:`modal_table`'s (the same rule); the shapes are for comparing with
-    measured motion (:func:`mac`), e.g. drop-test pairing (:mod:`hisopt.simulation.droptest`).
+    The names are :func:`modal_table`'s (the same rule); the shapes, the car's motion, are
+    for comparing with measured motion (:func:`mac`), e.g. drop-test pairing
+    (:mod:`hisopt.simulation.droptest`).
 
     Returns
     -------
@@ -318,48 +235,7 @@ def mechanical_mode_shapes(model: CoupledModel, tol: float = 1e-8) -> tuple[np.n
         [sqrt(kg) m/s] mass-weighted velocity shapes in motion coordinates
         (:func:`motion_coordinates`), ``(7, 7)``, column ``j`` mode ``MODE_NAMES[j]`` (NaN if absent)
     """
-    a, weights = _state(model)
-    if a.shape[0] != 1:
-        raise ValueError("mechanical_mode_shapes expects a single design; pass one design at a time")
-    return _modes_from(a[0], weights[0], np.diag(model.mass), tol).named()
-
-
-def _log_det_slope(k: np.ndarray, dk: np.ndarray) -> np.ndarray:
-    """``tr(K^-1 dK/ds)`` of a batch ``(..., 7, 7)``; ``inf`` (a Newton step of 0) where ``K``
-    is singular to working precision: there ``s`` is a root already (Newton lands on one
-    exactly now and then), and one such root must not fail the whole batch."""
-    try:
-        return np.trace(np.linalg.solve(k, dk), axis1=-2, axis2=-1)
-    except np.linalg.LinAlgError:
-        out = np.empty(k.shape[:-2], dtype=complex)
-        for i in np.ndindex(out.shape):  # rare: only a batch with an exactly singular K
-            try:
-                out[i] = np.trace(np.linalg.solve(k[i], dk[i]))
-            except np.linalg.LinAlgError:
-                out[i] = np.inf
-        return out
-
-
-def refine_roots(model: CoupledModel, roots: np.ndarray, iterations: int = 30) -> np.ndarray:
-    """Newton refinement of roots of ``det K_dyn(s)`` (batched over the roots).
-
-    The step is ``-1 / tr(K^-1 dK/ds)`` with ``dK/ds`` from a complex central difference.
-
-    Parameters
-    ----------
-    roots : np.ndarray
-        ``(R,)`` roots of a one-design model, or ``(n, R)``, row ``i`` design ``i``'s
-    """
-    s = np.asarray(roots, dtype=complex).copy()
-    for _ in range(iterations):
-        h = 1e-6 * np.abs(s)
-        k = model.dynamic_stiffness(s)
-        dk = (model.dynamic_stiffness(s + h) - model.dynamic_stiffness(s - h)) / (2 * h)[..., None, None]
-        step = -1.0 / _log_det_slope(k, dk).reshape(s.shape)
-        s = s + step
-        if np.all(np.abs(step) < 1e-12 * np.abs(s)):
-            break
-    return s
+    return _named(_single(model, tol, "mechanical_mode_shapes"))[0]
 
 
 def modal_analysis(problem: Any, design: Any = None, his: bool = True) -> pd.DataFrame:
@@ -478,13 +354,10 @@ def track_modes(
         raise ConfigError(f"{anchor} is not a design index (0 to {len(x) - 1})", key="anchor")
     number(min_mac, "min_mac", low=0.0, high=1.0)
     integer(max_depth, "max_depth", minimum=0)
-    mass_diag = np.diag(problem.model(x[:1], his=his).mass)
 
     def sets(xs: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        a, weights = _state(problem.model(xs, his=his))
-        if a.shape[0] == 1 and len(xs) > 1:  # reference vehicle: one model for every design
-            a, weights = np.repeat(a, len(xs), 0), np.repeat(weights, len(xs), 0)
-        return [_modes_from(a[i], weights[i], mass_diag, 1e-8).named() for i in range(len(xs))]
+        named = _named(mode_set(problem.model(xs, his=his)))
+        return named * len(xs) if len(named) == 1 and len(xs) > 1 else named  # the reference vehicle: one model
 
     points = sets(x)
     tracked: list[tuple[np.ndarray, np.ndarray]] = list(points)
@@ -497,7 +370,7 @@ def track_modes(
     if distributed:
         lam = np.array([refine_roots(problem.model(x[i : i + 1]), lam[i]) for i in range(len(x))])
     energy = np.array([np.abs(t[1]) ** 2 for t in tracked])  # (n, 7 coords, 7 modes)
-    own = np.array([_COORDINATE[n] for n in MODE_NAMES])
+    own = np.arange(len(MODE_NAMES))  # the basis rows are in name order
     share = energy[:, own, np.arange(len(MODE_NAMES))] / energy.sum(1)
     return pd.DataFrame(
         {

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from hisopt.arguments import of_type
-from hisopt.constants import DOF_NAMES
+from hisopt.constants import DOF_NAMES, G_MPS2
 from hisopt.errors import ModelError
 from hisopt.hydraulics import backend as bk
 from hisopt.hydraulics.coupling import HydraulicSystem
@@ -94,6 +94,22 @@ class StateSpace:
         lhs = s[..., None, None] * np.eye(n) - self.a[..., None, :, :]
         rhs = self.b0[..., None, :, :] + s[..., None, None] * self.b1[..., None, :, :]
         return np.linalg.solve(lhs, rhs)[..., :7, :]
+
+
+def gravity_stiffness(stiffness: Any, vehicle: VehicleParams | VehicleBatch, gravity_moment: bool) -> Any:
+    """The static stiffness ``stiffness`` (numpy ``B + (7, 7)`` or CasADi) with the body's
+    gravity moment: when the body rolls by ``phi`` about the roll axis its CG moves
+    ``h_0s phi`` sideways and its weight adds ``m_s g h_0s phi``, so the roll entry is reduced
+    by ``m_s g h_0s`` (docs/model.md §6.4); without ``gravity_moment``, the paper's convention,
+    ``stiffness`` itself."""
+    if not gravity_moment:
+        return stiffness
+    moment = vehicle.m_s * G_MPS2 * vehicle.h_0s
+    if bk.is_casadi(stiffness):
+        return stiffness - bk.assemble((7, 7), [(1, 1, moment)], like=stiffness)
+    k = np.array(stiffness, dtype=float)
+    k[..., 1, 1] -= moment
+    return k
 
 
 @dataclass(frozen=True)

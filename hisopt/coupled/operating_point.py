@@ -166,9 +166,10 @@ def accumulator_quantities(his: HydraulicSystem) -> dict[str, Any]:
     - ``static_gas_fraction``: the largest gas share ``V / V0`` of any accumulator (1: it
       holds no oil, as the paper's idealisation always has it; a charged accumulator near 1
       runs dry as soon as the oil contracts or the struts extend);
-    - ``static_pressure_ratio``: the largest ``p / p0`` of any accumulator, absolute, ``p0``
-      at the temperature (an accumulator is rated for a largest ratio: about 4 for a
-      bladder, 8 for a diaphragm);
+    - ``static_pressure_ratio``: the largest ``p / p0`` of any accumulator, in gauge, ``p0``
+      the gas's precharge at the temperature (:func:`hisopt.hydraulics.laws.gauge_pressure_ratio`:
+      ``+inf`` for a precharge at or below atmospheric pressure there); an accumulator is rated
+      for a largest ratio: about 4 for a bladder, 8 for a diaphragm, stated in gauge;
     - ``pressure_rating_usage``: ``static_pressure_ratio`` over the accumulators' rating
       ``pressure_rating`` (above 1 the design asks more than the part is rated for).
     """
@@ -181,7 +182,7 @@ def accumulator_quantities(his: HydraulicSystem) -> dict[str, Any]:
             continue
         v, p_abs, _ = his.values.gas[k]
         precharge = laws.gas_pressure_at_temperature(laws.absolute_pressure(resolve(e.precharge, params)), tau)
-        f, r = v / resolve(e.volume, params), p_abs / precharge
+        f, r = v / resolve(e.volume, params), laws.gauge_pressure_ratio(p_abs, precharge)
         fraction = f if fraction is None else bk.fmax(fraction, f)
         ratio = r if ratio is None else bk.fmax(ratio, r)
     if fraction is None:  # a layout without accumulators: nothing to run dry

@@ -12,11 +12,13 @@ import numpy as np
 from hisopt.coupled.buildability import BUILD_USAGE, RULES, BuildLimits, RoadSwing, RuleValue, accumulator_ceilings, build_rules, overall_usage
 from hisopt.coupled.response import STROKE_RATE_NAMES
 from hisopt.hydraulics.coupling import HydraulicSystem
+from hisopt.hydraulics.network import resolve
 from hisopt.metrics import Metric
 
 if TYPE_CHECKING:
     from hisopt.coupled.model import CoupledModel
     from hisopt.hydraulics.network import Network
+    from hisopt.specification.design_space import DesignSpace
 
 
 def rule_names(metrics: list[Metric]) -> tuple[str, ...]:
@@ -50,12 +52,31 @@ def road_swing(network: Network, rms: Callable[[str], np.ndarray]) -> RoadSwing:
     )
 
 
-def catalogue_rating(his: HydraulicSystem) -> np.ndarray:
-    """[Pa gauge] Each accumulator's highest working pressure: ``[his] pressure_rating``
-    times its precharge, at most ``max_working_pressure``
-    (:func:`~hisopt.coupled.buildability.accumulator_ceilings`)."""
-    params = his.params
-    return accumulator_ceilings(his, params.get("pressure_rating", np.nan), params.get("max_working_pressure", np.inf))
+def catalogue_rating(space: DesignSpace) -> Callable[[HydraulicSystem], np.ndarray]:
+    """[Pa gauge] Each accumulator's highest working pressure, as ``space`` rates it: the part
+    you would buy for its volume from the problem's accumulator catalogue (its ratio times the
+    precharge, at most its size's maximum working pressure; ``[his] separator``,
+    ``pressure_rating`` and ``max_working_pressure`` override, docs/model.md §16.8), via
+    :func:`~hisopt.coupled.buildability.accumulator_ceilings`."""
+    from pathlib import Path
+
+    from hisopt.hydraulics.parts_catalogue import his_accumulator_rating
+    from hisopt.specification.catalogues import catalogue_accumulator_ratings
+
+    spec = space.spec
+    v0 = spec.variables.get("V0")
+    path = space.path
+    base = Path(path).parent if path is not None else None
+    ratings = catalogue_accumulator_ratings(v0.catalogue if v0 is not None else None, base)
+
+    def rating(his: HydraulicSystem) -> np.ndarray:
+        volumes = [np.broadcast_to(np.asarray(resolve(e.volume, his.params), dtype=float), his.batch_shape) for _, e, _ in his.network.accumulators()]
+        if not volumes:
+            return np.zeros(his.batch_shape + (0,))
+        ratio, pressure = his_accumulator_rating(spec.his, np.stack(volumes, axis=-1), ratings)
+        return accumulator_ceilings(his, ratio, pressure)
+
+    return rating
 
 
 def wheel_modes_of(model: CoupledModel) -> tuple[np.ndarray, np.ndarray]:
@@ -66,12 +87,14 @@ def wheel_modes_of(model: CoupledModel) -> tuple[np.ndarray, np.ndarray]:
     return wheel_modes(model)
 
 
-def rule_values(model: CoupledModel, limits: BuildLimits, rules: tuple[str, ...], rms: Callable[[str], np.ndarray] | None) -> dict[str, RuleValue]:
+def rule_values(
+    model: CoupledModel, limits: BuildLimits, rules: tuple[str, ...], rms: Callable[[str], np.ndarray] | None, rating: Callable[[HydraulicSystem], np.ndarray]
+) -> dict[str, RuleValue]:
     """Every rule of ``rules`` of a batch of models with HIS, the road's swing from ``rms``
-    (None: no rule needs it)."""
+    (None: no rule needs it), the accumulators' ratings from ``rating`` (:func:`catalogue_rating`)."""
     assert model.his is not None
     swing = road_swing(model.his.network, rms) if rms is not None else None
-    return build_rules(model, limits, swing, catalogue_rating, wheel_modes_of, rules)
+    return build_rules(model, limits, swing, rating, wheel_modes_of, rules)
 
 
 def usages(values: dict[str, RuleValue], n: int) -> dict[str, np.ndarray]:
@@ -79,3 +102,34 @@ def usages(values: dict[str, RuleValue], n: int) -> dict[str, np.ndarray]:
     out = {name: np.broadcast_to(v.usage, (n,)) for name, v in values.items()}
     out[BUILD_USAGE] = np.broadcast_to(overall_usage(values), (n,)) if values else np.zeros(n)
     return out
+
+
+class RuleQuantities:
+    """The buildability metrics of one load case's evaluator: which rules, which outputs'
+    integrals they read, and their values from a batch of models (the ``build`` callback of
+    :func:`~hisopt.evaluation.psd.reduce_metrics`)."""
+
+    def __init__(self, space: DesignSpace, metrics: list[Metric]):
+        self.space = space
+        self.rules = rule_names(metrics)
+        self.limits = space.spec.build_limits
+        self.outputs = road_outputs(space.network(), self.rules) if self.rules else []
+        """Outputs whose band RMS the rules read (the chambers' and accumulators' pressures, the strokes' rates)."""
+        self._rating: Callable[[HydraulicSystem], np.ndarray] | None = None
+
+    def of(self, model: CoupledModel, n: int, integral: Callable[[str, str | None], np.ndarray]) -> Callable[[str], np.ndarray]:
+        """``build(name)`` for the ``n`` models of ``model``: every rule computed once, on
+        the first quantity asked for, from the evaluator's band ``integral``."""
+        done: dict[str, np.ndarray] = {}
+
+        def build(name: str) -> np.ndarray:
+            if model.his is None:
+                return np.full(n, np.nan)
+            if not done:
+                if self._rating is None:
+                    self._rating = catalogue_rating(self.space)
+                rms = (lambda o: np.sqrt(np.maximum(integral(o, None), 0.0))) if self.outputs else None
+                done.update(usages(rule_values(model, self.limits, self.rules, rms, self._rating), n))
+            return done[name]
+
+        return build

@@ -23,8 +23,7 @@ from hisopt.coupled.operating_point import accumulator_quantities, accumulator_r
 from hisopt.coupled.response import Output, accumulator_outputs, port_pressure_outputs, standard_outputs, stroke_rate_outputs, valve_flow_outputs
 from hisopt.errors import ModelError
 from hisopt.evaluation import psd as psd_kernels
-from hisopt.evaluation.build_rules import road_outputs, rule_names, rule_values
-from hisopt.evaluation.build_rules import usages as build_usages
+from hisopt.evaluation.build_rules import RuleQuantities
 from hisopt.evaluation.channels import (
     Channels,
     DirectOutputs,
@@ -72,6 +71,11 @@ if TYPE_CHECKING:
     from hisopt.coupled.model import CoupledModel
     from hisopt.specification.design_space import DesignSpace, Inputs
 
+
+BEYOND_RATING = frozenset(m.name for m in METRICS.values() if not m.objective or m.kind == "build")
+"""Quantities whose +inf is a value, not a failure: a ratio over a rating of zero (an
+accumulator without gauge precharge is rated for nothing, docs/model.md §16.8, §21.2), which no
+constraint admits."""
 
 MEASURED = "measured:"
 """Prefix of an evaluation's band RMS of an output among :attr:`Evaluator.rms_outputs` (the
@@ -146,11 +150,9 @@ class Evaluator:
             | port_pressure_outputs(self.n_accumulators, len(network.flow_valves()), len(network.ports))
             | stroke_rate_outputs(problem.vehicle)
         )
-        self.build_rules = rule_names(self.metrics)
+        self.build = RuleQuantities(problem, self.metrics)
         """The buildability rules the metrics need (docs/model.md §21)."""
-        self.build_limits = spec.build.limits()
-        self.build_outputs = road_outputs(network, self.build_rules)
-        """Outputs whose band RMS the rules read (the chambers' and accumulators' pressures, the strokes' rates)."""
+        self.build_outputs = self.build.outputs
         solved = bool(network.solved_valves()) and names is None  # this load case's evaluator: it measures the flows it is built at
         self.rms_outputs = tuple(rms_outputs) or (tuple(valve_flow_names_of(problem)) if solved else ())
         """Outputs whose band RMS this evaluator integrates besides the metrics' (the valves'
@@ -351,7 +353,7 @@ class Evaluator:
         out = []
         for ev, prior in zip(evaluators, shared, strict=True):
             values = ev.quantities(lam, channels, model, prior, steps)
-            finite = [np.isfinite(v) for k, v in values.items() if k not in self.unread]
+            finite = [np.isfinite(v) | ((v == np.inf) & (k in BEYOND_RATING)) for k, v in values.items() if k not in self.unread]
             out.append((values, stable & np.all(finite, axis=0)))
         return out
 
@@ -361,7 +363,8 @@ class Evaluator:
         :attr:`unread`."""
         names = [m.name for m in self.metrics if m.kind == "transient"]
         wanted = [name for name in names if name not in self.unread]
-        steps = transient_quantities(model, model.car, wanted, self.problem.spec.handling.step_g) if wanted else {}
+        handling = self.problem.spec.handling
+        steps = transient_quantities(model, model.car, wanted, handling.step_g, handling.gravity_moment) if wanted else {}
         return steps | {name: np.full(n, np.nan) for name in names if name in self.unread}
 
     def _shared_samples(self, lam: np.ndarray, channels: Channels, evaluators: list[Evaluator]) -> list[Prior]:
@@ -534,26 +537,11 @@ class Evaluator:
             lambda name: self.outputs[name].weighting,  # type: ignore[arg-type,return-value]
             integral,
             lambda output: maxima[output],
-            lambda name: static_quantity(model, name),
+            lambda name: static_quantity(model, name, self.problem.spec.handling.gravity_moment),
             steps.__getitem__,
             lambda: accumulator_rooms(model.his) if model.his is not None else [],
-            self._build_usages(model, len(lam), integral),
+            self.build.of(model, len(lam), integral),
         )
-
-    def _build_usages(self, model: CoupledModel, n: int, integral: Any) -> Any:
-        """The ``build`` callback of :func:`~hisopt.evaluation.psd.reduce_metrics`: every rule
-        computed once, on the first quantity asked for (:mod:`hisopt.evaluation.build_rules`)."""
-        done: dict[str, np.ndarray] = {}
-
-        def build(name: str) -> np.ndarray:
-            if not done:
-                if model.his is None:
-                    return np.full(n, np.nan)
-                rms = (lambda o: np.sqrt(np.maximum(integral(o, None), 0.0))) if self.build_outputs else None
-                done.update(build_usages(rule_values(model, self.build_limits, self.build_rules, rms), n))
-            return done[name]
-
-        return build
 
     def output_spectra(self, model: CoupledModel, names: Sequence[str], f_hz: np.ndarray) -> np.ndarray:
         """One-sided PSDs ``(n, F, len(names))`` of the outputs ``names`` (of
@@ -661,19 +649,30 @@ def poles(model: CoupledModel) -> np.ndarray:
     return np.linalg.eig(model.state_space().a)[0]
 
 
-def static_quantity(model: CoupledModel, name: str) -> np.ndarray:
-    """A ``static`` metric of a batch of models with HIS: :func:`roll_gradient` or one of
+def static_quantity(model: CoupledModel, name: str, gravity_moment: bool) -> np.ndarray:
+    """A ``static`` metric of a batch of models with HIS: :func:`roll_gradient` (with the
+    body's gravity moment or not: ``[handling] gravity_moment``) or one of
     :func:`hisopt.coupled.operating_point.accumulator_quantities`."""
     if name == "roll_gradient":
-        return roll_gradient(model)
+        return roll_gradient(model, gravity_moment)
     if model.his is None:
         raise ValueError(f"{name}: a model without HIS has no accumulators")
     return np.asarray(accumulator_quantities(model.his)[name])
 
 
-def roll_gradient(model: CoupledModel) -> np.ndarray:
-    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`)."""
+def roll_gradient(model: CoupledModel, gravity_moment: bool = True) -> np.ndarray:
+    """[rad/g] Static roll angle per 1 g of a batch of models, shape (n,) (:func:`hisopt.evaluation.psd.roll_gradient`).
+
+    Parameters
+    ----------
+    model : CoupledModel
+        a problem's model
+    gravity_moment : bool, optional
+        [-] include the body's gravity moment ``m_s g h_0s phi`` (docs/model.md §6.4); pass
+        ``problem.spec.handling.gravity_moment`` for the problem's own convention (the
+        paper's problem: False)
+    """
     from hisopt.coupled.model import CoupledModel
 
     of_type(model, CoupledModel, "model", "a CoupledModel (a problem's model())")
-    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle)
+    return psd_kernels.roll_gradient(model.stiffness(), model.vehicle, gravity_moment)

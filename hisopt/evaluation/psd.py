@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hisopt.constants import G_MPS2
+from hisopt.coupled.model import gravity_stiffness
 from hisopt.hydraulics import backend as bk
 from hisopt.metrics import COMFORT_OUTPUTS, Metric
 from hisopt.standards import iso_2631_1_1997 as iso2631
@@ -150,20 +151,30 @@ def reduce_metrics(
     return out
 
 
-def roll_gradient(stiffness: Any, vehicle: VehicleParams | VehicleBatch) -> Any:
-    """[rad/g] Static roll angle under the moment ``m_s g h_0s`` on the roll DOF.
+def roll_gradient(stiffness: Any, vehicle: VehicleParams | VehicleBatch, gravity_moment: bool) -> Any:
+    """[rad/g] Static roll angle under the moment ``m_s g h_0s`` on the roll DOF (docs/model.md §6.4).
+
+    With ``gravity_moment`` the body's weight adds ``m_s g h_0s phi`` when it rolls by
+    ``phi`` about the roll axis (its CG moves ``h_0s phi`` sideways): the roll entry of the
+    stiffness is reduced by ``m_s g h_0s``, so the rigid car's ``phi = M / k`` becomes
+    ``M / (k - m_s g h_0s)``. Without it, the paper's convention (the moment of the lateral
+    force alone).
 
     Parameters
     ----------
     stiffness : Any
         [N/m, N m/rad] static stiffness ``K + G^T K_his G`` (numpy ``B + (7, 7)`` or
         a CasADi matrix)
+    vehicle : VehicleParams | VehicleBatch
+        the car (``m_s`` [kg], ``h_0s`` [m]; one per design of a batch)
+    gravity_moment : bool
+        [-] include the body's gravity moment (``[handling] gravity_moment``)
     """
     moment = vehicle.m_s * G_MPS2 * vehicle.h_0s  # one per car of a batch
     load = np.zeros(np.shape(moment) + (7,))
     load[..., 1] = moment
-    if bk.is_casadi(stiffness):
-        return bk.solve(stiffness, load)[1]
-    k = np.asarray(stiffness)
+    k = gravity_stiffness(stiffness, vehicle, gravity_moment)
+    if bk.is_casadi(k):
+        return bk.solve(k, load)[1]
     x = np.linalg.solve(k, np.broadcast_to(load[..., None], k.shape[:-1] + (1,)))
     return np.atleast_1d(x[..., 1, 0])

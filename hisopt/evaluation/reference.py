@@ -33,7 +33,7 @@ def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, 
     spectra = {name: psd[..., j] for name, j in ev.output_index.items()}
 
     wanted = [m.name for m in ev.metrics if m.kind == "transient"]
-    transient = transient_quantities(model, model.car, wanted, spec.handling.step_g) if wanted else {}
+    transient = transient_quantities(model, model.car, wanted, spec.handling.step_g, spec.handling.gravity_moment) if wanted else {}
 
     def integral(output: str, weighting: str | None) -> np.ndarray:
         gain = 1.0 if weighting is None else comfort_gain_squared(f, weighting, spec.comfort, ev.f_lo, ev.f_hi)
@@ -45,7 +45,7 @@ def _grid_chunk(ev: Evaluator, model: CoupledModel, f: np.ndarray) -> dict[str, 
         lambda name: ev.outputs[name].weighting,  # type: ignore[arg-type,return-value]
         integral,
         lambda output: spectra[output].max(axis=1),
-        lambda name: static_quantity(model, name),
+        lambda name: static_quantity(model, name, spec.handling.gravity_moment),
         transient.__getitem__,
         lambda: accumulator_rooms(model.his) if model.his is not None else [],
     )

@@ -16,6 +16,13 @@ on a time grid that resolves every significant mode (vectorised over designs) an
 by safeguarded Newton steps. ``roll_gain_peak`` is the largest ``|H(j 2 pi f)|`` over
 :data:`GAIN_BAND_HZ`, refined off the grid by :func:`hisopt.evaluation.peaks.refine_maximum`.
 
+The body's gravity moment (``[handling] gravity_moment``, docs/model.md §6.4): when the body
+rolls by ``phi`` its weight adds ``m_s g h_0s phi``, the moment of a lateral acceleration
+``g phi``, so the state matrix gains ``g b`` in the roll angle's column
+(:func:`gravity_softened`) and the dynamic stiffness loses ``m_s g h_0s`` on its roll
+entry: the transient quantities use the same convention as ``roll_gradient``, and the step
+response settles at ``roll_gradient`` times the step.
+
 Designs whose eigenvectors are too ill-conditioned for the residues (checked by the
 identities ``phi(0) = 0`` and ``dphi/dt(0) = 0``; e.g. pipes of micrometres) get NaN step
 quantities (their gain comes from a direct solve); an unstable design gives NaN. Distributed pipes: the step quantities come from the lumped
@@ -26,8 +33,8 @@ distributed model's dynamic stiffness.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Protocol, cast
 
 import numpy as np
 
@@ -88,6 +95,15 @@ def roll_moment_input(vehicle: VehicleParams, n_states: int) -> np.ndarray:
     b = np.zeros(n_states)
     b[7 + ROLL] = vehicle.m_s * vehicle.h_0s / vehicle.I_x
     return b
+
+
+def gravity_softened(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """[1/s] State matrices ``a`` ``(n, N, N)`` with the body's gravity moment
+    ``m_s g h_0s phi`` (module docstring): a lateral acceleration ``g phi``, so ``g b``
+    (``b`` ``(n, N)``: :func:`roll_moment_input`) is added to the roll angle's column."""
+    out = np.array(a, dtype=float)
+    out[..., :, ROLL] += G_MPS2 * b
+    return out
 
 
 def moment_per_acceleration(vehicle: VehicleParams) -> float:
@@ -341,7 +357,9 @@ def roll_gain_peak(
 
 
 # --- one entry point ---------------------------------------------------------------------------
-def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParams, names: Sequence[str], step_g: float) -> dict[str, np.ndarray]:
+def transient_quantities(
+    model: CoupledModel | StateSpace, vehicle: VehicleParams, names: Sequence[str], step_g: float, gravity_moment: bool
+) -> dict[str, np.ndarray]:
     """The transient quantities ``names`` of a batch of designs, each ``(n,)`` (NaN where a
     design is unstable or singular; never raises for one).
 
@@ -356,20 +374,22 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
         quantities from :data:`NAMES`
     step_g : float
         [g] lateral-acceleration step of the step quantities
+    gravity_moment : bool
+        [-] with the body's gravity moment (module docstring; ``[handling] gravity_moment``)
     """
     unknown = [name for name in names if name not in NAMES]
     if unknown:
         raise ValueError(f"unknown transient quantity {unknown[0]!r}; expected one of {', '.join(NAMES)}")
     groups = _valve_groups(model)
     if len(groups) > 1:
-        parts = [(np.asarray(rows), transient_quantities(sub, vehicle, names, step_g)) for rows, sub in groups]  # rows of groups() are arrays
+        parts = [(np.asarray(rows), transient_quantities(sub, vehicle, names, step_g, gravity_moment)) for rows, sub in groups]  # rows of groups() are arrays
         total = sum(len(rows) for rows, _ in parts)
         merged = {name: np.full(total, np.nan) for name in names}
         for rows, part in parts:
             for name in names:
                 merged[name][rows] = part[name]
         return merged
-    roll = _roll_form(groups[0][1], vehicle)
+    roll = _roll_form(groups[0][1], vehicle, gravity_moment)
     form, trusted, ok, a, b, coupled = roll.form, roll.trusted, roll.ok, roll.a, roll.b, roll.coupled
     out = {name: np.full(len(a), np.nan) for name in names}
     if not ok.any():
@@ -385,7 +405,7 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
     if any(name in GAIN_NAMES for name in names):
         direct = ~trusted | (coupled is not None and coupled.pipe_model == "distributed")
         rows = ok
-        gain = _gain_function(form, direct, a, b, coupled, vehicle, rows)
+        gain = _gain_function(form, direct, a, b, coupled, vehicle, rows, gravity_moment)
         with np.errstate(all="ignore"):
             f_peak, value = roll_gain_peak(gain, form.lam[rows])
         if "roll_gain_peak" in out:
@@ -395,15 +415,16 @@ def transient_quantities(model: CoupledModel | StateSpace, vehicle: VehicleParam
     return out
 
 
-def step_responses(model: CoupledModel, vehicle: VehicleParams, t_s: np.ndarray, step_g: float, halves: bool = True) -> np.ndarray:
+def step_responses(model: CoupledModel, vehicle: VehicleParams, t_s: np.ndarray, step_g: float, gravity_moment: bool, halves: bool = True) -> np.ndarray:
     """[rad] Roll angle ``phi(t)`` of a batch of designs under a lateral-acceleration step of
     ``step_g`` [g] at times ``t_s`` [s] ``(P,)``, shape ``(n, P)``: the pole-residue form of
     the step quantities (module docstring); NaN where a design is unstable or its residues
     are not trusted (as its ``roll_step_peak``). ``halves``: the form of a model that is its
     own mirror image from its antisymmetric half (the same form to rounding, an eighth of the
-    work); False: from the full state space, as :func:`transient_quantities` takes it."""
+    work); False: from the full state space, as :func:`transient_quantities` takes it.
+    ``gravity_moment``: with the body's gravity moment (module docstring)."""
     t_s = np.asarray(t_s, dtype=float)
-    parts = [(rows, _roll_form(sub, vehicle, halve=halves)) for rows, sub in _valve_groups(model)]
+    parts = [(rows, _roll_form(sub, vehicle, gravity_moment, halve=halves)) for rows, sub in _valve_groups(model)]
     out = np.full((sum(len(roll.a) for _, roll in parts), t_s.size), np.nan)
     for rows, roll in parts:
         usable = roll.ok & roll.trusted
@@ -418,8 +439,8 @@ def step_responses(model: CoupledModel, vehicle: VehicleParams, t_s: np.ndarray,
 class _RollForm:
     """The roll response per unit ``a_y`` of designs sharing one state space: the modal form,
     whether its residues are trusted, whether the design is stable with a static gain (``ok``),
-    the state matrices ``a``, input columns ``b`` and the coupled model (None: a bare state
-    space)."""
+    the state matrices ``a`` (without the gravity moment: :func:`direct_response` adds it),
+    input columns ``b`` and the coupled model (None: a bare state space)."""
 
     form: ModalForm
     trusted: np.ndarray
@@ -439,8 +460,9 @@ def _valve_groups(model: CoupledModel | StateSpace) -> list[tuple[np.ndarray | N
     return [(None, model)]
 
 
-def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams, halve: bool = False) -> _RollForm:
-    """:class:`_RollForm` of designs sharing one state space (one of :func:`_valve_groups`);
+def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams, gravity_moment: bool, halve: bool = False) -> _RollForm:
+    """:class:`_RollForm` of designs sharing one state space (one of :func:`_valve_groups`),
+    with the body's gravity moment or not (``gravity_moment``, :func:`gravity_softened`);
     ``halve``: of a model that is its own mirror image, from its antisymmetric half alone
     (:func:`_roll_half`; the same form, an eighth of the eigendecomposition's work)."""
     from hisopt.coupled.model import CoupledModel
@@ -451,12 +473,17 @@ def _roll_form(model: CoupledModel | StateSpace, vehicle: VehicleParams, halve: 
     a = a.reshape((-1,) + a.shape[-2:])
     n, size = a.shape[:2]
     b = np.broadcast_to(roll_moment_input(vehicle, size), (n, size))
+    moved = gravity_softened(a, b) if gravity_moment else a  # the dynamics the step and the gain see
     lumped = coupled is not None and coupled.pipe_model == "lumped"  # a distributed model's state space is its lumped twin's
-    half = _roll_half(coupled, ss, b) if halve and lumped else None  # type: ignore[arg-type]
+    if halve and lumped:
+        full = cast("StateSpace", ss)  # a coupled model's
+        half = _roll_half(coupled, replace(full, a=moved.reshape(np.shape(full.a))) if gravity_moment else full, b)  # type: ignore[arg-type]
+    else:
+        half = None
     with np.errstate(all="ignore"):
-        static = _static_gain(a, b) if coupled is None else static_roll_gain(coupled)
+        static = _static_gain(moved, b) if coupled is None else static_roll_gain(coupled, gravity_moment)
         if half is None:
-            form, trusted = modal_form(a, b, static)
+            form, trusted = modal_form(moved, b, static)
             ok = stable(form.lam)
         else:
             form, trusted = modal_form(half[0], half[1], static, half[2])
@@ -485,12 +512,12 @@ def _roll_half(model: CoupledModel, ss: StateSpace, b: np.ndarray) -> tuple[np.n
     return halves["anti"].a, inside, int(roll[0]), halves["sym"].a
 
 
-def static_roll_gain(model: CoupledModel) -> np.ndarray:
+def static_roll_gain(model: CoupledModel, gravity_moment: bool) -> np.ndarray:
     """[rad per m/s^2] ``H(0)`` per design from the static stiffness (the law of
-    ``roll_gradient``): well conditioned where the state matrix is not (pipes of 1e-10 m
-    make ``A`` numerically singular, and which designs' solves fail then depends on the
-    BLAS kernel)."""
-    return np.asarray(roll_gradient(model.stiffness(), model.car), dtype=float) / G_MPS2
+    ``roll_gradient``, with the body's gravity moment or not): well conditioned where the
+    state matrix is not (pipes of 1e-10 m make ``A`` numerically singular, and which
+    designs' solves fail then depends on the BLAS kernel)."""
+    return np.asarray(roll_gradient(model.stiffness(), model.car, gravity_moment), dtype=float) / G_MPS2
 
 
 def _static_gain(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -512,7 +539,14 @@ def _rows(form: ModalForm, rows: np.ndarray) -> ModalForm:
 
 
 def _gain_function(
-    form: ModalForm, direct: np.ndarray, a: np.ndarray, b: np.ndarray, coupled: CoupledModel | None, vehicle: VehicleParams, rows: np.ndarray
+    form: ModalForm,
+    direct: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    coupled: CoupledModel | None,
+    vehicle: VehicleParams,
+    rows: np.ndarray,
+    gravity_moment: bool,
 ) -> Callable[[np.ndarray], np.ndarray]:
     """``|H|`` at frequencies ``(m, F)`` [Hz] of the designs ``rows``: from poles and residues,
     except for the designs flagged ``direct`` (a dense solve, of the dynamic stiffness when
@@ -524,24 +558,28 @@ def _gain_function(
     def gain_at(f_hz: np.ndarray) -> np.ndarray:
         h = modal.frequency_response(f_hz)
         if solve.any():
-            h[solve] = direct_response(f_hz[solve], a[rows][solve], b[rows][solve], sub, vehicle)
+            h[solve] = direct_response(f_hz[solve], a[rows][solve], b[rows][solve], sub, vehicle, gravity_moment)
         return np.abs(h)
 
     return gain_at
 
 
-def direct_response(f_hz: np.ndarray, a: np.ndarray, b: np.ndarray, model: CoupledModel | None, vehicle: VehicleParams) -> np.ndarray:
+def direct_response(f_hz: np.ndarray, a: np.ndarray, b: np.ndarray, model: CoupledModel | None, vehicle: VehicleParams, gravity_moment: bool) -> np.ndarray:
     """[rad per m/s^2] ``H(j 2 pi f)`` at ``f_hz`` ``(n, F)`` by dense solve: ``m_s h_0s
     [D(s)^-1]_(phi, phi)`` with the model's dynamic stiffness ``D`` (any pipe model), else
-    ``c (sI - A)^-1 b`` of the state space ``a`` ``(n, N, N)``, ``b`` ``(n, N)``."""
+    ``c (sI - A)^-1 b`` of the state space ``a`` ``(n, N, N)``, ``b`` ``(n, N)``; with
+    ``gravity_moment`` the body's gravity moment softens both (module docstring)."""
     s = 2j * np.pi * np.asarray(f_hz)
     if model is not None:
-        kdyn = model.dynamic_stiffness(s)
+        kdyn = np.array(model.dynamic_stiffness(s))
+        if gravity_moment:
+            kdyn[..., ROLL, ROLL] -= G_MPS2 * moment_per_acceleration(vehicle)
         unit = np.zeros(7)
         unit[ROLL] = 1.0
         rhs = np.broadcast_to(unit[:, None], kdyn.shape[:-1] + (1,))
         return moment_per_acceleration(vehicle) * np.linalg.solve(kdyn, rhs)[..., ROLL, 0]
     size = a.shape[-1]
-    lhs = s[..., None, None] * np.eye(size) - a[:, None]
+    moved = gravity_softened(a, b) if gravity_moment else a
+    lhs = s[..., None, None] * np.eye(size) - moved[:, None]
     rhs = np.broadcast_to(b[:, None, :, None], lhs.shape[:-1] + (1,))
     return np.linalg.solve(lhs, rhs)[..., ROLL, 0]

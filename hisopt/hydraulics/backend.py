@@ -130,6 +130,14 @@ def fmin(a: Any, b: Any) -> Any:
     return np.minimum(a, b)
 
 
+def where(condition: Any, a: Any, b: Any) -> Any:
+    """``a`` where ``condition`` holds, else ``b`` (elementwise; CasADi's ``if_else``, whose
+    unchosen branch adds exactly zero to the value and to its derivatives)."""
+    if is_casadi(condition) or is_casadi(a) or is_casadi(b):
+        return _ca().if_else(condition, a, b)
+    return np.where(condition, a, b)
+
+
 def exp(x: Any) -> Any:
     """Exponential of a real argument."""
     if is_casadi(x):

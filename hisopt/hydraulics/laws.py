@@ -132,6 +132,16 @@ def gas_pressure_at_temperature(p_abs: Any, temperature_ratio: Any) -> Any:
     return p_abs * temperature_ratio
 
 
+def gauge_pressure_ratio(p_abs: Any, p0_abs: Any) -> Any:
+    """[-] ``p_gauge / p0_gauge`` of an accumulator at absolute pressure ``p_abs`` with absolute
+    precharge ``p0_abs`` [Pa] (both at the same temperature): the ratio the makers rate a
+    separator for, in gauge (docs/model.md §16.8). A precharge at or below atmospheric
+    pressure holds the separator against nothing: ``+inf`` (a failure of any rating, never NaN)."""
+    held = p0_abs - P_ATM_PA
+    charged = held > 0.0
+    return bk.where(charged, (p_abs - P_ATM_PA) / bk.where(charged, held, 1.0), math.inf)
+
+
 def isothermal_gas_volume(p_abs: Any, content: Any) -> Any:
     """[m^3] Volume of a gas of ``content = p V`` [Pa m^3] (``m R T`` at its temperature) at
     absolute pressure ``p_abs`` [Pa]: the static law, the gas at the oil's temperature."""

@@ -648,13 +648,27 @@ def low_frequency_damping(network: Network, values: ElementValues, n_ports: Any)
     numpy.ndarray
         ``B + (4, 4)``, symmetric positive semi-definite.
     """
+    h0 = low_frequency_unknowns(network, values)
+    z0 = network.injection.T @ h0  # ports x ports: the regular part of Z_port at s = 0
+    n_arr = np.asarray(n_ports)
+    return np.swapaxes(n_arr, -1, -2) @ z0 @ n_arr
+
+
+def low_frequency_unknowns(network: Network, values: ElementValues) -> np.ndarray:
+    """``H_0``: the regular part of ``M(s)^-1 P`` at ``s -> 0`` (every unknown per port flow),
+    numpy ``B + (n, n_ports)``, of the lumped network (:func:`low_frequency_damping`).
+
+    Its flow rows are the flows a slow port flow drives through every valve and pipe while
+    the oil shares itself among the compliances at one pressure per circuit: the oil moving
+    as a rigid column with the strokes (docs/model.md §8.2 names modes with them).
+    """
     if network.fidelity != "lumped":
         raise ModelError("the low-frequency damping is computed on lumped pipes (HydraulicSystem.lumped())")
     k0_entries, k1_entries = stamps(network, values)
     n = network.size
     k0 = bk.assemble((n, n), k0_entries)
     k1 = bk.assemble((n, n), k1_entries)
-    batch = np.broadcast_shapes(np.shape(k0)[:-2], np.shape(k1)[:-2], np.shape(n_ports)[:-2])
+    batch = np.broadcast_shapes(np.shape(k0)[:-2], np.shape(k1)[:-2])
     k0, k1 = np.broadcast_to(k0, batch + (n, n)), np.broadcast_to(k1, batch + (n, n))
     h0 = np.zeros(batch + (n, len(network.ports)))
     for c in range(network.n_circuits):
@@ -675,6 +689,4 @@ def low_frequency_damping(network: Network, values: ElementValues, n_ports: Any)
         full_rhs = np.concatenate([rhs, np.zeros(batch + (1, len(ports)))], axis=-2)
         sol = np.linalg.solve(bordered, full_rhs)[..., :m, :]
         h0[..., rows[:, None], ports[None, :]] = sol
-    z0 = network.injection.T @ h0  # ports x ports: the regular part of Z_port at s = 0
-    n_arr = np.asarray(n_ports)
-    return np.swapaxes(n_arr, -1, -2) @ z0 @ n_arr
+    return h0

@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_serializer, model_valid
 from hisopt.hydraulics import laws
 from hisopt.hydraulics.charge import REFERENCE_TEMPERATURE, Charge
 from hisopt.hydraulics.coupling import HydraulicSystem
-from hisopt.hydraulics.fluid import Fluid, Oil, thermal_ratios
+from hisopt.hydraulics.fluid import Fluid, Oil, fluid_oil_problem, oil_fluid, thermal_ratios
 from hisopt.hydraulics.layout import Accumulator, ChamberCompliance, Circuit, Element, Layout, Pipe, Port, Valve
 from hisopt.hydraulics.layout_file import CircuitSpec
 from hisopt.hydraulics.network import Network, PipeModel, compile_network
@@ -41,9 +41,11 @@ class PipeLayout(BaseModel):
 
 
 SEPARATOR_RATINGS = {"diaphragm": 8.0, "bladder": 4.0}
-"""[-] Largest ratio of absolute working pressure to precharge by gas separator: a bladder
-folds and wears beyond about 4, a diaphragm about 8 (accumulator makers' selection guides,
-e.g. HYDAC's; a part's data sheet gives its own, ``[his] pressure_rating``)."""
+"""[-] Largest ratio of working pressure to precharge (gauge, docs/model.md §16.8) by gas
+separator: a bladder folds and wears beyond about 4, a diaphragm about 8 (accumulator makers'
+selection guides: HST, Parker, Stauff; a size's own is in the accumulator catalogue,
+:func:`hisopt.hydraulics.parts_catalogue.accumulator_rating`; a part's data sheet gives its
+own, ``[his] pressure_rating``)."""
 
 
 class RollPlaneHIS(BaseModel):
@@ -97,8 +99,14 @@ class RollPlaneHIS(BaseModel):
     pressure_rating: float | None = Field(
         None,
         gt=1,
-        description="largest ratio of absolute working pressure to precharge the accumulators are rated for (None: the separator's, SEPARATOR_RATINGS)",
+        description="largest ratio of working pressure to precharge (gauge) the accumulators are rated for (None: the separator's, SEPARATOR_RATINGS)",
         json_schema_extra=si("-"),
+    )
+    max_working_pressure: float | None = Field(
+        None,
+        gt=0,
+        description="largest working pressure (gauge) the accumulators are rated for (None: their catalogue size's, accumulator_rating)",
+        json_schema_extra=si("Pa"),
     )
     fluid: Fluid = Field(default_factory=Fluid)
     oil: Oil = Field(default_factory=Oil)
@@ -150,6 +158,19 @@ class RollPlaneHIS(BaseModel):
                 raise ValueError(
                     f"{given}{axle}: a blow-off needs {absent}{axle} too (the pressure it opens at and the resistance of its opening law); give both or neither"
                 )
+        return self
+
+    @model_validator(mode="after")
+    def _one_oil(self) -> RollPlaneHIS:
+        # [his.fluid]'s density and viscosity are the oil's at the reference temperature
+        # (docs/model.md §16.1): given, they must agree; not given, they are taken from it.
+        reference = reference_temperature(self)
+        if self.oil.temperature_problem(reference):  # refused by the problem's temperature check, with its key
+            return self
+        problem = fluid_oil_problem(self.fluid, self.oil, reference)
+        if problem:
+            raise ValueError(problem)
+        object.__setattr__(self, "fluid", oil_fluid(self.fluid, self.oil, reference))  # frozen: set once, while validated
         return self
 
     @model_validator(mode="after")
@@ -260,7 +281,9 @@ def parameter_values(base: RollPlaneHIS, overrides: Mapping[str, ArrayLike] | No
         } | {k: v for k, v in (overrides or {}).items() if k.startswith("pipe_")}
     thermal = thermal_parameters(base, temperature)
     values |= thermal
-    values |= {"rho": base.fluid.rho * thermal["density_ratio"], "mu": base.fluid.mu * thermal["viscosity_ratio"], "beta": base.fluid.beta}
+    fluid = oil_fluid(base.fluid, base.oil, reference_temperature(base))  # as validated; here for a model_copy's [his]
+    assert fluid.rho is not None and fluid.mu is not None
+    values |= {"rho": fluid.rho * thermal["density_ratio"], "mu": fluid.mu * thermal["viscosity_ratio"], "beta": fluid.beta}
     if base.charge is not None:
         values["gas_fraction"] = base.charge.gas_fraction
         values["charge_oil_volume"] = base.charge.oil_volume

@@ -52,9 +52,10 @@ class Build(BaseModel):
             raise ValueError(f"{v:g} g is beyond any road car's grip; expected at most {CORNERING_MAX_G:g} g (a larger value is a unit slip)")
         return v
 
-    def limits(self) -> BuildLimits:
-        """The settings as the rules take them (SI)."""
+    def limits(self, gravity_moment: bool = True) -> BuildLimits:
+        """The settings as the rules take them (SI), with the problem's ``[handling] gravity_moment``."""
         return BuildLimits(
+            gravity_moment=gravity_moment,
             sigmas=self.sigmas,
             cornering_g=self.cornering,
             air_release_pressure=self.air_release_pressure,

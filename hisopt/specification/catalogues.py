@@ -1,16 +1,17 @@
 """Catalogues of standard parts: the listed values a choice variable takes (docs/model.md §17).
 
-A catalogue is a CSV file of one column whose header names the quantity and its unit
-(``bore [mm]``), with ``#`` comment lines giving its source. hisopt ships ISO 3320's bores
-and rods, common accumulator volumes and hose bores (``hisopt/data/catalogues``); a problem
-names one of those, or its own file by path (relative to the problem file).
+A catalogue is a CSV file whose header names each column's quantity and unit (``bore [mm]``),
+with ``#`` comment lines giving its source; its first column holds the sizes, further columns
+a size's ratings (the accumulators' pressure columns, :mod:`hisopt.hydraulics.parts_catalogue`).
+hisopt ships ISO 3320's bores and rods, common accumulator volumes with their ratings, and hose
+bores (``hisopt/data/catalogues``); a problem names one of those, or its own file by path
+(relative to the problem file).
 ``[variables] bore = { catalogue = "iso3320_bores", lower = "40 mm", upper = "100 mm" }``
 takes the listed values within the bounds.
 """
 
 from __future__ import annotations
 
-import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -18,9 +19,8 @@ from typing import Any
 import numpy as np
 
 from hisopt.errors import ConfigError
+from hisopt.hydraulics.parts_catalogue import AccumulatorRatings, accumulator_ratings, catalogue_table, shipped_accumulator_ratings
 from hisopt.quantities import unit_factor
-
-_HEADER = re.compile(r"\s*(?P<label>[^\[\]]*?)\s*\[(?P<unit>[^\[\]]*)\]\s*")
 
 
 def catalogue_names() -> tuple[str, ...]:
@@ -53,23 +53,19 @@ def parse_catalogue(text: str, unit: str, *, where: str, file: str | None, key: 
     Raises
     ------
     ConfigError
-        No header ``<quantity> [<unit>]``, more than one column, a unit of another kind, a
-        value that is not a finite positive number, or a list not in increasing order.
+        No header ``<quantity> [<unit>]``, a row without a value in every column, a unit of
+        another kind, a value that is not a finite positive number, or a list not in increasing
+        order (:func:`hisopt.hydraulics.parts_catalogue.catalogue_table`).
     """
-    lines = [(i + 1, line.strip()) for i, line in enumerate(text.splitlines()) if line.strip() and not line.lstrip().startswith("#")]
-    if not lines:
-        raise ConfigError(f"{where}: empty; expected a header such as 'bore [mm]' and one value per row", file=file, key=key)
-    row, header = lines[0]
-    match = _HEADER.fullmatch(header)
-    if match is None or "," in header:
-        raise ConfigError(f"{where}: row {row}: header {header!r}; expected one column named with its unit, such as 'bore [mm]'", file=file, key=key)
-    factor = unit_factor(match["unit"], unit, file=file, key=key, text=f"{where}: the column's unit [{match['unit']}]")
+    table = catalogue_table(text, where=where, file=file, key=key)
+    factor = unit_factor(table.header[0][1], unit, file=file, key=key, text=f"{where}: the column's unit [{table.header[0][1]}]")
     values: list[float] = []
-    for row, cell in lines[1:]:
+    for row, cells in table.rows:
+        cell = cells[0]
         try:
             value = float(cell)
         except ValueError:
-            raise ConfigError(f"{where}: row {row}: {cell!r}; expected one number per row", file=file, key=key) from None
+            raise ConfigError(f"{where}: row {row}: {cell!r}; expected a number in its first column", file=file, key=key) from None
         if not (value > 0 and value < float("inf")):
             raise ConfigError(f"{where}: row {row}: {cell!r}; expected a positive finite size", file=file, key=key)
         values.append(float(f"{value * factor:.15g}"))  # 36 mm is 0.036 m, not 0.036000000000000004
@@ -88,6 +84,7 @@ def resolve_catalogue(table: dict[str, Any], unit: str, base: Path | None, *, fi
         return table
     where, text = catalogue_text(table["catalogue"], base, file=file, key=f"{key}.catalogue")
     values = parse_catalogue(text, unit, where=where, file=file, key=f"{key}.catalogue")
+    accumulator_ratings(catalogue_table(text, where=where, file=file, key=f"{key}.catalogue"), file=file, key=f"{key}.catalogue")  # its ratings read
     low, high = table.get("lower", -float("inf")), table.get("upper", float("inf"))
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (low, high)):
         return table  # a bound that is not a number: the strict validation names it
@@ -108,3 +105,14 @@ def listed(values: np.ndarray, choices: np.ndarray) -> np.ndarray:
     nearest = np.where(np.abs(values - choices[at - 1]) <= np.abs(values - choices[at]), choices[at - 1], choices[at])
     with np.errstate(invalid="ignore"):
         return np.abs(values - nearest) <= LISTED_RTOL * np.abs(nearest)
+
+
+def catalogue_accumulator_ratings(ref: str | None, base: Path | None, *, file: str | None = None, key: str = "catalogue") -> AccumulatorRatings:
+    """The accumulators' ratings by size of catalogue ``ref`` (a shipped name or a CSV path
+    relative to ``base``, as a ``[variables]`` entry names it): its pressure columns, or, for
+    None or a catalogue of volumes alone, the shipped ``accumulator_volumes``'
+    (:func:`hisopt.hydraulics.parts_catalogue.accumulator_rating` takes them)."""
+    if ref is None:
+        return shipped_accumulator_ratings()
+    where, text = catalogue_text(ref, base, file=file, key=key)
+    return accumulator_ratings(catalogue_table(text, where=where, file=file, key=key), file=file, key=key) or shipped_accumulator_ratings()

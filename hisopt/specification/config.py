@@ -19,6 +19,7 @@ from pydantic import (
     ConfigDict,
     Field,
     SerializerFunctionWrapHandler,
+    StrictBool,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -26,6 +27,7 @@ from pydantic import (
     model_validator,
 )
 
+from hisopt.coupled.buildability import BuildLimits
 from hisopt.coupled.payload import Payload, laden_problem
 from hisopt.errors import ConfigError, ProblemFileNotFoundError
 from hisopt.hydraulics.catalogue import PIPE_PARAMETERS, his_layout, layout_defaults, layout_problem, used_parameters
@@ -212,9 +214,17 @@ class Robust(_Strict):
 
 
 class Handling(_Strict):
-    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6)."""
+    """Handling manoeuvre of the transient roll quantities (docs/model.md §6.6) and the
+    convention of the roll quantities (docs/model.md §6.4)."""
 
     step_g: float = Field(0.4, gt=0, description="lateral-acceleration step of roll_step_peak and roll_rate_peak", json_schema_extra=si("g"))
+    gravity_moment: StrictBool = Field(
+        True,
+        description=(
+            "the body's weight adds m_s g h_0s phi when it rolls by phi about the roll axis: in roll_gradient and the transient roll quantities "
+            "(docs/model.md §6.4); false: the paper's convention, the lateral force's moment alone"
+        ),
+    )
 
 
 class Optimizer(_Strict):
@@ -300,6 +310,11 @@ class ProblemSpec(_Strict):
     robust: Robust = Field(default_factory=Robust)
     uncertain: list[UncertainInput] = Field(default_factory=list)
     synthesis: Synthesis | None = None
+
+    @property
+    def build_limits(self) -> BuildLimits:
+        """``[build]`` as the buildability rules take it, with ``[handling] gravity_moment``."""
+        return self.build.limits(self.handling.gravity_moment)
 
     @field_validator("objectives")
     @classmethod
@@ -549,7 +564,7 @@ def _format_error(err: Mapping[str, Any]) -> tuple[str, str]:
     msg = " ".join(err["msg"].removeprefix("Value error, ").split())
     value = err.get("input")
     head, colon, rest = msg.partition(": ")
-    if err["type"] == "value_error" and colon and key and head in _allowed_keys(err["loc"]):  # a table's validator naming its key
+    if err["type"] == "value_error" and colon and key and head.split(".")[0] in _allowed_keys(err["loc"]):  # a table's validator naming its key
         return f"{key}.{head}", rest
     if err["type"] == "extra_forbidden":
         allowed = _allowed_keys(err["loc"][:-1])

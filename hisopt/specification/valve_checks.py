@@ -20,7 +20,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from hisopt.constants import P_ATM_PA
 from hisopt.hydraulics.catalogue import his_parameter_values, used_parameters
 from hisopt.hydraulics.layout import Accumulator, DamperValve, Layout
 from hisopt.hydraulics.layout_file import element_label
@@ -76,10 +75,11 @@ def rated_pressure(layout: Layout, values: Mapping[str, Any], variables: Mapping
     """[Pa] ``(rated, precharge)``: the accumulators' largest rated working pressure (gauge)
     and the gauge precharge it comes from, None for a layout without accumulators.
 
-    The rating is the largest absolute working pressure an accumulator takes: its absolute
-    precharge times ``pressure_rating`` (``[his] pressure_rating``, or its separator's
-    :data:`~hisopt.hydraulics.roll_plane.SEPARATOR_RATINGS`); gauge, it is the largest pressure
-    difference the circuit can hold across a valve. Of the layout's accumulators the one with
+    The rating is the largest working pressure an accumulator takes: its gauge precharge times
+    ``pressure_rating`` (``[his] pressure_rating``, or its separator's
+    :data:`~hisopt.hydraulics.roll_plane.SEPARATOR_RATINGS`; the makers state the ratio in
+    gauge, docs/model.md §16.8); it is the largest pressure difference the circuit can hold
+    across a valve. Of the layout's accumulators the one with
     the largest precharge counts: at ``values`` (the baseline), or, with ``variables``, at the
     upper bound of a precharge that is a design variable (the most a design in the box allows).
     """
@@ -95,7 +95,7 @@ def rated_pressure(layout: Layout, values: Mapping[str, Any], variables: Mapping
     if not precharges:
         return None
     p0 = max(precharges)
-    return (p0 + P_ATM_PA) * float(values["pressure_rating"]) - P_ATM_PA, p0
+    return p0 * float(values["pressure_rating"]), p0
 
 
 def _cracking_problem(his: RollPlaneHIS, variables: Mapping[str, Any], layout: Layout, valves: list[tuple[int, DamperValve]]) -> str | None:
@@ -130,6 +130,6 @@ def _above(p_c: float, rated: tuple[float, float], rating: float, where: str) ->
     pa = format_quantity
     return (
         f"{pa(p_c, 'Pa')} is above the accumulators' rated working pressure {pa(rated[0], 'Pa')} "
-        f"({where} {pa(rated[1], 'Pa')} gauge, {pa(rated[1] + P_ATM_PA, 'Pa')} absolute, times pressure_rating {rating:g}), "
+        f"({where} {pa(rated[1], 'Pa')} gauge times pressure_rating {rating:g}), "
         f"so the blow-off could never open within the rating; expected a cracking pressure of at most {pa(rated[0], 'Pa')}"
     )

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.coupled.buildability import RULES, RuleValue
-from hisopt.evaluation.build_rules import road_outputs, rule_values
+from hisopt.evaluation.build_rules import catalogue_rating, road_outputs, rule_values
 from hisopt.studies.damper_valves import load_cases
 from hisopt.units import NO_UNIT
 
@@ -60,10 +60,11 @@ def case_rules(space: DesignSpace, x: np.ndarray) -> dict[str, RuleValue]:
     model = space.model(x[rows], inputs=inputs or None)
     outputs = road_outputs(space.network(), tuple(RULES))
     evaluator = Evaluator(space, names=(), rms_outputs=outputs)
-    limits = space.spec.build.limits()
+    limits = space.spec.build_limits
+    rating = catalogue_rating(space)
     for group, sub in model.groups():
         rms = evaluator.output_rms(sub, outputs)
-        got = rule_values(sub, limits, tuple(RULES), lambda o, rms=rms: rms[:, outputs.index(o)])  # type: ignore[misc]
+        got = rule_values(sub, limits, tuple(RULES), lambda o, rms=rms: rms[:, outputs.index(o)], rating)  # type: ignore[misc]
         target = rows[np.asarray(group)]
         for name, value in got.items():
             for part in ("value", "limit", "usage"):
@@ -82,7 +83,7 @@ def verdicts(cases: list[CaseRules]) -> pd.DataFrame:
     quantity) and :data:`VERDICT_COLUMNS`."""
     usage = {name: np.max(np.stack([c.rules[name].usage for c in cases]), axis=0) for name in RULES}
     table = np.stack(list(usage.values()), axis=-1)
-    evaluated = np.all(np.isfinite(table), axis=-1)
+    evaluated = ~np.any(np.isnan(table), axis=-1)  # +inf: beyond a rating of zero, judged
     worst = np.where(evaluated, np.max(np.where(evaluated[:, None], table, 0.0), axis=-1), np.nan)
     binding = np.array(list(RULES), dtype=object)[np.argmax(np.where(evaluated[:, None], table, -np.inf), axis=-1)]
     frame = pd.DataFrame(usage)

@@ -194,7 +194,7 @@ def design_curves(problem: Problem, x: np.ndarray, f_hz: np.ndarray | None = Non
     t = np.linspace(0.0, STEP_DURATION_S, STEP_SAMPLES)
     ev = Evaluator(problem)
     chosen = {name: ev.all_outputs[name] for name in SPECTRUM_OUTPUTS}
-    step_g = problem.spec.handling.step_g
+    step_g, gravity = problem.spec.handling.step_g, problem.spec.handling.gravity_moment
     spectra = np.full((len(x), f.size, len(SPECTRUM_OUTPUTS)), np.nan)
     step = np.full((len(x), t.size), np.nan)
     for start in range(0, len(x), CHUNK):
@@ -204,12 +204,12 @@ def design_curves(problem: Problem, x: np.ndarray, f_hz: np.ndarray | None = Non
         if method == "direct":
             with np.errstate(all="ignore"):
                 spectra[part] = ev.spectra(grid, DirectOutputs(model, chosen)(2 * np.pi * f[None, :]))
-            step[part] = step_responses(model, model.car, t, step_g, halves=False)
+            step[part] = step_responses(model, model.car, t, step_g, gravity, halves=False)
             continue
         for rows, group in model.groups():  # one state space each (the valves a design shorts), realised once for both
             with np.errstate(all="ignore"):
                 spectra[start + rows] = ev.output_spectra(group, SPECTRUM_OUTPUTS, grid[rows])
-            step[start + rows] = step_responses(group, group.car, t, step_g)
+            step[start + rows] = step_responses(group, group.car, t, step_g, gravity)
     units = {name: psd_unit(chosen[name].unit) for name in SPECTRUM_OUTPUTS}
     return Curves(f, t, spectra, step, SPECTRUM_OUTPUTS, units, step_g)
 

@@ -133,7 +133,7 @@ def parts_table(problem: Problem) -> pd.DataFrame:
         rows += [
             (f"accumulator {name}: nominal volume", float(np.ravel(resolve(e.volume, params))[0]), "m^3", ""),
             (f"accumulator {name}: precharge (gauge, at the charge temperature)", float(np.ravel(resolve(e.precharge, params))[0]), "Pa", ""),
-            (f"accumulator {name}: pressure rating (working over precharge)", rating, "-", separator),
+            (f"accumulator {name}: pressure rating (working over precharge, gauge)", rating, "-", separator),
         ]
     if spec.his.charge is not None:
         charge = spec.his.charge

@@ -16,6 +16,11 @@ front extends). "Per unit modal stroke" means per metre of the pattern's amplitu
 ``stiffness_coupling`` is the largest ``|U^T K U|_ij / sqrt(|U^T K U|_ii |U^T K U|_jj)`` between two
 patterns (0: the patterns stay uncoupled statically).
 
+Given a problem, each layout is screened on the model the evaluator builds for the problem's
+baseline design in the problem's own load case (:func:`operating_system`): a charged HIS
+(``[his.charge]``) linearised at its static pressures, at the problem's temperature and
+payload, so ``k_roll`` is the roll stiffness of :meth:`hisopt.coupled.model.CoupledModel.stiffness`.
+
 Physical damper valves (``[his] orifice_diameter``, or ``damper_valve`` elements) damp as hard
 as the road drives them: each layout is screened with its valves held at their equivalent
 resistance at the problem's baseline design on the problem's road
@@ -85,15 +90,33 @@ def layout_system(his: RollPlaneHIS, space: DesignSpace | None = None) -> Hydrau
 def screened_system(his: RollPlaneHIS, space: DesignSpace | None = None) -> tuple[HydraulicSystem, np.ndarray]:
     """:func:`layout_system` and its damper valves' equivalent resistances [Pa s m^-3] in
     element order (empty without damper valves; NaN when their flows have no fixed point at
-    the baseline: the system then holds them at 1 Pa s m^-3, which no static value reads)."""
+    the baseline: the system then holds them at 1 Pa s m^-3, which no static value reads).
+
+    Given ``space`` (a problem with this ``[his]``), the system is the one its evaluator
+    builds for its baseline design in the problem's own load case (:func:`operating_system`:
+    a charged HIS at its static pressures, a payload's static rise, the problem's
+    temperature); without it, ``his`` at its values with the accumulators at their precharge.
+    """
     layout = his_layout(his)
+    system = operating_system(space) if space is not None else HydraulicSystem(compile_network(layout, "lumped"), his_parameter_values(his))
     resistance = np.zeros(0)
     if compile_network(layout, "lumped").damper_valves():
         if space is None:
             raise ModelError("a layout with damper valves needs its problem to solve their flows on its road; pass space")
         resistance = baseline_valve_resistance(space)
         layout = with_equivalent_valves(layout, np.where(np.isfinite(resistance), resistance, 1.0))
-    return HydraulicSystem(compile_network(layout, "lumped"), his_parameter_values(his)), resistance
+    return HydraulicSystem(compile_network(layout, "lumped"), system.params, system.static_rise, system.static_pressure), resistance
+
+
+def operating_system(space: DesignSpace) -> HydraulicSystem:
+    """The HIS of ``space``'s model of its baseline design (batch of one), as the evaluator
+    builds it for the problem's own load case (:meth:`hisopt.specification.design_space.DesignSpace.model`):
+    linearised at its static operating point, so the screening's stiffness is the model's
+    (``K_his`` of :meth:`hisopt.coupled.model.CoupledModel.stiffness`)."""
+    his = space.model().his
+    if his is None:  # a model() with HIS always has one
+        raise ModelError(f"{space.name}: its model has no HIS to screen")
+    return his
 
 
 def screened_properties(his: RollPlaneHIS, space: DesignSpace | None = None) -> dict[str, Any]:
@@ -191,8 +214,9 @@ def mode_stiffness(problem: DesignSpace | None = None) -> pd.DataFrame:
     Parameters
     ----------
     problem : DesignSpace | None, optional
-        the problem whose ``[his]`` values (the baseline design) are used; None: the
-        default problem's (docs/model.md §3.6)
+        the problem whose ``[his]`` values (the baseline design) and load case (a charged
+        HIS's static pressures, the temperature, the payload: :func:`operating_system`) are
+        used; None: the default problem's (docs/model.md §3.6)
     """
     from hisopt.hydraulics.roll_plane import RollPlaneHIS
 
@@ -214,12 +238,9 @@ def mode_stiffness(problem: DesignSpace | None = None) -> pd.DataFrame:
     return with_units(frame, {k: v for k, v in units.items() if k in frame.columns})
 
 
-def _layout_space(problem: DesignSpace, name: str) -> DesignSpace | None:
-    """The problem with layout ``name`` when its damper valves need a road to be screened on
-    (:mod:`hisopt.studies.layout_cases`), else None (:func:`layout_his` is enough)."""
+def _layout_space(problem: DesignSpace, name: str) -> DesignSpace:
+    """The problem with layout ``name`` (:mod:`hisopt.studies.layout_cases`; the problem
+    itself for its own layout): the layout is screened on that problem's model."""
     from hisopt.studies.layout_cases import catalogue_case
 
-    his = problem.spec.his
-    if his.orifice_diameter is None and (his.layout != CUSTOM or not compile_network(his_layout(his), "lumped").damper_valves()):
-        return None
-    return problem if name == his.layout else catalogue_case(problem, name).problem  # type: ignore[arg-type]
+    return problem if name == problem.spec.his.layout else catalogue_case(problem, name).problem  # type: ignore[arg-type]

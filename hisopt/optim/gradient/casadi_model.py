@@ -362,11 +362,12 @@ class CasadiModel:
 
     # -- quantities -----------------------------------------------------------------------------
     def roll_gradient(self, x: ca.MX) -> ca.MX:
-        """[rad/g] Static roll angle under the moment ``m_s g h_0s`` (``K + G^T K_his G``)."""
+        """[rad/g] Static roll angle under the moment ``m_s g h_0s`` (``K + G^T K_his G``; with the
+        body's gravity moment as ``[handling] gravity_moment`` says, docs/model.md §6.4)."""
         veh = self.problem.vehicle
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
         k_his = self.problem.hydraulic_system(params).static_stiffness()
-        return roll_gradient(coupled_stiffness(stiffness_matrix(veh), veh, k_his), veh)
+        return roll_gradient(coupled_stiffness(stiffness_matrix(veh), veh, k_his), veh, self.problem.spec.handling.gravity_moment)
 
     def accumulators(self, x: ca.MX) -> dict[str, ca.MX]:
         """[-] The accumulators' static quantities (:func:`hisopt.coupled.operating_point.accumulator_quantities`)."""
@@ -377,7 +378,7 @@ class CasadiModel:
         """[-] A static buildability rule's usage (:func:`hisopt.coupled.buildability.static_rule_elements`)."""
         params = {name: x[i] for i, name in enumerate(self.problem.variable_names)}
         model = CoupledModel(self.problem.vehicle, self.problem.hydraulic_system(params))
-        elements, limit = static_rule_elements(model, self.problem.spec.build.limits())[name]
+        elements, limit = static_rule_elements(model, self.problem.spec.build_limits)[name]
         return symbolic_usage(name, elements, limit)
 
     def _reduce(self, x: ca.MX, fs: FrequencySet, psd: ca.MX, with_maxima: bool, transient: Any = None) -> dict[str, ca.MX]:

@@ -96,7 +96,8 @@ class TransientCallback(ca.Callback):
 
         x = self.lower + self.span * np.clip(u, 0.0, 1.0)
         model = self.problem.model(x)
-        q = transient_quantities(model, model.car, self.names, self.problem.spec.handling.step_g)
+        handling = self.problem.spec.handling
+        q = transient_quantities(model, model.car, self.names, handling.step_g, handling.gravity_moment)
         return np.column_stack([q[name] for name in self.names])
 
     def evaluate(self, u: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
