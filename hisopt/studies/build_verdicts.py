@@ -63,21 +63,8 @@ def verdicts_of(problem: DesignSpace, x: np.ndarray, stored: pd.DataFrame | None
     out[list(RULES) + [BUILD_MARGIN]] = out[list(RULES) + [BUILD_MARGIN]].astype(float)
     out[BUILDABLE] = out[BUILDABLE].map(_truth).astype(bool)
     out[BINDING_RULE] = out[BINDING_RULE].fillna("").astype(str)
-    _name_infinite_usages(out)
     out.attrs["units"] = dict.fromkeys(out.columns, NO_UNIT)
     return out
-
-
-def _name_infinite_usages(verdicts: pd.DataFrame) -> None:
-    """A design evaluated whose largest usage is infinite (a zero limit: an accumulator
-    rated at a zero precharge) breaks that rule: it binds, with a margin of ``-inf``, rather
-    than reading as not evaluated (only a NaN usage means that)."""
-    usage = verdicts[list(RULES)].to_numpy(dtype=float)
-    infinite = (verdicts[BINDING_RULE] == "").to_numpy() & ~np.isnan(usage).any(axis=1) & np.isinf(usage).any(axis=1)
-    if infinite.any():
-        rows = np.flatnonzero(infinite)
-        verdicts.loc[rows, BINDING_RULE] = np.array(list(RULES), dtype=object)[np.argmax(usage[rows], axis=1)]
-        verdicts.loc[rows, BUILD_MARGIN] = 1.0 - usage[rows].max(axis=1)
 
 
 def _truth(value: Any) -> bool:
@@ -121,7 +108,7 @@ def failing_rules(verdicts: pd.DataFrame, shown: int = FAILING_SHOWN) -> list[tu
     """The ``shown`` rules designs break most often (usage above 1 in some load case), each
     with how many designs break it; ``("not evaluated", n)`` for designs with no verdict."""
     counts = {name: int((verdicts[name].to_numpy(dtype=float) > 1.0).sum()) for name in RULES}
-    unknown = int((verdicts[BINDING_RULE] == "").sum())  # a NaN usage (:func:`verdicts_of`)
+    unknown = int((verdicts[BINDING_RULE] == "").sum())  # a NaN usage
     if unknown:
         counts["not evaluated"] = unknown
     ranked = sorted((item for item in counts.items() if item[1]), key=lambda item: -item[1])
@@ -139,9 +126,12 @@ def buildable_line(verdicts: pd.DataFrame, what: str = "front designs") -> str:
 
 
 def margin_text(margin: float) -> str:
-    """[%] A build margin as a signed percentage (``+12.5``, ``-3.0``), ``-`` without one."""
-    if not np.isfinite(margin):
+    """[%] A build margin as a signed percentage (``+12.5``, ``-3.0``; ``-inf`` beyond a limit
+    of zero), ``-`` without one."""
+    if np.isnan(margin):
         return "-"
+    if np.isinf(margin):
+        return f"{margin:+}"
     return f"{100.0 * margin + 0.0:+.1f}"  # + 0.0: no "-0.0"
 
 
