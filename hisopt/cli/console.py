@@ -95,18 +95,48 @@ def run_with_console(start: Callable[[ProgressFn], OptimizationResult], *, total
             line = f"{type(exc).__name__}: {exc}; {line}"
         print(f"internal error: {line} (--debug shows a traceback)", file=sys.stderr)
         return 1
+    try:
+        verdicts = finished_verdicts(result)
+    except KeyboardInterrupt as exc:
+        print(f"interrupted while judging the front's buildability; the run is finished in {run_dir} (hisopt report judges it)", file=sys.stderr)
+        return interrupt.exit_code(exc)
+    except Exception as exc:
+        if debug:
+            raise
+        print(f"internal error judging the front's buildability: {type(exc).__name__}: {exc}; the run is finished in {run_dir}", file=sys.stderr)
+        verdicts = False
     console = Console(width=120)
-    for table in summary_tables(result):
+    for table in summary_tables(result, verdicts):
         console.print(table)
     return 0
 
 
-def summary_tables(result: OptimizationResult) -> list[Any]:
-    """Rich tables summarising a run: totals, then the knee design and the ASF pick (with units)."""
+def finished_verdicts(result: OptimizationResult) -> Any:
+    """The buildability verdicts of a finished run's front, computed once and stored beside it
+    (``buildability.csv``, :func:`hisopt.studies.build_verdicts.write_run_verdicts`) for the
+    report and the decision room to read; a DataFrame, one row per front design (None
+    without a front)."""
+    from hisopt.studies.build_verdicts import BUILDABILITY_CSV, run_verdicts, write_run_verdicts
+
+    front, problem = result.front, result.problem
+    if not len(front):
+        return None
+    if result.run_dir is None:
+        return run_verdicts(None, problem, front[list(problem.variable_names)].to_numpy(dtype=float))
+    print(f"judging the buildability of {len(front)} front designs -> {result.run_dir / BUILDABILITY_CSV}", file=sys.stderr)
+    return write_run_verdicts(result.run_dir, problem, front)
+
+
+def summary_tables(result: OptimizationResult, verdicts: Any = None) -> list[Any]:
+    """Rich tables summarising a run: totals, then the knee design and the ASF pick (with
+    units and their buildability verdicts); ``verdicts`` those of the front's designs, in its
+    order (:func:`finished_verdicts`; None: read from the run directory or computed; False:
+    none shown)."""
     from rich.table import Table
     from rich.text import Text
 
     from hisopt.plausibility import BOUND_TOLERANCE, bound_note
+    from hisopt.studies.build_verdicts import VERDICT_NOTE
     from hisopt.units import display_for, hypervolume_unit
 
     totals = Table(title=f"{result.problem.name}: {result.settings.algorithm.upper()} run summary", show_header=False)
@@ -143,6 +173,9 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
     valves = front_valves(result)
     if valves is not None:
         rows.insert(2, ("damper valves", valves[0]))
+    build = None if verdicts is False else front_buildability(result, verdicts)
+    if build is not None:
+        rows.insert(1, ("buildable", build[0]))
     for item, value in rows:
         totals.add_row(item, Text(value))
     tables: list[Any] = [totals]
@@ -178,18 +211,38 @@ def summary_tables(result: OptimizationResult) -> list[Any]:
             picks.add_row(Text(shown.label(name)), *[Text(shown.number(d[name]) + n) for d, n in zip((knee, asf), notes, strict=True)])
         for label, marks in [] if valves is None else valves[1]:
             picks.add_row(Text(label), *(Text(m) for m in marks))
+        for label, marks in [] if build is None else build[1]:
+            picks.add_row(Text(label), *(Text(m) for m in marks))
         caption = []
         if marked:
             caption.append(
                 f"at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
                 "that bound; the box, not the physics, chose that value"
             )
+        if build is not None:
+            caption.append(VERDICT_NOTE)
         if valves is not None:
             caption.append("outside: a damper valve outside the linearisation's validated range in some load case (hisopt sheet, evaluate --valves)")
         if caption:
             picks.caption = Text("\n".join(caption))
         tables.append(picks)
     return tables
+
+
+def front_buildability(result: OptimizationResult, verdicts: Any = None) -> tuple[str, list[tuple[str, tuple[str, ...]]]] | None:
+    """A summary row counting the front's buildable designs (naming the rules failing most
+    often when none is), and the knee's and the ASF pick's ``buildable``, ``binding_rule``
+    and ``build_margin`` rows (:mod:`hisopt.studies.build_verdicts`); None without a front."""
+    from hisopt.studies.build_verdicts import BUILDABILITY_CSV, buildable_line, run_verdicts, verdict_rows, with_variables
+
+    problem, front = result.problem, result.front
+    if not len(front):
+        return None
+    if verdicts is None:
+        verdicts = run_verdicts(result.run_dir, problem, front[list(problem.variable_names)].to_numpy(dtype=float))
+    rows = verdict_rows(problem, {"knee": result.knee, "ASF pick": result.asf_pick()}, with_variables(problem, front, verdicts))
+    where = f" ({BUILDABILITY_CSV})" if result.run_dir is not None and (result.run_dir / BUILDABILITY_CSV).is_file() else ""
+    return buildable_line(verdicts) + where, rows
 
 
 def front_valves(result: OptimizationResult) -> tuple[str, list[tuple[str, tuple[str, ...]]]] | None:

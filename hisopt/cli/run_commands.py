@@ -76,6 +76,9 @@ def optimize_cmd(
     from hisopt.optim.decision import reference_point
 
     reference_point(p)  # a box with no evaluable design says why before --out is made (cached: the run reuses it)
+    from hisopt.studies.buildable_box import check_buildable_box
+
+    check_buildable_box(p)  # so does one with no buildable design under the rules it constrains
     prepare_run_directory(out, fresh=True)  # fail before any work
     from hisopt.optim.catalogue_cost import wants_catalogue_cost
 

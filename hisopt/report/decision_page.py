@@ -5,8 +5,9 @@ The page holds the designs of :func:`hisopt.studies.decision_room.decision_room_
 draws, filters and navigates them in the browser (``decision_room.js``, no library and no
 network): parallel coordinates whose brushes filter the scatter matrix, the table and the
 count; a design's values, parts, damper valves' equivalent resistances (those outside the
-linearisation's validated range marked), spectra and step response against the baseline's; filters
-for the front, feasibility, a load case, a layout and the variables' bounds; reference-point
+linearisation's validated range marked), buildability verdict, spectra and step response against
+the baseline's; filters for the front, feasibility, buildability, a load case, a layout and the
+variables' bounds; reference-point
 and E-NAUTILUS navigation (the rules of :mod:`hisopt.optim.navigation`); CSV and problem-file
 export. Numbers travel as base64 arrays: the variables and objectives as float64 (an export
 is the design itself, bit for bit), the other quantities as float32, the curves as bytes on a
@@ -27,10 +28,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from hisopt.coupled.buildability import RULES
 from hisopt.errors import ConfigError, RunError
 from hisopt.evaluation.valve_states import OUTSIDE_VALIDATED_RANGE, VALIDATED_RESISTANCE
 from hisopt.plausibility import BOUND_TOLERANCE
 from hisopt.report.tables import REPORT_CSS
+from hisopt.studies.buildability import BINDING_RULE, BUILDABLE
 from hisopt.studies.decision_room import KINDS
 from hisopt.units import display_for, is_psd
 
@@ -134,6 +137,7 @@ def room_payload(room: Room, sheets: dict[int, str] | None = None) -> dict[str, 
         for s in room.sources
     ]
     kind_names = list(KINDS)
+    rules = ["", *RULES]  # "": a design without a verdict
     return {
         "rows": len(table),
         "objectives": room.objectives,
@@ -145,6 +149,9 @@ def room_payload(room: Room, sheets: dict[int, str] | None = None) -> dict[str, 
         "row": _b64(table["row"].to_numpy(dtype=np.int32)),
         "feasible": _b64(table["feasible"].to_numpy(dtype=np.uint8)),
         "front": _b64(table["front"].to_numpy(dtype=np.uint8)),
+        "buildable": _b64(table[BUILDABLE].to_numpy(dtype=np.uint8)),
+        "rules": rules,
+        "binding_rule": _b64(table[BINDING_RULE].map(rules.index).to_numpy(dtype=np.uint8)),
         "bound_tolerance": BOUND_TOLERANCE,
         "validated_resistance": VALIDATED_RESISTANCE,
         "outside_range": OUTSIDE_VALIDATED_RANGE,

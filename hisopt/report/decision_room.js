@@ -20,6 +20,7 @@
   cols.forEach((c) => { byName[c.name] = c; });
   const source = decode(D.source, Uint8Array), kind = decode(D.kind, Uint8Array), fileRow = decode(D.row, Int32Array);
   const feasible = decode(D.feasible, Uint8Array), onFront = decode(D.front, Uint8Array);
+  const buildable = decode(D.buildable, Uint8Array), bindingRule = decode(D.binding_rule, Uint8Array);
   const curveBytes = decode(D.curves.bytes, Uint8Array);
   const objectives = D.objectives.map((n) => byName[n]);
 
@@ -47,7 +48,7 @@
 
   // --- state -----------------------------------------------------------------------------
   const S = {
-    brushes: {}, frontOnly: true, feasibleOnly: false, loadCase: "", source: "", bound: "",
+    brushes: {}, frontOnly: true, feasibleOnly: false, buildableOnly: false, loadCase: "", source: "", bound: "",
     colour: D.objectives[0], shown: -1, hovered: -1, chosen: new Set(), asf: -1, reachable: null,
     nautilus: null, timing: { last: null, runs: [] },
   };
@@ -64,7 +65,7 @@
   }
   function computeBase() {
     for (let i = 0; i < N; i++) {
-      let ok = (!S.frontOnly || onFront[i]) && (!S.feasibleOnly || feasible[i]) && (!S.source || D.sources[source[i]].name === S.source);
+      let ok = (!S.frontOnly || onFront[i]) && (!S.feasibleOnly || feasible[i]) && (!S.buildableOnly || buildable[i]) && (!S.source || D.sources[source[i]].name === S.source);
       if (ok && S.bound === "none") ok = !anyBound(i);
       else if (ok && S.bound) ok = atBound(i, S.bound) !== 0;
       base[i] = ok ? 1 : 0;
@@ -303,11 +304,15 @@
     const k = D.kinds[kind[i]];
     return src + (k === "evaluated" ? "evaluation " : k + " row ") + fileRow[i];
   }
+  function verdictText(i) { // the buildability verdict: the binding rule where a design has one
+    const rule = D.rules[bindingRule[i]];
+    return buildable[i] ? "yes" : rule ? "no (" + esc(rule) + ")" : "no (not evaluated)";
+  }
   function drawTable() {
     const rows = S.tableRows || [];
     const shownCols = cols.filter((c) => c.group === "variable" || c.group === "objective");
-    const head = "<thead><tr><th>export</th><th class=\"text\">design</th>" + shownCols.map((c) => "<th>" + esc(c.name) + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "</tr></thead>";
-    const body = rows.map((i) => "<tr data-row=\"" + i + "\"" + (i === S.shown ? " class=\"shown\"" : "") + "><td><input type=\"checkbox\" data-row=\"" + i + "\"" + (S.chosen.has(i) ? " checked" : "") + "></td><td class=\"text\">" + esc(rowName(i)) + "</td>" + shownCols.map((c) => "<td>" + number(c.values[i], c.display) + "</td>").join("") + "</tr>").join("");
+    const head = "<thead><tr><th>export</th><th class=\"text\">design</th><th class=\"text\">buildable</th>" + shownCols.map((c) => "<th>" + esc(c.name) + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "</tr></thead>";
+    const body = rows.map((i) => "<tr data-row=\"" + i + "\"" + (i === S.shown ? " class=\"shown\"" : "") + "><td><input type=\"checkbox\" data-row=\"" + i + "\"" + (S.chosen.has(i) ? " checked" : "") + "></td><td class=\"text\">" + esc(rowName(i)) + "</td><td class=\"text\">" + verdictText(i) + "</td>" + shownCols.map((c) => "<td>" + number(c.values[i], c.display) + "</td>").join("") + "</tr>").join("");
     $("designs").innerHTML = head + "<tbody>" + body + "</tbody>";
   }
 
@@ -320,10 +325,10 @@
     const i = S.hovered >= 0 ? S.hovered : S.shown;
     if (i < 0) return;
     const outside = cols.some((c) => outsideRange(c, i));
-    $("d-title").textContent = rowName(i) + (feasible[i] ? "" : " (not feasible)") + (onFront[i] ? ", on the front" : "") + (outside ? ", a damper valve " + D.outside_range : "");
+    $("d-title").textContent = rowName(i) + (feasible[i] ? "" : " (not feasible)") + (onFront[i] ? ", on the front" : "") + (buildable[i] ? ", buildable" : ", not buildable") + (outside ? ", a damper valve " + D.outside_range : "");
     const src = D.sources[source[i]];
     const rows = cols.filter((c) => (c.group !== "variable" || src.variables.indexOf(c.name) >= 0) && inCase(c));
-    $("d-table").innerHTML = "<thead><tr><th class=\"text\">quantity</th><th class=\"text\">kind</th><th>value</th></tr></thead><tbody>" + rows.map((c) => "<tr><td class=\"text\">" + esc(c.name) + "</td><td class=\"text\">" + c.group + "</td><td>" + withUnit(c.values[i], c.display) + (c.group === "variable" ? boundNote(i, esc(c.name)) : "") + (outsideRange(c, i) ? " (outside the validated range)" : "") + "</td></tr>").join("") + "</tbody>";
+    $("d-table").innerHTML = "<thead><tr><th class=\"text\">quantity</th><th class=\"text\">kind</th><th>value</th></tr></thead><tbody><tr><td class=\"text\">binding_rule</td><td class=\"text\">build</td><td>" + esc(D.rules[bindingRule[i]] || "-") + "</td></tr>" + rows.map((c) => "<tr><td class=\"text\">" + esc(c.name) + "</td><td class=\"text\">" + c.group + "</td><td>" + withUnit(c.values[i], c.display) + (c.group === "variable" ? boundNote(i, esc(c.name)) : "") + (outsideRange(c, i) ? " (outside the validated range)" : "") + "</td></tr>").join("") + "</tbody>";
     const sheet = D.kinds[kind[i]] === "front" && D.sources.length === 1 ? D.sheets[String(fileRow[i])] : undefined;
     const command = D.kinds[kind[i]] === "front" && src.location ? "hisopt sheet " + src.location + " --design " + fileRow[i] : "";
     $("d-sheet").innerHTML = (sheet ? "<a href=\"" + esc(sheet) + "\">design sheet</a> · " : "") + (command ? "its design sheet: <code>" + command + "</code>" : "export its problem file to evaluate or sheet it");
@@ -584,6 +589,7 @@
   $("designs").addEventListener("mouseleave", () => { S.hovered = -1; showDetails(); drawPcForeground(); drawSplom(); });
   $("f-front").addEventListener("change", (e) => { S.frontOnly = e.target.checked; update(true); });
   $("f-feasible").addEventListener("change", (e) => { S.feasibleOnly = e.target.checked; update(true); });
+  $("f-buildable").addEventListener("change", (e) => { S.buildableOnly = e.target.checked; update(true); });
   $("f-bound").addEventListener("change", (e) => { S.bound = e.target.value; update(true); });
   $("f-source").addEventListener("change", (e) => { S.source = e.target.value; update(true); });
   $("f-case").addEventListener("change", (e) => { S.loadCase = e.target.value; update(true); });

@@ -250,6 +250,7 @@ def report_page(run_dir: str | Path, color_by: str | None = None, design: str = 
     from hisopt.plotting import figures
     from hisopt.report import schematic
     from hisopt.report.decision_page import DECISION_FILE
+    from hisopt.studies import build_verdicts
     from hisopt.studies.spectra import response_spectra
 
     run_dir = Path(run_dir)
@@ -301,6 +302,14 @@ def report_page(run_dir: str | Path, color_by: str | None = None, design: str = 
             f"; at lower (upper) bound: within {100 * BOUND_TOLERANCE:g} % of the [variables] box width of "
             "that bound, where the box rather than the physics chose the value"
         )
+    verdicts = build_verdicts.run_verdicts(run_dir, problem, full[variables].to_numpy(dtype=float))  # stored when the run finished
+    stored = build_verdicts.with_variables(problem, full, verdicts)
+    verdict_rows = build_verdicts.verdict_rows(problem, highlighted, stored)
+    picks = pd.concat([picks, pd.DataFrame([[label, *cells] for label, cells in verdict_rows], columns=picks.columns)], ignore_index=True)
+    designs_caption += f"; {build_verdicts.VERDICT_NOTE}"
+    front_note += f"; {build_verdicts.buildable_line(verdicts)}"
+    if run["thinned"] is not None:
+        front_note += f" ({build_verdicts.buildable_line(build_verdicts.verdicts_of(problem, front[variables].to_numpy(dtype=float), stored), 'thinned')})"
     spec = problem.spec
     if spec.scenarios and spec.robust.aggregate == "per_scenario" and len(spec.objectives) > 1:
         pareto = figures.scenario_scatter_matrix(

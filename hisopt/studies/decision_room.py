@@ -24,6 +24,8 @@ from hisopt.evaluation.evaluate import Evaluator
 from hisopt.evaluation.transient import step_responses
 from hisopt.hydraulics import laws
 from hisopt.optim.archive import non_dominated_mask
+from hisopt.studies.build_verdicts import run_verdicts
+from hisopt.studies.buildability import BINDING_RULE, BUILD_MARGIN, BUILDABLE
 from hisopt.units import psd_unit
 
 if TYPE_CHECKING:
@@ -46,7 +48,7 @@ CHUNK = 2000
 CURVE_METHODS = ("modal", "direct")
 """How :func:`design_curves` computes the spectra: the evaluator's channels, or direct solves."""
 
-GROUPS = ("variable", "objective", "constraint", "load case", "part", "valve")
+GROUPS = ("variable", "objective", "constraint", "load case", "part", "valve", "build")
 """The kinds of a room's quantity columns, in the page's order (:class:`Room`)."""
 KINDS = ("front", "refined", "evaluated")
 """Where a row comes from: ``front.csv``, a refined front (``front_refined.csv``, ``front_refined_ipopt.csv``) or ``evaluations.parquet``."""
@@ -90,9 +92,11 @@ class Room:
     ``table`` columns: ``source`` (its name), ``source_index`` (its place in ``sources``: a
     layout's seeds share a name), ``kind``, ``row``, the variables, objectives, constraints,
     load-case quantities, parts and damper valves' equivalent resistances
-    (:func:`valve_columns`), ``feasible`` and ``front`` (non-dominated among the feasible
-    rows); ``groups`` says which of those each quantity column is (``variable``,
-    ``objective``, ``constraint``, ``load case``, ``part``, ``valve``) and ``units`` its SI unit.
+    (:func:`valve_columns`), the buildability verdict (``build_margin``, ``buildable`` and
+    ``binding_rule``, :mod:`hisopt.studies.build_verdicts`: every rule, constrained or not),
+    ``feasible`` and ``front`` (non-dominated among the feasible rows); ``groups`` says which
+    of those each quantity column is (``variable``, ``objective``, ``constraint``, ``load
+    case``, ``part``, ``valve``, ``build``) and ``units`` its SI unit.
     ``bounds`` per source the box of each variable; ``curves`` per row and ``baseline`` per
     source (its problem's baseline design); ``templates`` per source the problem file with
     ``{{name}}`` in place of each variable's value.
@@ -310,13 +314,18 @@ def decision_room_data(sources: Sequence[Source], method: str = "modal") -> Room
             ("part", list(parts)),
             ("valve", list(valves)),
         ]
-        own = {"part": (parts, "m"), "valve": (valves, "Pa s m^-3")}  # the columns not of the evaluator
+        verdicts = run_verdicts(source.location or None, p, source.x)  # a run's front: as stored when it finished
+        build = {BUILD_MARGIN: verdicts[BUILD_MARGIN].to_numpy(dtype=float)}
+        kinds.append(("build", list(build)))
+        own = {"part": (parts, "m"), "valve": (valves, "Pa s m^-3"), "build": (build, "-")}  # the columns not of the evaluator
         frame = pd.DataFrame({"source": source.name, "source_index": len(frames), "kind": source.kind, "row": source.row})
         for group, columns in kinds:
             for c in columns:
                 groups.setdefault(c, group)
                 units.setdefault(c, own[group][1] if group in own else found.get(c, ""))
                 frame[c] = own[group][0][c] if group in own else q[c].to_numpy(dtype=float)
+        frame[BUILDABLE] = verdicts[BUILDABLE].to_numpy(dtype=bool)
+        frame[BINDING_RULE] = verdicts[BINDING_RULE].to_numpy(dtype=str)
         frame["feasible"] = q["feasible"].to_numpy(dtype=bool)
         frames.append(frame)
         curves.append(design_curves(p, source.x, f_hz, method))
