@@ -150,10 +150,10 @@ def study_report(out: Path, color_by: str | None, design: str) -> Path:
 
 def _table(result: Any) -> Any:
     """The headline columns of ``layouts.csv`` as a rich table (engineering units)."""
+    from rich.console import Group
     from rich.table import Table
     from rich.text import Text
 
-    from hisopt.studies.buildability import VERDICT_COLUMNS
     from hisopt.units import display_frame, format_quantity
 
     columns = [
@@ -166,7 +166,6 @@ def _table(result: Any) -> Any:
         "sigma_aw_at_limit",
         "handling_at_best",
         "gain_vs_roll_plane_pct",
-        *VERDICT_COLUMNS,
         "k_roll",
         "k_warp",
     ]
@@ -174,14 +173,29 @@ def _table(result: Any) -> Any:
     limit = format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"])  # with its unit: pasted back as is
     table = Table(
         title=Text(
-            f"Layouts at equal handling: {result.handling} <= {limit} (normalised hypervolume across seeds; gain in comfort over roll_plane; "
-            "buildable, binding_rule, build_margin: every buildability rule on the design at the limit)"
+            f"Layouts at equal handling: {result.handling} <= {limit} (normalised hypervolume across seeds; gain in comfort over roll_plane)"
         )
     )
     for col in shown.columns:
-        table.add_column(
-            Text(col.replace(" [", "\n[")), justify="left" if col.startswith(("layout", "binding_rule")) else "right", no_wrap=col.startswith("binding_rule")
-        )
+        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith("layout") else "right")
     for row in shown.itertuples(index=False):
         table.add_row(*[Text(v) for v in row])
+    return Group(table, verdict_table(result.table, "layout", "Buildability of each layout's design at the limit (every rule, docs/model.md §21)"))
+
+
+def verdict_table(frame: Any, key: str, title: str) -> Any:
+    """``key`` and the buildability verdict's columns of ``frame`` as a rich table of their own
+    (engineering units), beside a wide ranking."""
+    from rich.table import Table
+    from rich.text import Text
+
+    from hisopt.studies.buildability import VERDICT_COLUMNS
+    from hisopt.units import display_frame
+
+    shown = display_frame(frame[[c for c in (key, *VERDICT_COLUMNS) if c in frame]]).replace("nan", "–")
+    table = Table(title=Text(title))
+    for col in shown.columns:
+        table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith((key, "binding_rule")) else "right", no_wrap=True)
+    for row in shown.itertuples(index=False):
+        table.add_row(*[Text(str(v)) for v in row])
     return table

@@ -111,10 +111,11 @@ def _counts(result: Any) -> Any:
 
 
 def _ranking(result: Any) -> Any:
+    from rich.console import Group
     from rich.table import Table
     from rich.text import Text
 
-    from hisopt.studies.buildability import VERDICT_COLUMNS
+    from hisopt.cli.compare import verdict_table
     from hisopt.units import display_frame
 
     columns = [
@@ -123,7 +124,6 @@ def _ranking(result: Any) -> Any:
         "catalogue",
         "sigma_aw_at_limit",
         "gain_vs_roll_plane_pct",
-        *VERDICT_COLUMNS,
         "hv_mean",
         "hv_std",
         "k_bounce",
@@ -134,19 +134,17 @@ def _ranking(result: Any) -> Any:
     shown = display_frame(result.layouts[[c for c in columns if c in result.layouts]]).replace("nan", "–")
     study = result.study
     title = (
-        f"Optimised layouts at equal handling ({study.handling} at most the roll-plane baseline's), best comfort gain over roll_plane first; "
-        "buildable, binding_rule, build_margin: every buildability rule on each layout's design at the limit"
+        f"Optimised layouts at equal handling ({study.handling} at most the roll-plane baseline's), best comfort gain over roll_plane first"
     )
     table = Table(title=Text(title))
     for col in shown.columns:
         table.add_column(
             Text(col.replace(" [", "\n[")),
-            justify="left" if col.startswith(("layout", "catalogue", "file", "binding_rule")) else "right",
-            no_wrap=col.startswith("binding_rule"),
+            justify="left" if col.startswith(("layout", "catalogue", "file")) else "right",
         )
     for row in shown.itertuples(index=False):
         table.add_row(*[Text(str(v)) for v in row])
-    return table
+    return Group(table, verdict_table(result.layouts, "layout", "Buildability of each layout's design at the limit (every rule, docs/model.md §21)"))
 
 
 def register(app: typer.Typer) -> None:
