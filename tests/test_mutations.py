@@ -119,21 +119,26 @@ def mutated_problem(draw):
     return data
 
 
+BOOLEAN_KEYS = ("gravity_moment", "catalogue_cost")
+"""The problem file's switches (``[handling] gravity_moment``, ``[optimizer] catalogue_cost``):
+a boolean there is a value, anywhere else a mutation to refuse."""
+
+
 def must_refuse(data) -> str | None:
     """The oracle: why this problem must be refused (exit 2), or None if it may load."""
 
-    def walk(v):
+    def walk(v, key=None):
         if isinstance(v, dict):
-            for x in v.values():
-                yield from walk(x)
+            for k, x in v.items():
+                yield from walk(x, k)
         elif isinstance(v, list):
             for x in v:
-                yield from walk(x)
+                yield from walk(x, key)
         else:
-            yield v
+            yield key, v
 
-    for v in walk(data):
-        if isinstance(v, bool):
+    for key, v in walk(data):
+        if isinstance(v, bool) and key not in BOOLEAN_KEYS:
             return "boolean"
         if isinstance(v, float) and not math.isfinite(v):
             return "not finite"

@@ -35,9 +35,8 @@ def results_frame(problem: DesignSpace, designs: Any, quantities: dict[str, np.n
     """
     x = problem.design_matrix(designs)
     check: DesignCheck = check_designs(problem, x)
-    df = pd.DataFrame(x, columns=list(problem.variable_names))
-    for name in problem.result_columns:
-        df[name] = quantities[name]
+    columns = {name: x[:, j] for j, name in enumerate(problem.variable_names)} | {name: quantities[name] for name in problem.result_columns}
+    df = pd.DataFrame(columns)  # at once: a problem of many load cases has hundreds of columns
     valid = np.asarray(quantities["valid"], dtype=bool)
     feasible = valid & check.ok
     for c in problem.spec.constraints:
