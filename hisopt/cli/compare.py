@@ -171,11 +171,7 @@ def _table(result: Any) -> Any:
     ]
     shown = display_frame(result.table[[c for c in columns if c in result.table]]).replace("nan", "–")  # e.g. a layout without a design at the limit
     limit = format_quantity(result.handling_limit, result.table.attrs["units"]["handling_limit"])  # with its unit: pasted back as is
-    table = Table(
-        title=Text(
-            f"Layouts at equal handling: {result.handling} <= {limit} (normalised hypervolume across seeds; gain in comfort over roll_plane)"
-        )
-    )
+    table = Table(title=Text(f"Layouts at equal handling: {result.handling} <= {limit} (normalised hypervolume across seeds; gain in comfort over roll_plane)"))
     for col in shown.columns:
         table.add_column(Text(col.replace(" [", "\n[")), justify="left" if col.startswith("layout") else "right")
     for row in shown.itertuples(index=False):

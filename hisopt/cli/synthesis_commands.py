@@ -133,9 +133,7 @@ def _ranking(result: Any) -> Any:
     ]
     shown = display_frame(result.layouts[[c for c in columns if c in result.layouts]]).replace("nan", "–")
     study = result.study
-    title = (
-        f"Optimised layouts at equal handling ({study.handling} at most the roll-plane baseline's), best comfort gain over roll_plane first"
-    )
+    title = f"Optimised layouts at equal handling ({study.handling} at most the roll-plane baseline's), best comfort gain over roll_plane first"
     table = Table(title=Text(title))
     for col in shown.columns:
         table.add_column(

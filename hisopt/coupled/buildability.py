@@ -38,6 +38,7 @@ from hisopt.hydraulics.layout import Accumulator, Pipe
 from hisopt.hydraulics.network import circuit_entry, resolve, total_compliance
 from hisopt.vehicle import VehicleParams, stroke_matrix
 from hisopt.vehicle.batch import VehicleBatch
+from hisopt.vehicle.parameters import sprung_corner_loads
 
 
 @dataclass(frozen=True)
@@ -161,30 +162,8 @@ def binding(value: np.ndarray, limit: np.ndarray, side: Side) -> RuleValue:
 
 # --- the static point ------------------------------------------------------------------------
 def circuit_pressures(his: HydraulicSystem) -> np.ndarray:
-    """[Pa abs] Static pressure of each circuit at the operating point ``his`` is linearised
-    at, ``B + (n_circuits,)``: a charged HIS's, or an accumulator's (its precharge, at the
-    temperature, plus a payload's rise); a circuit of oil alone sits at atmospheric pressure."""
-    net = his.network
-    if his.static_pressure is not None:
-        return np.broadcast_to(np.asarray(his.static_pressure, dtype=float), his.batch_shape + (net.n_circuits,))
-    out = [np.full(his.batch_shape, P_ATM_PA) for _ in range(net.n_circuits)]
-    for k, (c, e) in reversed(list(enumerate(net.elements))):  # the circuit's first accumulator
-        if isinstance(e, Accumulator):
-            out[c] = np.broadcast_to(np.asarray(his.values.gas[k][1], dtype=float), his.batch_shape)
-    return np.stack(out, axis=-1)
-
-
-def sprung_corner_loads(vehicle: VehicleParams | VehicleBatch) -> np.ndarray:
-    """[N] The sprung weight each corner's suspension carries at rest, FL, FR, RL, RR,
-    ``B + (4,)``: between the axles by the lever rule, on an axle between its wheels by the
-    lateral lever rule about the CG's offset ``y_cg`` (:meth:`~hisopt.vehicle.VehicleParams.static_corner_loads`
-    without the unsprung masses)."""
-    m_s, l_f, l_r = (np.asarray(getattr(vehicle, k), dtype=float) for k in ("m_s", "l_f", "l_r"))
-    t_f, t_r, y = (np.asarray(getattr(vehicle, k), dtype=float) for k in ("t_f", "t_r", "y_cg"))
-    weight = m_s * G_MPS2
-    front, rear = weight * l_r / (l_f + l_r), weight * l_f / (l_f + l_r)
-    left_f, left_r = 0.5 + 0.5 * y / t_f, 0.5 + 0.5 * y / t_r
-    return np.stack(np.broadcast_arrays(front * left_f, front * (1 - left_f), rear * left_r, rear * (1 - left_r)), axis=-1)
+    """[Pa abs] :func:`circuit_pressure_list` of a numpy batch, ``B + (n_circuits,)``."""
+    return np.stack([np.broadcast_to(np.asarray(p, dtype=float), his.batch_shape) for p in circuit_pressure_list(his)], axis=-1)
 
 
 def port_values(his: HydraulicSystem, per_circuit: np.ndarray) -> np.ndarray:
@@ -301,7 +280,10 @@ def _wheel(per_wheel: Any, w: int) -> Any:
 
 
 def circuit_pressure_list(his: HydraulicSystem) -> list[Any]:
-    """[Pa abs] :func:`circuit_pressures` as one value per circuit (numpy ``B`` or CasADi)."""
+    """[Pa abs] Static pressure of each circuit at the operating point ``his`` is linearised
+    at, one value per circuit (numpy ``B`` or CasADi): a charged HIS's, or an accumulator's
+    (its precharge, at the temperature, plus a payload's rise); a circuit of oil alone sits at
+    atmospheric pressure."""
     net = his.network
     if his.static_pressure is not None:
         return [circuit_entry(his.static_pressure, c) for c in range(net.n_circuits)]
@@ -317,7 +299,7 @@ def strut_shares(his: HydraulicSystem, vehicle: VehicleParams | VehicleBatch) ->
     (the atmosphere pushes on the rod's end: gauge pressures, docs/model.md §3.2), over its
     corner's sprung load (:func:`sprung_corner_loads`), per wheel."""
     pressure = circuit_pressure_list(his)
-    loads = sprung_corner_loads(vehicle)
+    loads = sprung_corner_loads(vehicle, G_MPS2)
     n = his.incidence
     out = []
     for w in range(4):

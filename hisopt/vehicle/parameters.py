@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -76,14 +78,16 @@ class VehicleParams(BaseModel):
         lever rule about the CG offset ``y_cg`` (exact for ``y_cg = 0``; with an offset it
         assumes each axle's share of the roll stiffness equals its share of the load).
         """
-        front, rear = self.static_wheel_loads(g)
-        sprung_f, sprung_r = front - self.m_uf * g, rear - self.m_ur * g
-        left_f, left_r = 0.5 + 0.5 * self.y_cg / self.t_f, 0.5 + 0.5 * self.y_cg / self.t_r
-        return np.array(
-            [
-                2.0 * sprung_f * left_f + self.m_uf * g,
-                2.0 * sprung_f * (1.0 - left_f) + self.m_uf * g,
-                2.0 * sprung_r * left_r + self.m_ur * g,
-                2.0 * sprung_r * (1.0 - left_r) + self.m_ur * g,
-            ]
-        )
+        unsprung = np.array([self.m_uf, self.m_uf, self.m_ur, self.m_ur]) * g
+        return sprung_corner_loads(self, g) + unsprung
+
+
+def sprung_corner_loads(vehicle: Any, g: float = 9.81) -> np.ndarray:
+    """[N] The sprung weight each corner's suspension carries at rest, FL, FR, RL, RR, shape
+    ``B + (4,)`` for a car or a batch of cars (:class:`~hisopt.vehicle.batch.VehicleBatch`):
+    between the axles by the lever rule (exact), on each axle between its wheels by the
+    lateral lever rule about the CG offset ``y_cg`` (:meth:`VehicleParams.static_corner_loads`)."""
+    m_s, l_f, l_r, t_f, t_r, y = (np.asarray(getattr(vehicle, k), dtype=float) for k in ("m_s", "l_f", "l_r", "t_f", "t_r", "y_cg"))
+    front, rear = m_s * g * l_r / (l_f + l_r), m_s * g * l_f / (l_f + l_r)  # both wheels of an axle
+    left_f, left_r = 0.5 + 0.5 * y / t_f, 0.5 + 0.5 * y / t_r
+    return np.stack(np.broadcast_arrays(front * left_f, front * (1.0 - left_f), rear * left_r, rear * (1.0 - left_r)), axis=-1)
