@@ -147,9 +147,12 @@ def test_numpy_and_casadi_engines_agree_within_their_rounding(problem_variant):
         for i, name in enumerate(model.names):
             assert_within(q[i : i + 1], np.array([ref[name]]), budget, name)
             # and the evaluator's own value: integrals on its nodes (its frequency responses come
-            # from poles and residues, good to ~1e-7 with stiff chambers), maxima at its peaks
-            # (its search, on those responses, stops within ~1e-5 of where this one does)
-            rel = 1e-5 if METRICS[name].kind == "max" else 1e-6
+            # from poles and residues, good to ~1e-7 with stiff chambers); maxima within the
+            # evaluator's stated accuracy, 1e-3 (docs/model.md §10.7): its peak search takes a fixed
+            # number of steps (peak_steps), not a tolerance, so where it stops below the nodes'
+            # largest value depends on the last bits of the responses (2.9e-5 under OpenBLAS
+            # Prescott on the pitch-plane chamber variant)
+            rel = 1e-3 if METRICS[name].kind == "max" else 1e-6
             assert q[i] == pytest.approx(evaluated[name][k], rel=rel), (name, q[i], evaluated[name][k])
 
 

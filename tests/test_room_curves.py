@@ -66,6 +66,14 @@ def _budget(p: hisopt.Problem, x: np.ndarray, f_hz: np.ndarray) -> np.ndarray:
     return out
 
 
+def _solve_budget(p: hisopt.Problem, x: np.ndarray, f_hz: np.ndarray) -> np.ndarray:
+    """[-] Each design's relative budget of a direct solve's PSD (Skeel's bound, tests/error_budget.py)."""
+    out = np.empty(len(x))
+    for rows, model in p.model(x).groups():
+        out[rows] = solve_budget(model, f_hz, power=2)
+    return out
+
+
 def _step_budget(p: hisopt.Problem, x: np.ndarray, step_g: float) -> np.ndarray:
     """[rad] Each design's budget of its step response from the antisymmetric half against the
     full state space's: a form is trusted when its identity ``phi(0) = 0`` holds within
@@ -114,7 +122,11 @@ def test_a_design_whose_form_is_not_trusted_takes_the_direct_solve(problems, rng
     untrusted = conditioning > limit
     assert 0 < untrusted.sum() < len(x)
     fast, exact = design_curves(p, x), design_curves(p, x, method="direct")
-    np.testing.assert_allclose(fast.spectra[untrusted], exact.spectra[untrusted], rtol=SAME_SOLVE, atol=0)
+    # the same direct solve in a batch of another size: its matrices assembled by products whose
+    # kernels (and so roundings) may differ with the batch's shape, so each path is within its
+    # own solve's budget of the exact spectrum, the two within twice that
+    same = _excess(fast.spectra[untrusted], exact.spectra[untrusted], 2 * _solve_budget(p, x[untrusted], fast.f_hz))
+    assert np.all(same <= 1.0), float(same.max())
     excess = _excess(fast.spectra[~untrusted], exact.spectra[~untrusted], _budget(p, x[~untrusted], fast.f_hz))
     assert np.all(excess <= 1.0), float(excess.max())
 
