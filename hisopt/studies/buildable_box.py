@@ -76,7 +76,7 @@ def box_verdict(problem: DesignSpace, n: int = BOX_SAMPLE, seed: int = BOX_SEED)
             for case in cases:
                 if scenarios is None or case.name in scenarios:
                     usage = case.rules[name].usage
-                    unknown |= ~np.isfinite(usage)
+                    unknown |= np.isnan(usage)  # +inf: beyond a rating of zero, judged (broken)
                     broken[name] |= usage > limit
     ok = ~unknown & ~np.any(np.stack(list(broken.values())), axis=0)
     shares = {name: float(b[~unknown].sum()) / len(x) for name, b in broken.items()}
