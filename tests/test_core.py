@@ -127,15 +127,17 @@ def numpy_on_nodes(problem: hisopt.Problem, x: np.ndarray, f: np.ndarray, w: np.
     return {k: float(np.squeeze(v)) for k, v in values.items()}
 
 
-@pytest.mark.slow
-def test_numpy_and_casadi_engines_agree_within_their_rounding(problem_variant):
-    """Both engines solve the network and the car at the same nodes: every quantity within the
-    budget of those solves (tests/error_budget.py: the equilibrated network's and the dynamic
-    stiffness's condition numbers), which a 1e-6 error would exceed."""
-    problem = problem_variant
+def assert_engines_agree(problem: hisopt.Problem, x_all: np.ndarray, max_rel: float) -> None:
+    """The CasADi model and the numpy core at the evaluator's nodes of each design of
+    ``x_all``: every quantity within the budget of the two solves (tests/error_budget.py: the
+    equilibrated network's and the dynamic stiffness's condition numbers); and the evaluator's
+    own values: integrals on its nodes within 1e-6 (its frequency responses come from poles and
+    residues, good to ~1e-7 with stiff chambers), maxima within ``max_rel`` (its peak search
+    takes a fixed number of steps, peak_steps, not a tolerance, so where it stops below the
+    nodes' largest value depends on the last bits of the responses)."""
     model = CasadiModel(problem, compile=False)
-    evaluated = problem.evaluator()(designs(problem))
-    for k, x in enumerate(designs(problem)):
+    evaluated = problem.evaluator()(x_all)
+    for k, x in enumerate(x_all):
         f, w, peaks = evaluator_nodes(problem, x)
         f_all = np.unique(np.r_[f, list(peaks.values())])
         w_all = np.zeros(f_all.size)
@@ -146,14 +148,16 @@ def test_numpy_and_casadi_engines_agree_within_their_rounding(problem_variant):
         assert_discriminating(budget)
         for i, name in enumerate(model.names):
             assert_within(q[i : i + 1], np.array([ref[name]]), budget, name)
-            # and the evaluator's own value: integrals on its nodes (its frequency responses come
-            # from poles and residues, good to ~1e-7 with stiff chambers); maxima within the
-            # evaluator's stated accuracy, 1e-3 (docs/model.md §10.7): its peak search takes a fixed
-            # number of steps (peak_steps), not a tolerance, so where it stops below the nodes'
-            # largest value depends on the last bits of the responses (2.9e-5 under OpenBLAS
-            # Prescott on the pitch-plane chamber variant)
-            rel = 1e-3 if METRICS[name].kind == "max" else 1e-6
+            rel = max_rel if METRICS[name].kind == "max" else 1e-6
             assert q[i] == pytest.approx(evaluated[name][k], rel=rel), (name, q[i], evaluated[name][k])
+
+
+@pytest.mark.slow
+def test_numpy_and_casadi_engines_agree_within_their_rounding(problem_variant):
+    """Both engines solve the network and the car at the same nodes (:func:`assert_engines_agree`),
+    which a 1e-6 error would exceed; the evaluator's maxima within its stated accuracy, 1e-3
+    (docs/model.md §10.7: 2.9e-5 measured under OpenBLAS Prescott on the pitch-plane chamber variant)."""
+    assert_engines_agree(problem_variant, designs(problem_variant), max_rel=1e-3)
 
 
 @pytest.mark.parametrize("name", [n for n, v in VARIANTS.items() if v.get("his", {}).get("pipe_model") != "distributed"])
