@@ -17,6 +17,7 @@ from hisopt.problem import Problem, load_problem
 from hisopt.simulation.agreement import road_realisation
 from hisopt.simulation.nonlinear_model import NonlinearModel
 from tests.conftest import ROOT
+from tests.test_timedomain import assert_jacobian_matches_finite_differences
 
 VALVES = ROOT / "tests" / "data" / "valves_one_road.toml"  # the valves problem on its city road alone, as measured
 CUSTOM = ROOT / "problems" / "layout_custom_roll_plane.toml"
@@ -122,15 +123,7 @@ def test_nonlinear_jacobian_with_damper_valves_matches_finite_differences(valves
     scale = np.r_[np.full(7, 0.01), np.full(7, 0.1), np.full(net.n_states - 14, 1e4)]
     y = rng.standard_normal(net.n_states) * scale
     y[14 + net.acc_state] = rng.uniform(-1e-5, 1e-5, net.acc_state.size)  # volumes [m^3]
-    u, du = np.array([0.01, -0.02, 0.0, 0.03]), np.zeros(4)
     q = net.hydraulic_state(y[14:, None], y[7:14, None])[net.alg][net.dampers[0].positions, 0]
     q_c = np.sqrt(net.dampers[0].cracking[:, 0] / net.dampers[0].kq[:, 0])
     assert np.any(np.abs(q) > q_c) and np.all(np.abs(np.abs(q) - q_c) > 1e-3 * q_c)  # both branches, off the kink
-    jac = net.jacobian(y, u, du)
-
-    def f(yy: np.ndarray) -> np.ndarray:
-        return net.derivative(yy[:, None], u[:, None], du[:, None])[0][:, 0]
-
-    steps = 1e-7 * np.maximum(np.abs(y), 1e-9)
-    fd = np.stack([(f(y + e) - f(y - e)) / (2 * e[i]) for i, e in enumerate(np.diag(steps))], axis=1)
-    np.testing.assert_allclose(jac, fd, rtol=1e-5, atol=1e-6 * np.abs(jac).max())
+    assert_jacobian_matches_finite_differences(net, y, np.array([0.01, -0.02, 0.0, 0.03]))
