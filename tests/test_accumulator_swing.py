@@ -88,24 +88,31 @@ def test_state_space_volumes_equal_the_direct_solve(data, halves, rng, monkeypat
     x = random_designs(problem, 12, rng)  # the corners short the valves (Rv = 0): merged nodes
     seen = set()
     for _, model in problem.model(x).groups():
-        outputs = accumulator_outputs(len(model.his.network.accumulators()))
-        ss = model.state_space()
-        fast = ModalChannels(model, ss, outputs)
-        seen |= set(fast.forms)
-        f_hz = np.geomspace(0.3, 80, 40)
-        omega = 2 * np.pi * np.broadcast_to(f_hz, (len(ss.a), f_hz.size))
-        h_fast, h_direct = fast(omega), DirectOutputs(model, outputs)(omega)
-        mirror = split(ss, state_mirror(model, ss)) if halves else None
-        forms = [h.a for h in mirror.values()] if mirror else [ss.a]
-        network = SAFETY * EPS * network_condition(model, 2j * np.pi * f_hz).max(axis=-1)  # the accumulators' rows of M^-1 P
-        budget = pole_budget(forms, f_hz[0], f_hz[-1], power=1) + solve_budget(model, f_hz, power=1) + state_space_budget(model, f_hz) + network
-        assert_discriminating(budget)
-        exact = {name: join(*h_direct[name]) for name in ("sym", "anti")}
-        scale = np.maximum(*(np.abs(b).max(axis=(1, 2), keepdims=True) for b in exact.values()))
-        for name, b in exact.items():
-            error = np.max(np.abs(join(*h_fast[name]) - b) / scale, axis=(1, 2, 3))
-            assert np.all(error <= budget), (name, float(np.max(error / budget)))
+        seen |= assert_hydraulic_rows_equal_the_direct_solve(model, accumulator_outputs(len(model.his.network.accumulators())), halves)
     assert ("sym" in seen) == halves  # the mirror halves were used where asked (the corners may break the symmetry)
+
+
+def assert_hydraulic_rows_equal_the_direct_solve(model, outputs: dict, halves: bool = True) -> set[str]:
+    """Outputs read from the realisation's hydraulic unknowns (``outputs``), by poles and
+    residues against the network solved at each frequency, within the rounding of both paths
+    (the poles', the car's and the realisation's solves and the network's rows of ``M^-1 P``);
+    returns the pole-residue forms used (``"sym"``, ``"anti"`` or ``"both"``)."""
+    ss = model.state_space()
+    fast = ModalChannels(model, ss, outputs)
+    f_hz = np.geomspace(0.3, 80, 40)
+    omega = 2 * np.pi * np.broadcast_to(f_hz, (len(ss.a), f_hz.size))
+    h_fast, h_direct = fast(omega), DirectOutputs(model, outputs)(omega)
+    mirror = split(ss, state_mirror(model, ss)) if halves else None
+    forms = [h.a for h in mirror.values()] if mirror else [ss.a]
+    network = SAFETY * EPS * network_condition(model, 2j * np.pi * f_hz).max(axis=-1)
+    budget = pole_budget(forms, f_hz[0], f_hz[-1], power=1) + solve_budget(model, f_hz, power=1) + state_space_budget(model, f_hz) + network
+    assert_discriminating(budget)
+    exact = {name: join(*h_direct[name]) for name in ("sym", "anti")}
+    scale = np.maximum(*(np.abs(b).max(axis=(1, 2), keepdims=True) for b in exact.values()))
+    for name, b in exact.items():
+        error = np.max(np.abs(join(*h_fast[name]) - b) / scale, axis=(1, 2, 3))
+        assert np.all(error <= budget), (name, float(np.max(error / budget)))
+    return set(fast.forms)
 
 
 def test_the_swing_is_the_oil_volumes_rms_over_the_static_room_by_hand(rng):

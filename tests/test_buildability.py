@@ -18,15 +18,13 @@ import pytest
 from hisopt.constants import G_MPS2, P_ATM_PA
 from hisopt.coupled import buildability as b
 from hisopt.coupled.response import port_pressure_outputs, stroke_rate_outputs
-from hisopt.evaluation.channels import DirectOutputs, ModalChannels
-from hisopt.evaluation.symmetry import split, state_mirror
-from hisopt.linalg import join
+from hisopt.evaluation.channels import DirectOutputs
 from hisopt.problem import problem_from_dict
 from hisopt.vehicle import stroke_matrix
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT, random_designs
-from tests.error_budget import EPS, SAFETY, assert_discriminating, network_condition, pole_budget, solve_budget, state_space_budget
-from tests.test_accumulator_swing import charged, single_case
+from tests.error_budget import EPS, SAFETY
+from tests.test_accumulator_swing import assert_hydraulic_rows_equal_the_direct_solve, charged, single_case
 
 PARTS = ROOT / "problems" / "roll_plane_his_parts.toml"
 LIMITS = b.BuildLimits()
@@ -71,22 +69,7 @@ def test_state_space_chamber_pressures_equal_the_direct_solve(data, rng):
     x = random_designs(problem, 12, rng)  # the corners short the valves (Rv = 0): merged nodes
     for _, model in problem.model(x).groups():
         net = model.his.network
-        outputs = port_pressure_outputs(len(net.accumulators()), len(net.flow_valves()), len(net.ports))
-        ss = model.state_space()
-        fast = ModalChannels(model, ss, outputs)
-        f_hz = np.geomspace(0.3, 80, 40)
-        omega = 2 * np.pi * np.broadcast_to(f_hz, (len(ss.a), f_hz.size))
-        h_fast, h_direct = fast(omega), DirectOutputs(model, outputs)(omega)
-        mirror = split(ss, state_mirror(model, ss))
-        forms = [h.a for h in mirror.values()] if mirror else [ss.a]
-        network = SAFETY * EPS * network_condition(model, 2j * np.pi * f_hz).max(axis=-1)
-        budget = pole_budget(forms, f_hz[0], f_hz[-1], power=1) + solve_budget(model, f_hz, power=1) + state_space_budget(model, f_hz) + network
-        assert_discriminating(budget)
-        exact = {name: join(*h_direct[name]) for name in ("sym", "anti")}
-        scale = np.maximum(*(np.abs(v).max(axis=(1, 2), keepdims=True) for v in exact.values()))
-        for name, v in exact.items():
-            error = np.max(np.abs(join(*h_fast[name]) - v) / scale, axis=(1, 2, 3))
-            assert np.all(error <= budget), (name, float(np.max(error / budget)))
+        assert_hydraulic_rows_equal_the_direct_solve(model, port_pressure_outputs(len(net.accumulators()), len(net.flow_valves()), len(net.ports)))
 
 
 def test_a_chamber_behind_its_valve_is_its_accumulator_plus_the_valves_drop():
