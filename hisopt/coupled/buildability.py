@@ -251,14 +251,14 @@ AccumulatorRating = Callable[[HydraulicSystem], np.ndarray]
 """[Pa gauge] The highest working pressure each accumulator is rated for, ``B + (n_acc,)``."""
 
 
-def pressure_rules(model: CoupledModel, limits: BuildLimits, swing: RoadSwing, rating: AccumulatorRating) -> dict[str, RuleValue]:
+def pressure_rules(model: CoupledModel, limits: BuildLimits, swing: RoadSwing, rating: AccumulatorRating, ext: Extremes | None = None) -> dict[str, RuleValue]:
     """``pressure_floor_usage`` and ``pressure_ceiling_usage``: every chamber's and
     accumulator's lowest pressure against its floor (air release; an accumulator's also
     ``precharge_margin`` times its precharge at the temperature) and highest against its
     rating (the cylinders' ``cylinder_pressure``; an accumulator's from ``rating``)."""
     his = model.his
     assert his is not None
-    ext = pressure_extremes(model, limits, swing)
+    ext = pressure_extremes(model, limits, swing) if ext is None else ext
     precharge = precharges_at_temperature(his)
     acc_floor = np.maximum(limits.air_release_pressure, limits.precharge_margin * precharge)
     low = np.concatenate([ext.port_low, ext.accumulator_low], axis=-1)
@@ -367,13 +367,13 @@ def euler_load(rod: Any, limits: BuildLimits) -> Any:
     return math.pi**2 * limits.rod_modulus * (math.pi * rod**4 / 64.0) / limits.rod_length**2
 
 
-def buckling_rule(model: CoupledModel, limits: BuildLimits, swing: RoadSwing) -> RuleValue:
+def buckling_rule(model: CoupledModel, limits: BuildLimits, swing: RoadSwing, ext: Extremes | None = None) -> RuleValue:
     """``rod_buckling_usage``: each rod's peak compressive force, its bottom chamber at its
     highest pressure and its top at its lowest (not below vacuum), against Euler's load over
     ``buckling_safety``."""
     his = model.his
     assert his is not None
-    ext = pressure_extremes(model, limits, swing)
+    ext = pressure_extremes(model, limits, swing) if ext is None else ext
     n = np.asarray(his.incidence, dtype=float)
     pushing = np.where(n < 0, ext.port_high[..., :, None], np.maximum(ext.port_low, 0.0)[..., :, None])  # bottom (n < 0) high, top low
     force = -np.einsum("...pw,...pw->...w", n, pushing - P_ATM_PA)
@@ -427,11 +427,14 @@ def hose_rules(his: HydraulicSystem, limits: BuildLimits, swing: RoadSwing) -> d
     hoses, flows = hose_flows(his, swing.stroke_rate)
     params = his.params
     pipes = [his.network.elements[k][1] for k in hoses]
-    diameters = [np.asarray(resolve(p.diameter, params), dtype=float) for p in pipes if isinstance(p, Pipe)]
-    d = np.stack(np.broadcast_arrays(*diameters, flows[..., 0]), axis=-1)[..., :-1] if hoses else flows
-    velocity = limits.sigmas * flows / laws.pipe_area(d) if hoses else flows
+    d = np.zeros(flows.shape)  # [m] each hose's bore, per design
+    for j, pipe in enumerate(pipes):
+        assert isinstance(pipe, Pipe)
+        d[..., j] = resolve(pipe.diameter, params)
+    with np.errstate(divide="ignore", invalid="ignore"):  # no hose: empty arrays
+        velocity = limits.sigmas * flows / laws.pipe_area(d)
     rho, mu = (np.asarray(resolve(name, params), dtype=float)[..., None] for name in ("rho", "mu"))
-    reynolds = rho * velocity * d / mu if hoses else flows
+    reynolds = rho * velocity * d / mu
     return {
         "hose_velocity_usage": binding(velocity, np.full(velocity.shape, limits.hose_velocity), "ceiling"),
         "hose_reynolds_usage": binding(reynolds, np.full(reynolds.shape, limits.reynolds_laminar), "ceiling"),
@@ -466,12 +469,17 @@ def build_rules(
     wanted = set(names)
     if wanted & {"pressure_floor_usage", "pressure_ceiling_usage", "rod_buckling_usage", "hose_velocity_usage", "hose_reynolds_usage"} and swing is None:
         raise ValueError("the pressure, buckling and hose rules need the road's swing")
+    ext = (
+        pressure_extremes(model, limits, swing)
+        if swing is not None and wanted & {"pressure_floor_usage", "pressure_ceiling_usage", "rod_buckling_usage"}
+        else None
+    )
     if wanted & {"pressure_floor_usage", "pressure_ceiling_usage"}:
-        out |= pressure_rules(model, limits, swing, rating)  # type: ignore[arg-type]
+        out |= pressure_rules(model, limits, swing, rating, ext)  # type: ignore[arg-type]
     if wanted & {"strut_load_usage", "area_ratio_usage", "annulus_wall_usage"}:
         out |= static_rules(model, limits)
     if "rod_buckling_usage" in wanted:
-        out["rod_buckling_usage"] = buckling_rule(model, limits, swing)  # type: ignore[arg-type]
+        out["rod_buckling_usage"] = buckling_rule(model, limits, swing, ext)  # type: ignore[arg-type]
     if wanted & {"hose_velocity_usage", "hose_reynolds_usage"}:
         out |= hose_rules(his, limits, swing)  # type: ignore[arg-type]
     if wanted & {"wheel_hop_usage", "wheel_damping_usage"}:
