@@ -542,7 +542,7 @@ def _simulate_nonlinear(
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
         du = road.rate(t) if has_ct else zeros
-        dy, _ = net.derivative(view(y), road.value(t), du)
+        dy = net.rate(view(y), road.value(t), du)
         dy[7:14] += force(t)[:, None] * inv_mass
         return dy.reshape(-1)
 
