@@ -173,6 +173,8 @@ def linearised_velocity_rms(osc: ValveOscillator, psd: float) -> float:
         bounds.append(math.sqrt(target / osc.linear_damping))
     if osc.quadratic_damping > 0.0:
         bounds.append((target / (2.0 * math.sqrt(2.0 / math.pi) * osc.quadratic_damping)) ** (1.0 / 3.0))
+    if not bounds:
+        raise ConfigError("the oscillator has no damping (kq and r both 0): no stationary response", key="kq")
     hi = min(bounds)  # each part alone dissipates the input power at a larger sigma than both
     return float(optimize.brentq(lambda s: s * s * osc.equivalent_damping(s) - target, 0.0, hi * (1.0 + 1e-12), xtol=1e-15 * hi, rtol=1e-14))
 
