@@ -5,13 +5,15 @@ in zero-pole-gain form, each stage in closed form from the same :data:`WEIGHTING
 as :func:`~hisopt.standards.iso_2631_1_1997.weighting_response`, and applied to uniformly
 sampled records (docs/model.md §22.1):
 
-- the record is read as its not-a-knot cubic spline (the continuous signal it samples);
+- the record is read as its not-a-knot cubic spline (the continuous signal it samples; its
+  slopes at the samples from one tridiagonal solve for all records);
 - the continuous filter, started at rest at the first sample, is integrated exactly on that
   piecewise cubic, through its partial fractions ``W(s) = sum_i r_i / (s - p_i) + D``: each
-  first-order term advances over one step as ``x <- exp(p T) x + sum_m c_m I_m(p)`` with the
+  first-order term advances over one step as ``z <- exp(p T) z + sum_m c_m I_m(p)`` with the
   interval's cubic coefficients ``c_m`` and ``I_m(p) = int_0^T exp(p (T - tau)) (tau/T)^m dtau``
-  (one 5 x 5 matrix exponential per pole), run as a complex first-order recurrence by
-  :func:`scipy.signal.lfilter`, vectorised over any number of records.
+  (one 5 x 5 matrix exponential per pole). Written on the samples and slopes, a conjugate
+  pair of such terms is a real second-order IIR section on each, run by
+  :func:`scipy.signal.lfilter` in C over any number of records at once.
 
 The only error is the spline's: for a sinusoid of angular frequency ``w`` (infinite record)
 the spline's amplitude is ``S(w) = sinc^4(w T/2) 3 / (2 + cos w T)`` times the sinusoid's,
@@ -34,8 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
-from scipy.linalg import expm
+from scipy.linalg import expm, solve_banded
 from scipy.signal import lfilter
 
 from hisopt.errors import ConfigError
@@ -61,10 +62,11 @@ class WeightingZpk(NamedTuple):
 
 
 class PartialFractions(NamedTuple):
-    """``W(s) = sum_i weight_i Re-part of r_i / (s - p_i) + D`` over the upper-half-plane poles.
+    """``W(s) = D + sum_i r_i / (s - p_i)``, listed by the poles with ``Im p >= 0``.
 
-    Each complex pole stands for itself and its conjugate (``weight`` 2, the output adds
-    ``2 Re(r x)``); a real pole stands for itself (``weight`` 1).
+    A complex pole stands for itself and its conjugate, whose residue is ``conj(r)``
+    (``weight`` 2: in the time domain the pair adds ``2 Re(r z)``, ``z`` the pole's state); a
+    real pole stands for itself (``weight`` 1).
     """
 
     residues: NDArray[np.complex128]
@@ -248,18 +250,78 @@ def _step_integrals(pole_rad_s: complex, dt_s: float) -> NDArray[np.complex128]:
 
 
 def _checked_record(signal: ArrayLike, dt_s: float, axis: int) -> NDArray[np.float64]:
-    """The record as a float array with time on axis 0; one line naming what is wrong."""
+    """The records as a C-ordered float array with time on the last axis; one line naming
+    what is wrong."""
     if not (math.isfinite(dt_s) and dt_s > 0.0):
         raise ConfigError(f"expected a sampling interval dt_s > 0, got {dt_s!r}", key="dt_s")
     x = np.asarray(signal, dtype=float)
     if not -x.ndim <= axis < x.ndim:
         raise ConfigError(f"axis {axis} is out of range for a record of {x.ndim} dimensions", key="axis")
-    x = np.moveaxis(x, axis, 0)
-    if x.shape[0] < MIN_SAMPLES:
-        raise ConfigError(f"expected at least {MIN_SAMPLES} samples along the time axis, got {x.shape[0]}", key="signal")
+    x = np.ascontiguousarray(np.moveaxis(x, axis, -1))
+    if x.shape[-1] < MIN_SAMPLES:
+        raise ConfigError(f"expected at least {MIN_SAMPLES} samples along the time axis, got {x.shape[-1]}", key="signal")
     if not np.all(np.isfinite(x)):
         raise ConfigError("expected finite samples, got NaN or inf", key="signal")
     return x
+
+
+def _spline_slopes(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Slopes per step (``T du/dt``) at the samples of the not-a-knot cubic spline through
+    ``x`` (time on the last axis, unit spacing): one tridiagonal solve for every record.
+
+    Inside, ``s_{i-1} + 4 s_i + s_{i+1} = 3 (x_{i+1} - x_{i-1})`` (continuous second
+    derivative); at the ends the third derivative is continuous across the second and the
+    last-but-one sample (not-a-knot): ``s_0 + 2 s_1 = (5 m_0 + m_1) / 2`` and
+    ``2 s_{n-2} + s_{n-1} = (m_{n-3} + 5 m_{n-2}) / 2``, ``m_i = x_{i+1} - x_i``; the same
+    spline as ``scipy.interpolate.CubicSpline(bc_type="not-a-knot")``.
+    """
+    n = x.shape[-1]
+    m = np.diff(x, axis=-1)
+    rhs = np.empty(x.shape)
+    rhs[..., 0] = (5.0 * m[..., 0] + m[..., 1]) / 2.0
+    np.add(m[..., :-1], m[..., 1:], out=rhs[..., 1:-1])
+    rhs[..., 1:-1] *= 3.0
+    rhs[..., -1] = (m[..., -2] + 5.0 * m[..., -1]) / 2.0
+    bands = np.ones((3, n))  # upper diagonal, diagonal, lower diagonal
+    bands[1, 1:-1] = 4.0
+    bands[0, 0] = bands[2, -1] = 0.0
+    bands[0, 1] = bands[2, -2] = 2.0
+    columns = rhs.reshape(-1, n).T  # one column per record, Fortran-ordered: no copy
+    return solve_banded((1, 1), bands, columns, overwrite_b=True, check_finite=False).T.reshape(x.shape)
+
+
+def _pole_sections(
+    residue: complex, pole_rad_s: complex, weight: float, dt_s: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], complex, complex]:
+    """One pole's exact step on the spline as real IIR sections on the samples and slopes.
+
+    On step n the spline is the cubic Hermite ``x_n h00 + x_{n+1} h01 + s_n h10 + s_{n+1} h11``
+    of ``u = tau/T``, so with ``I_m`` of :func:`_step_integrals` the state ``z`` of
+    ``r / (s - p)`` advances as ``z_{n+1} = a z_n + alpha x_n + beta x_{n+1} + gamma s_n +
+    delta s_{n+1}``, ``a = exp(p T)``, ``alpha = I_0 - 3 I_2 + 2 I_3``, ``beta = 3 I_2 - 2 I_3``,
+    ``gamma = I_1 - 2 I_2 + I_3``, ``delta = I_3 - I_2``. A complex pole and its conjugate
+    together give ``2 Re(r z)``, a real second-order section
+    ``(b_0 + b_1 q + b_2 q^2) / (1 - 2 Re(a) q + |a|^2 q^2)`` (``q`` the delay) with
+    ``b = 2 Re(r [beta, alpha - beta conj(a), -alpha conj(a)])`` on the samples and the same
+    with ``delta, gamma`` on the slopes.
+
+    Returns
+    -------
+    tuple
+        ``(den, num_samples, num_slopes, beta, delta)``: the sections' coefficients, and the
+        drive's weights on ``x_0, s_0`` (the start, which :func:`weighted_signal` removes).
+    """
+    step = _step_integrals(pole_rad_s, dt_s)
+    a, (i0, i1, i2, i3) = step[0], step[1:]
+    alpha, beta, gamma, delta = i0 - 3 * i2 + 2 * i3, 3 * i2 - 2 * i3, i1 - 2 * i2 + i3, i3 - i2
+    if weight == 2.0:
+        den = np.array([1.0, -2.0 * a.real, abs(a) ** 2])
+        on_samples = 2.0 * (residue * np.array([beta, alpha - beta * a.conjugate(), -alpha * a.conjugate()])).real
+        on_slopes = 2.0 * (residue * np.array([delta, gamma - delta * a.conjugate(), -gamma * a.conjugate()])).real
+    else:  # a real pole: a first-order section
+        den = np.array([1.0, -a.real])
+        on_samples, on_slopes = (residue * np.array([beta, alpha])).real, (residue * np.array([delta, gamma])).real
+    return den, on_samples, on_slopes, complex(beta), complex(delta)
 
 
 def weighted_signal(signal: ArrayLike, dt_s: float, name: WeightingName, axis: int = -1) -> NDArray[np.float64]:
@@ -271,8 +333,8 @@ def weighted_signal(signal: ArrayLike, dt_s: float, name: WeightingName, axis: i
     samples per period (80 Hz at 2.5 ms) and 2e-6 at 12 Hz; the first-order hold
     (``scipy.signal.lsim``) errs by ``1 - sinc^2``, 12.5 % at 80 Hz, and the bilinear
     transform warps frequency by ``(w dt)^2 / 12``. The spline is not causal: a sample leaks
-    into the output up to ``(2 - sqrt3)^k`` (0.27^k) ``k`` steps before it, below rounding
-    after 25 steps; the filter itself is.
+    into the output ``k`` steps before it in proportion to ``(2 - sqrt3)^k`` (0.27^k), below
+    rounding 25 steps ahead; the filter itself is.
 
     Parameters
     ----------
@@ -291,17 +353,22 @@ def weighted_signal(signal: ArrayLike, dt_s: float, name: WeightingName, axis: i
         [u] The weighted records at the same instants; 0 at the first sample.
     """
     x = _checked_record(signal, dt_s, axis)
+    slopes = _spline_slopes(x)
     fractions = weighting_partial_fractions(name)
-    coefficients = CubicSpline(np.arange(x.shape[0]), x, axis=0, bc_type="not-a-knot").c[::-1]  # c_0..c_3 in (tau/T)^m
-    out = np.zeros(x.shape)
+    out = fractions.direct * x
+    k = np.arange(x.shape[-1])
     for residue, pole, weight in zip(fractions.residues, fractions.poles_rad_s, fractions.weights, strict=True):
-        step = _step_integrals(complex(pole), dt_s)
-        drive = np.tensordot(step[1:], coefficients, axes=1)  # sum_m I_m c_m,n, one value per step
-        state = lfilter([1.0], [1.0, -step[0]], drive, axis=0)  # x_{n+1}, from x_0 = 0
-        out[1:] += weight * (residue * state).real
-    if fractions.direct:
-        out += fractions.direct * x
-    return np.moveaxis(out, 0, axis)
+        den, on_samples, on_slopes, beta, delta = _pole_sections(complex(residue), complex(pole), float(weight), dt_s)
+        out += lfilter(on_samples, den, x)
+        out += lfilter(on_slopes, den, slopes)
+        # lfilter starts with the state z_0 = beta x_0 + delta s_0 (the first step's drive with
+        # nothing before it); at rest z_0 = 0: remove its free response r z_0 a^k, kept where
+        # it is above 1e-17 of its start
+        start = residue * (beta * x[..., 0] + delta * slopes[..., 0])
+        n_free = int(min(k.size, math.ceil(math.log(1e-17) / (pole.real * dt_s))))
+        out[..., :n_free] -= weight * (start[..., None] * np.exp(pole * dt_s * k[:n_free])).real
+    out[..., 0] = fractions.direct * x[..., 0]  # at rest: what the sums above leave is rounding
+    return np.moveaxis(out, -1, axis)
 
 
 def weighted_rms(
