@@ -32,7 +32,8 @@ class RoadInput:
     t_s
         [s] Increasing sample times, shape ``(n_t,)``.
     z_m
-        [m] Displacements under FL, FR, RL, RR, shape ``(n_t, 4)``.
+        [m] Displacements under FL, FR, RL, RR, shape ``(n_t, 4)``, or ``(n_t, 4, k)`` for
+        ``k`` roads read at once (a batch of simulations sharing one integrator).
     interpolation
         See :data:`Interpolation`.
     """
@@ -42,15 +43,15 @@ class RoadInput:
         z = np.asarray(z_m, dtype=float)
         if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
             raise ConfigError(f"expected t_s 1-D and increasing with >= 2 samples, got shape {t.shape}")
-        if z.shape != (t.size, 4):
-            raise ConfigError(f"expected road_m of shape ({t.size}, 4) (FL, FR, RL, RR), got {z.shape}")
+        if z.shape[:2] != (t.size, 4) or z.ndim not in (2, 3):
+            raise ConfigError(f"expected road_m of shape ({t.size}, 4) (FL, FR, RL, RR) or ({t.size}, 4, k), got {z.shape}")
         if not np.all(np.isfinite(z)):
             raise ConfigError("road_m contains NaN or inf")
         if interpolation not in ("pchip", "cubic", "linear"):
             raise ConfigError(f"unknown interpolation {interpolation!r}; expected 'pchip', 'cubic' or 'linear'")
         self.t_s, self.z_m, self.interpolation = t, z, interpolation
         self._h = np.diff(t)
-        self._secant = np.diff(z, axis=0) / self._h[:, None]
+        self._secant = np.diff(z, axis=0) / self._h.reshape((-1,) + (1,) * (z.ndim - 1))
         if interpolation == "pchip":
             self.slopes = PchipInterpolator(t, z, axis=0).derivative()(t)
         elif interpolation == "cubic":
@@ -64,7 +65,7 @@ class RoadInput:
         return i, (t - self._t_list[i]) / self._h[i]
 
     def value(self, t: float) -> NDArray[np.float64]:
-        """[m] Displacements at time ``t`` [s], shape ``(4,)``."""
+        """[m] Displacements at time ``t`` [s], shape ``(4,)`` (``(4, k)`` for a batch)."""
         if t <= self._t_list[0]:
             return self.z_m[0]
         if t >= self._t_list[-1]:
@@ -84,9 +85,10 @@ class RoadInput:
         )
 
     def rate(self, t: float) -> NDArray[np.float64]:
-        """[m/s] Time derivative of the interpolant at ``t`` [s] (0 outside the record), ``(4,)``."""
+        """[m/s] Time derivative of the interpolant at ``t`` [s] (0 outside the record), ``(4,)``
+        (``(4, k)`` for a batch)."""
         if t < self._t_list[0] or t >= self._t_list[-1]:
-            return np.zeros(4)
+            return np.zeros(self.z_m.shape[1:])
         i, x = self._segment(t)
         if self.interpolation == "linear":
             return self._secant[i]
@@ -94,7 +96,7 @@ class RoadInput:
         return 6 * (x - x2) * self._secant[i] + (3 * x2 - 4 * x + 1) * self.slopes[i] + (3 * x2 - 2 * x) * self.slopes[i + 1]
 
     def sampled_rate(self) -> NDArray[np.float64]:
-        """[m/s] Rate at the samples, shape ``(n_t, 4)`` (central differences if linear)."""
+        """[m/s] Rate at the samples, shape ``(n_t, 4)`` or ``(n_t, 4, k)`` (central differences if linear)."""
         return self.slopes
 
 

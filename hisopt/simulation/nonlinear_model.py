@@ -26,6 +26,7 @@ deviations from the static equilibrium on a flat road.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -135,7 +136,16 @@ class NonlinearModel:
     lumped descriptor, except that nodes with accumulators hold their stored oil volume.
     """
 
-    def __init__(self, model: CoupledModel, valve_kq: float, tyre_liftoff: bool):
+    def __init__(
+        self,
+        model: CoupledModel,
+        valve_kq: float,
+        tyre_liftoff: bool,
+        *,
+        gas_law: bool = True,
+        valve_law: bool = True,
+        gravity_moment: float = 0.0,
+    ):
         v = model.car
         self.m = np.diag(mass_matrix(v))
         # Tyres are split off the conventional matrices so lift-off can clip their force.
@@ -143,6 +153,8 @@ class NonlinearModel:
         self.ct = np.diag(road_damping_input(v)[3:])
         self.k_susp = stiffness_matrix(v)
         self.k_susp[3:, 3:] -= np.diag(self.kt)
+        self.k_susp[1, 1] -= gravity_moment  # [N m/rad] the weight's moment as the body rolls
+        self.gas_law = gas_law
         self.c_susp = damping_matrix(v)
         self.c_susp[3:, 3:] -= np.diag(self.ct)
         self.f_static = v.static_corner_loads(G_MPS2)
@@ -163,6 +175,8 @@ class NonlinearModel:
         kq_row = np.zeros(net.size)  # quadratic coefficient of each valve flow row
         laws_at: dict[int, tuple[float, float | None, float | None]] = {}  # damper valves: flow row -> (K, p_c, R_b)
         for k, _, rows in net.valves():
+            if not valve_law:  # every valve at the equivalent resistance the model was built with
+                continue
             if k in his.values.damper:  # a damper valve: its law, its laminar part in A
                 r_lam, kq, p_c, r_b = (None if v is None else _single(v, "damper valve parameter") for v in his.values.damper[k])
                 assert r_lam is not None and kq is not None
@@ -228,6 +242,9 @@ class NonlinearModel:
         """[Pa] Pressure rise of each accumulator node from its stored volume, ``(n_acc_nodes, k)``."""
         out = np.empty_like(w)
         for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance, strict=True)):
+            if not self.gas_law:  # each accumulator at its linearised compliance
+                out[j] = w[j] / (self.acc.compliance[accs].sum() + c_o)
+                continue
             v0 = self.acc.v0[accs]
             if accs.size == 1 and c_o == 0.0:
                 dv = np.minimum(w[j], GAS_VOLUME_LIMIT * v0[0])
@@ -253,6 +270,19 @@ class NonlinearModel:
             if np.all(np.abs(step) <= 1e-12 * self.acc.p_abs0[accs].max()):
                 return p
         raise ModelError("accumulator node pressure did not converge (gas volume exhausted?)")
+
+    def gas_volume(self, p: np.ndarray, i: int) -> np.ndarray:
+        """[m^3] Oil stored in accumulator ``i`` at the pressure rise ``p`` [Pa] (its gas law,
+        or its linearised compliance with the gas law off)."""
+        if not self.gas_law:
+            return self.acc.compliance[i] * p
+        return laws.gas_volume(p, self.acc.v0[i], self.acc.p_abs0[i], self.acc.gamma[i])
+
+    def gas_compliance(self, p: Any, i: int) -> Any:
+        """[m^3/Pa] Tangent compliance of accumulator ``i`` at the pressure rise ``p`` [Pa]."""
+        if not self.gas_law:
+            return float(self.acc.compliance[i])
+        return laws.gas_compliance(p, self.acc.v0[i], self.acc.p_abs0[i], self.acc.gamma[i])
 
     def valve_law(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The nonlinear part of each algebraic row at the unknowns ``x`` ``(n_alg, k)`` and its
@@ -335,7 +365,7 @@ class NonlinearModel:
         dpdw = np.ones(n_d)
         for j, (accs, c_o) in enumerate(zip(self.node_accs, self.other_compliance, strict=True)):
             p = h[self.dyn[self.acc_state[j]]]
-            gas = sum(laws.gas_compliance(p, self.acc.v0[i], self.acc.p_abs0[i], self.acc.gamma[i]) for i in accs)
+            gas = np.sum([self.gas_compliance(p, int(i)) for i in accs])
             dpdw[self.acc_state[j]] = 1.0 / (c_o + gas)
         dh_dw = np.zeros((self.n_h, n_d))
         dh_dv = np.zeros((self.n_h, 7))
