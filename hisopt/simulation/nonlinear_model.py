@@ -358,9 +358,9 @@ class NonlinearModel:
         valve at a constant resistance, so ``h`` is a fixed linear map of ``(h_dyn, V)``."""
         return not (self.alg.size and (self.kq_alg.any() or self.dampers))
 
-    def _rate_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _rate_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``[dV/dt; dw/dt] = M_s [X; V] + M_h h_dyn`` with a linear network: ``(M_s, M_h)``
-        and the tyre rows' inverse masses; built once."""
+        and the wheels' inverse masses ``(4, 1)``; built once."""
         if "_rate" not in self.__dict__:
             n_d = self.dyn.size
             h_d, h_v = np.zeros((self.n_h, n_d)), np.zeros((self.n_h, 7))
@@ -376,8 +376,8 @@ class NonlinearModel:
                 ]
             )
             m_h = np.vstack([-(self.coupling.T @ h_d) * inv_m, row * (self.a_dyn @ h_d)])
-            self._rate = (m_s, m_h, inv_m[3:], h_d)
-        return self._rate[:3]
+            self._rate = (m_s, m_h, inv_m[3:])
+        return self._rate
 
     def rate(self, y: np.ndarray, u: np.ndarray, du: np.ndarray) -> np.ndarray:
         """``dy/dt`` of :meth:`derivative` alone, for states ``y`` ``(n, k)``: with a linear
