@@ -71,23 +71,27 @@ def standard_outputs(vehicle: VehicleParams) -> dict[str, Output]:
     acc = lambda c: poly(zero7, zero7, c)  # noqa: E731  s^2 x
     acc_d = poly(zero4, zero4, zero4)
     g = stroke_matrix(v)
-    return {
-        "acc_z": Output("acc_z", "m/s^2", acc(_unit(0, 7)), acc_d, "Wk"),
-        "acc_x": Output("acc_x", "m/s^2", acc(v.h_0s * _unit(2, 7)), acc_d, "Wd"),
-        "acc_y": Output("acc_y", "m/s^2", acc(-v.h_0s * _unit(1, 7)), acc_d, "Wd"),
-        "acc_roll": Output("acc_roll", "rad/s^2", acc(_unit(1, 7)), acc_d, "We"),
-        "acc_pitch": Output("acc_pitch", "rad/s^2", acc(_unit(2, 7)), acc_d, "We"),
-        "roll": Output("roll", "rad", poly(_unit(1, 7)), poly(zero4)),
-        "pitch": Output("pitch", "rad", poly(_unit(2, 7)), poly(zero4)),
-    } | {f"stroke_{w}": Output(f"stroke_{w}", "m", poly(g[i]), poly(zero4)) for i, w in enumerate(WHEEL_NAMES)} | {
-        f"tire_load_{w}": Output(
-            f"tire_load_{w}",
-            "N",
-            poly(k_t * _unit(3 + i, 7), c_t * _unit(3 + i, 7)),
-            poly(-k_t * _unit(i, 4), -c_t * _unit(i, 4)),
-        )
-        for i, (w, k_t, c_t) in enumerate(zip(WHEEL_NAMES, (v.k_tf, v.k_tf, v.k_tr, v.k_tr), (v.c_tf, v.c_tf, v.c_tr, v.c_tr), strict=True))
-    }
+    return (
+        {
+            "acc_z": Output("acc_z", "m/s^2", acc(_unit(0, 7)), acc_d, "Wk"),
+            "acc_x": Output("acc_x", "m/s^2", acc(v.h_0s * _unit(2, 7)), acc_d, "Wd"),
+            "acc_y": Output("acc_y", "m/s^2", acc(-v.h_0s * _unit(1, 7)), acc_d, "Wd"),
+            "acc_roll": Output("acc_roll", "rad/s^2", acc(_unit(1, 7)), acc_d, "We"),
+            "acc_pitch": Output("acc_pitch", "rad/s^2", acc(_unit(2, 7)), acc_d, "We"),
+            "roll": Output("roll", "rad", poly(_unit(1, 7)), poly(zero4)),
+            "pitch": Output("pitch", "rad", poly(_unit(2, 7)), poly(zero4)),
+        }
+        | {f"stroke_{w}": Output(f"stroke_{w}", "m", poly(g[i]), poly(zero4)) for i, w in enumerate(WHEEL_NAMES)}
+        | {
+            f"tire_load_{w}": Output(
+                f"tire_load_{w}",
+                "N",
+                poly(k_t * _unit(3 + i, 7), c_t * _unit(3 + i, 7)),
+                poly(-k_t * _unit(i, 4), -c_t * _unit(i, 4)),
+            )
+            for i, (w, k_t, c_t) in enumerate(zip(WHEEL_NAMES, (v.k_tf, v.k_tf, v.k_tr, v.k_tr), (v.c_tf, v.c_tf, v.c_tr, v.c_tr), strict=True))
+        }
+    )
 
 
 def accumulator_outputs(n_accumulators: int) -> dict[str, Output]:

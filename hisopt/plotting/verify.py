@@ -123,7 +123,7 @@ def worst_second_figure(
                 fig.add_scatter(
                     x=t_s,
                     y=shown.values(y),
-                    name=name if len(chosen) > 1 else label,
+                    name=name if len(chosen) > 1 else (label if name == prefix else f"{name} ({label})"),
                     legendgroup=f"{row}-{name}",
                     showlegend=label == "nonlinear" or len(chosen) == 1,
                     legend=legend,

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from hisopt.errors import ConfigError, RunError
@@ -153,4 +154,35 @@ def verified_rows(run_dir: str | Path | None) -> dict[int, dict[str, Any]]:
         summary = read_verification_summary(path.parent)
         if summary["row"] is not None:
             out[int(summary["row"])] = summary
+    return out
+
+
+def same_design(values: dict[str, Any], names: list[str], design: np.ndarray) -> bool:
+    """Whether a summary's ``values`` [SI] are ``design`` (``names`` its variables), to
+    round-trip precision (JSON's shortest decimals read back exactly; 1e-12 relative spares
+    a writer that rounded in its last digit)."""
+    try:
+        mine = np.array([float(values[n]) for n in names])
+    except (KeyError, TypeError, ValueError):
+        return False
+    return bool(np.allclose(mine, np.asarray(design, dtype=float), rtol=1e-12, atol=0.0))
+
+
+def front_verdicts(run_dir: str | Path | None, names: list[str], x: np.ndarray, kind: np.ndarray, row: np.ndarray) -> np.ndarray:
+    """[-] Each design's verdict in the time domain, ``""`` where it was not verified: a front
+    row's (``kind == "front"``, ``row`` its row) from its summary (:func:`verified_rows`)
+    when the summary's values are the row's design (a summary of an earlier front, before the
+    run was resumed, is not this row's); ``names`` the variables of ``x`` ``(n, n_var)`` [SI].
+
+    Raises
+    ------
+    RunError
+        a summary is malformed (:func:`read_verification_summary`).
+    """
+    summaries = verified_rows(run_dir)
+    out = np.full(len(x), "", dtype=object)
+    for i, (design, k, r) in enumerate(zip(x, kind, row, strict=True)):
+        summary = summaries.get(int(r)) if k == "front" else None
+        if summary is not None and same_design(summary["values"], names, design):
+            out[i] = summary["verdict"]
     return out
