@@ -12,6 +12,7 @@ format ``hisopt verify`` writes.
 
 from __future__ import annotations
 
+import html
 import json
 import math
 import os
@@ -114,7 +115,8 @@ def test_the_page_shows_every_figure_in_engineering_units_with_its_verdict(verif
         if math.isfinite(row["gap"]):
             assert float(cells["gap ± SE [%]"].split(" ± ")[0]) == pytest.approx(100 * row["gap"], rel=5e-3)
         assert cells["verdict"].startswith(row["verdict"]) and (row["cause"] in cells["verdict"])
-        assert f'<span class="verdict' in page and cells["linear ± SE"] in page
+        colour = {"agrees": "ok", "within limits": "ok", "gap": "gap", "beyond limit": "bad", "outside validity": "bad", "info": "info"}[row["verdict"]]
+        assert f'<span class="verdict {colour}">{html.escape(cells["verdict"])}</span>' in page and cells["linear ± SE"] in page
     assert f"{verification.verdict}</span></h1>" in page  # the design's verdict, in the title
     assert "road: R = 2" in page and "T = 4 s" in page
     assert "p0 = 2 MPa" in page  # the design in engineering units
