@@ -54,6 +54,7 @@ from hisopt.simulation.verification_rows import (
     NONLINEARITIES,
     OUTSIDE,
     ROW_COLUMNS,
+    SMALL_GAP,
     CaseLimits,
     FrequencyDomain,
     RoadRuns,
@@ -372,7 +373,7 @@ def verify_case(case: Problem, x: NDArray[np.float64], name: str, index: int, se
             nl = merged(nl, more_nl) if nl is not None and more_nl is not None else None
             count = needed
     rows = case_rows(name, fd, facts.static_load, lin, nl, limits, settings)
-    if nl is not None and any(r["verdict"] == GAP for r in rows):
+    if nl is not None and any(r["verdict"] in (GAP, SMALL_GAP) for r in rows):
         active = active_nonlinearities(model, nl)
         if len(active) == 1:  # the only nonlinearity at work: no rerun needed to name it
             attribute(rows, {}, active[0])

@@ -26,7 +26,7 @@ NONLINEARITIES = ("gas_law", "valve_law", "tyre_liftoff")
 
 CAUSE_LABELS = {"gas_law": "gas law", "valve_law": "valve law", "tyre_liftoff": "tyre lift-off", "combined": "several nonlinearities together"}
 
-AGREES, GAP, WITHIN, BEYOND, OUTSIDE, INFO = "agrees", "gap", "within limits", "beyond limit", "outside validity", "info"
+AGREES, SMALL_GAP, GAP, WITHIN, BEYOND, OUTSIDE, INFO = "agrees", "small gap", "gap", "within limits", "beyond limit", "outside validity", "info"
 """The verdicts a figure can get."""
 
 EULER_GAMMA = 0.5772156649015329
@@ -180,8 +180,15 @@ def _row(case: str, figure: str, unit: str, **values: Any) -> dict[str, Any]:
     return row
 
 
+MATERIAL_GAP = 0.01
+"""[-] A gap beyond three standard errors but below this share is a ``"small gap"``: real, and
+named, but too small to change a design decision."""
+
+
 def _judged(gap: float, error: float) -> str:
-    return AGREES if abs(gap) <= 3.0 * error or abs(gap) < 1e-9 else GAP
+    if abs(gap) <= 3.0 * error or abs(gap) < 1e-9:
+        return AGREES
+    return SMALL_GAP if abs(gap) < MATERIAL_GAP else GAP
 
 
 def rms_rows(case: str, fd: FrequencyDomain, lin: RoadRuns, nl: RoadRuns | None) -> list[dict[str, Any]]:
@@ -302,7 +309,7 @@ def attribute(rows: list[dict[str, Any]], without: dict[str, list[dict[str, Any]
     nonlinearity whose removal (rows ``without[name]``, the same roads with that one off) takes
     away at least half of the gap, else ``"combined"``."""
     for i, row in enumerate(rows):
-        if row["verdict"] != GAP:
+        if row["verdict"] not in (GAP, SMALL_GAP):
             continue
         if only is not None:
             row["cause"] = CAUSE_LABELS[only]
