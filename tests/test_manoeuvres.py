@@ -2,7 +2,7 @@
 
 Error budgets:
 - the linear step steer's peaks against the pole-residue transient quantities: the
-  integration (rtol 1e-10, outputs from LSODA's dense output) and the cubic Hermite
+  integration (rtol 1e-9, outputs from LSODA's dense output) and the cubic Hermite
   refinement between 2 ms samples, ``(h omega)^4 / 384`` of a mode: 4e-9 for the 2.7 Hz roll
   mode, 2e-6 for the 12 Hz wheel mode, which carries 1 % of the roll rate and none of the
   roll (measured: 3e-9 or less on all three designs); the test allows 1e-6;

@@ -41,7 +41,7 @@ if TYPE_CHECKING:
 ROLL = 1
 """Index of the roll angle among the DOFs (``hisopt.constants.DOF_NAMES``)."""
 
-RTOL = 1e-10
+RTOL = 1e-9
 """[-] Relative tolerance of every manoeuvre's integration: the linear step steer's peaks
 reproduce the transient quantities to 1e-6 (docs/model.md §22.4)."""
 
