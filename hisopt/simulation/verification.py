@@ -459,11 +459,10 @@ def verify_design(problem: Problem, design: Any, label: str = "baseline", settin
     cases = tuple(verify_case(case, x, name, i, settings) for i, (name, case) in enumerate(load_cases(problem)))
     frames = []
     if manoeuvres:
-        from hisopt.simulation.manoeuvres import manoeuvre_figures
+        from hisopt.simulation.manoeuvres import manoeuvre_table
 
         for name, case in load_cases(problem):
-            frame = manoeuvre_figures(case, x)
-            frames.append(frame.assign(case=name))
+            frames.append(manoeuvre_table(case, x).assign(case=name))
     table = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     values = dict(zip(problem.variable_names, map(float, x[0]), strict=True))
     return Verification(problem.name, label, values, settings, cases, table)
