@@ -156,3 +156,18 @@ def test_too_few_realisations_or_too_short_a_record_is_refused(tiny_run, option,
 
 def test_a_problems_baseline_needs_an_out_folder():
     refused(run_cli("verify", DEFAULT_PROBLEM), "--out")
+
+
+def test_several_designs_on_a_local_dask_cluster(tiny_run, tmp_path):
+    """Two front designs, one task each on two worker processes: each gets its own folder and
+    summary, in the order asked, as a serial run would write them."""
+    import json
+
+    out = tmp_path / "verified"
+    result = run_cli("verify", tiny_run, "--design", "1,0", "--out", out, "--realisations", "2", "--no-manoeuvres", "--workers", "2")
+    assert result.code == 0, result.stderr
+    for row in (0, 1):
+        summary = json.loads((out / f"verify-{row}" / "verify.json").read_text())
+        assert summary["row"] == row and summary["design"] == f"front.csv row {row}"
+        assert summary["realisations"] == {"road": 2}
+    assert result.stdout.index("verify-1") < result.stdout.index("verify-0")

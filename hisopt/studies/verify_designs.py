@@ -70,9 +70,10 @@ def targets(target: Path, rows: list[int] | None, out: Path | None) -> tuple[Pro
 
         problem, _ = run_problem(target)
         chosen = []
+        several = rows is not None and len(rows) > 1
         for row in rows if rows is not None else [None]:
             index, x = front_design(problem, target / FRONT_CSV, row)
-            folder = out / f"verify-{index}" if out is not None and (rows is None or len(rows) > 1) else (out or target / f"verify-{index}")
+            folder = (out if out is not None else target) / f"verify-{index}" if several or out is None else out
             chosen.append(Target(index, x, f"front.csv row {index}", folder))
         return problem, chosen
     if rows is not None:
