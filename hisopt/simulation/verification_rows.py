@@ -239,11 +239,21 @@ def paired_row(
 
 
 def extreme_row(
-    case: str, figure: str, unit: str, lin: RoadRuns, nl: RoadRuns | None, estimate: float, limit: float, side: str, column: int | None = None
+    case: str,
+    figure: str,
+    unit: str,
+    lin: RoadRuns,
+    nl: RoadRuns | None,
+    estimate: float,
+    limit: float,
+    side: str,
+    column: int | None = None,
+    validity: bool = False,
 ) -> dict[str, Any]:
     """A pressure's or gas volume's extreme over every record of the case (the lowest for a
-    ``"floor"``, the highest for a ``"ceiling"``) against its limit; the frequency domain's
-    ``estimate`` is the static value plus or minus three road sigmas."""
+    ``"floor"``, the highest for a ``"ceiling"``) against its limit (a bound of the model's
+    validity when ``validity``); the frequency domain's ``estimate`` is the static value plus
+    or minus three road sigmas."""
     pick = np.min if side == "floor" else np.max
 
     def worst(runs: RoadRuns) -> float:
@@ -254,7 +264,7 @@ def extreme_row(
     if nl is not None:
         value = worst(nl)
         holds = value >= limit if side == "floor" else value <= limit
-        row.update(nonlinear=value, verdict=WITHIN if holds or not math.isfinite(limit) else BEYOND)
+        row.update(nonlinear=value, verdict=WITHIN if holds or not math.isfinite(limit) else OUTSIDE if validity else BEYOND)
     return row
 
 
@@ -299,7 +309,7 @@ def case_rows(
         rows.append(extreme_row(case, "accumulator_pressure_min", "Pa", lin, nl, float(low), float(limits.accumulator_floor[j]), "floor", j))
         rows.append(extreme_row(case, "accumulator_pressure_max", "Pa", lin, nl, float(high), float(limits.accumulator_ceiling[j]), "ceiling", j))
     if fd.accumulator_static.size:
-        rows.append(extreme_row(case, "gas_volume_min", "m^3", lin, nl, math.nan, float(np.min(limits.gas_volume_floor)), "floor"))
+        rows.append(extreme_row(case, "gas_volume_min", "m^3", lin, nl, math.nan, float(np.min(limits.gas_volume_floor)), "floor", validity=True))
         rows.append(extreme_row(case, "gas_volume_max", "m^3", lin, nl, math.nan, math.inf, "ceiling"))
     return rows
 
