@@ -154,6 +154,14 @@ def test_too_few_realisations_or_too_short_a_record_is_refused(tiny_run, option,
     refused(run_cli("verify", tiny_run, option, value), option, expected)
 
 
+def test_a_road_class_outside_iso_8608s_table_is_refused(tmp_path):
+    """The problem's own check (its [road] and every load case's road) refuses it on loading."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(DEFAULT_PROBLEM.read_text().replace('class = "C"', 'class = "Z"', 1))
+    refused(run_cli("verify", bad, "--out", tmp_path / "v"), "road.class", "'Z'")
+    assert not (tmp_path / "v").exists()
+
+
 def test_a_problems_baseline_needs_an_out_folder():
     refused(run_cli("verify", DEFAULT_PROBLEM), "--out")
 

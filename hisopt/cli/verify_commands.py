@@ -66,7 +66,6 @@ def verify_cmd(
     settings = VerifySettings(realisations=realisations, duration_s=duration, seed=seed)
     problem, chosen = targets(target, parse_rows(design), out)
     check_settings(settings, problem.spec.band.f_min_hz, {"realisations": "--realisations", "duration": "--duration"})
-    check_road(problem)
     for t in chosen:
         check_claim(t.folder, VERIFY)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
@@ -77,24 +76,6 @@ def verify_cmd(
         show(verification)
         for path in write_verification(verification, t.folder, t.row):
             typer.echo(f"wrote {path}")
-
-
-def check_road(problem: Any) -> None:
-    """Refuse a load case whose road class is not in ISO 8608's table (A to H) or whose speed
-    is not positive (one line naming the case)."""
-    from hisopt.errors import ConfigError
-    from hisopt.simulation.verification import load_cases
-    from hisopt.standards.iso_8608_2016 import class_gd_n0
-
-    for name, case in load_cases(problem):
-        road = case.spec.road
-        try:
-            if isinstance(road.road_class, str):
-                class_gd_n0(road.road_class)
-        except ConfigError:
-            raise ConfigError(f"load case {name!r}: road class {road.road_class!r} is not in ISO 8608's table (A to H)", key="road.class") from None
-        if not (math.isfinite(road.speed) and road.speed > 0.0):
-            raise ConfigError(f"load case {name!r}: expected a positive speed, got {road.speed!r} m/s", key="road.speed")
 
 
 def check_error(verification: Verification, settings: Any) -> None:
