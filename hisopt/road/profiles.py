@@ -208,4 +208,50 @@ def bump_profile(
     return height_m * shape * _wheel_mask(wheels)
 
 
-__all__ = ["Wheel", "bump_profile", "random_profile", "step_profile"]
+def half_sine_profile(
+    t_s: ArrayLike,
+    height_m: float,
+    length_m: float,
+    speed_mps: float,
+    wheelbase_m: float,
+    wheels: tuple[Wheel, ...] = ("fl", "fr", "rl", "rr"),
+    t0_s: float = 0.0,
+) -> NDArray[np.float64]:
+    """Half-sine bump ``h sin(pi s / L)``, ``0 <= s <= L``, driven over at speed v.
+
+    The same placement as :func:`bump_profile` (front wheels at the start at ``t0_s``, rear
+    wheels ``tau = wheelbase / v`` later); unlike its 1-cos the half sine rises with a slope
+    ``pi h / L`` at both ends (the road's velocity steps there).
+
+    Parameters
+    ----------
+    t_s
+        [s] Increasing times, shape ``(n_t,)``.
+    height_m
+        [m] Bump height (negative for a dip).
+    length_m
+        [m] Bump length L ``> 0``.
+    speed_mps
+        [m/s] Vehicle speed ``> 0``.
+    wheelbase_m
+        [m] Wheelbase ``l_f + l_r``.
+    wheels
+        Wheels that cross the bump (default all four); e.g. ``("fl", "rl")`` for the left track.
+    t0_s
+        [s] Time the front wheels reach the bump.
+
+    Returns
+    -------
+    ndarray, shape ``(n_t, 4)``
+        [m] Displacements at FL, FR, RL, RR.
+    """
+    t, _ = _time_grid(t_s)
+    if not (length_m > 0.0 and speed_mps > 0.0 and wheelbase_m >= 0.0):
+        raise ConfigError(f"expected length_m > 0, speed_mps > 0, wheelbase_m >= 0; got {length_m!r}, {speed_mps!r}, {wheelbase_m!r}")
+    s = speed_mps * (t[:, None] - t0_s) - np.array([0.0, 0.0, wheelbase_m, wheelbase_m])
+    inside = (s >= 0.0) & (s <= length_m)
+    shape = np.where(inside, np.sin(np.pi * np.clip(s, 0.0, length_m) / length_m), 0.0)
+    return height_m * shape * _wheel_mask(wheels)
+
+
+__all__ = ["Wheel", "bump_profile", "half_sine_profile", "random_profile", "step_profile"]

@@ -54,6 +54,7 @@ from hisopt.simulation.verification_rows import (
     NONLINEARITIES,
     OUTSIDE,
     ROW_COLUMNS,
+    SMALL_GAP,
     CaseLimits,
     FrequencyDomain,
     RoadRuns,
@@ -372,7 +373,7 @@ def verify_case(case: Problem, x: NDArray[np.float64], name: str, index: int, se
             nl = merged(nl, more_nl) if nl is not None and more_nl is not None else None
             count = needed
     rows = case_rows(name, fd, facts.static_load, lin, nl, limits, settings)
-    if nl is not None and any(r["verdict"] == GAP for r in rows):
+    if nl is not None and any(r["verdict"] in (GAP, SMALL_GAP) for r in rows):
         active = active_nonlinearities(model, nl)
         if len(active) == 1:  # the only nonlinearity at work: no rerun needed to name it
             attribute(rows, {}, active[0])
@@ -458,11 +459,10 @@ def verify_design(problem: Problem, design: Any, label: str = "baseline", settin
     cases = tuple(verify_case(case, x, name, i, settings) for i, (name, case) in enumerate(load_cases(problem)))
     frames = []
     if manoeuvres:
-        from hisopt.simulation.manoeuvres import manoeuvre_figures
+        from hisopt.simulation.manoeuvres import manoeuvre_table
 
         for name, case in load_cases(problem):
-            frame = manoeuvre_figures(case, x)
-            frames.append(frame.assign(case=name))
+            frames.append(manoeuvre_table(case, x).assign(case=name))
     table = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     values = dict(zip(problem.variable_names, map(float, x[0]), strict=True))
     return Verification(problem.name, label, values, settings, cases, table)

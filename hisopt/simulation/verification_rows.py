@@ -26,7 +26,7 @@ NONLINEARITIES = ("gas_law", "valve_law", "tyre_liftoff")
 
 CAUSE_LABELS = {"gas_law": "gas law", "valve_law": "valve law", "tyre_liftoff": "tyre lift-off", "combined": "several nonlinearities together"}
 
-AGREES, GAP, WITHIN, BEYOND, OUTSIDE, INFO = "agrees", "gap", "within limits", "beyond limit", "outside validity", "info"
+AGREES, SMALL_GAP, GAP, WITHIN, BEYOND, OUTSIDE, INFO = "agrees", "small gap", "gap", "within limits", "beyond limit", "outside validity", "info"
 """The verdicts a figure can get."""
 
 EULER_GAMMA = 0.5772156649015329
@@ -180,8 +180,15 @@ def _row(case: str, figure: str, unit: str, **values: Any) -> dict[str, Any]:
     return row
 
 
+MATERIAL_GAP = 0.01
+"""[-] A gap beyond three standard errors but below this share is a ``"small gap"``: real, and
+named, but too small to change a design decision."""
+
+
 def _judged(gap: float, error: float) -> str:
-    return AGREES if abs(gap) <= 3.0 * error or abs(gap) < 1e-9 else GAP
+    if abs(gap) <= 3.0 * error or abs(gap) < 1e-9:
+        return AGREES
+    return SMALL_GAP if abs(gap) < MATERIAL_GAP else GAP
 
 
 def rms_rows(case: str, fd: FrequencyDomain, lin: RoadRuns, nl: RoadRuns | None) -> list[dict[str, Any]]:
@@ -232,11 +239,21 @@ def paired_row(
 
 
 def extreme_row(
-    case: str, figure: str, unit: str, lin: RoadRuns, nl: RoadRuns | None, estimate: float, limit: float, side: str, column: int | None = None
+    case: str,
+    figure: str,
+    unit: str,
+    lin: RoadRuns,
+    nl: RoadRuns | None,
+    estimate: float,
+    limit: float,
+    side: str,
+    column: int | None = None,
+    validity: bool = False,
 ) -> dict[str, Any]:
     """A pressure's or gas volume's extreme over every record of the case (the lowest for a
-    ``"floor"``, the highest for a ``"ceiling"``) against its limit; the frequency domain's
-    ``estimate`` is the static value plus or minus three road sigmas."""
+    ``"floor"``, the highest for a ``"ceiling"``) against its limit (a bound of the model's
+    validity when ``validity``); the frequency domain's ``estimate`` is the static value plus
+    or minus three road sigmas."""
     pick = np.min if side == "floor" else np.max
 
     def worst(runs: RoadRuns) -> float:
@@ -247,7 +264,7 @@ def extreme_row(
     if nl is not None:
         value = worst(nl)
         holds = value >= limit if side == "floor" else value <= limit
-        row.update(nonlinear=value, verdict=WITHIN if holds or not math.isfinite(limit) else BEYOND)
+        row.update(nonlinear=value, verdict=WITHIN if holds or not math.isfinite(limit) else OUTSIDE if validity else BEYOND)
     return row
 
 
@@ -292,7 +309,7 @@ def case_rows(
         rows.append(extreme_row(case, "accumulator_pressure_min", "Pa", lin, nl, float(low), float(limits.accumulator_floor[j]), "floor", j))
         rows.append(extreme_row(case, "accumulator_pressure_max", "Pa", lin, nl, float(high), float(limits.accumulator_ceiling[j]), "ceiling", j))
     if fd.accumulator_static.size:
-        rows.append(extreme_row(case, "gas_volume_min", "m^3", lin, nl, math.nan, float(np.min(limits.gas_volume_floor)), "floor"))
+        rows.append(extreme_row(case, "gas_volume_min", "m^3", lin, nl, math.nan, float(np.min(limits.gas_volume_floor)), "floor", validity=True))
         rows.append(extreme_row(case, "gas_volume_max", "m^3", lin, nl, math.nan, math.inf, "ceiling"))
     return rows
 
@@ -302,7 +319,7 @@ def attribute(rows: list[dict[str, Any]], without: dict[str, list[dict[str, Any]
     nonlinearity whose removal (rows ``without[name]``, the same roads with that one off) takes
     away at least half of the gap, else ``"combined"``."""
     for i, row in enumerate(rows):
-        if row["verdict"] != GAP:
+        if row["verdict"] not in (GAP, SMALL_GAP):
             continue
         if only is not None:
             row["cause"] = CAUSE_LABELS[only]
