@@ -17,6 +17,7 @@ import json
 import math
 import os
 import shutil
+from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -25,7 +26,7 @@ import pandas as pd
 import pytest
 
 from hisopt.errors import RunError
-from hisopt.io import read_csv, write_csv
+from hisopt.io import read_csv
 from hisopt.problem import load_problem
 from hisopt.simulation.verification import Verification, VerifySettings, load_cases, verify_case
 from hisopt.studies.verified import VERIFY_FORMAT, read_verification_summary, verified_rows
@@ -100,7 +101,7 @@ def _shown(value: float, unit: str, figure: str) -> str:
 
 # --- verify.html -----------------------------------------------------------------------------------
 def test_the_page_shows_every_figure_in_engineering_units_with_its_verdict(verification, problem):
-    from hisopt.report.verify_page import figures_table, verify_page
+    from hisopt.report.verify_page import VERDICT_CLASSES, figures_table, verify_page
 
     page = verify_page(verification, problem.variable_units)
     frame = verification.frame()
@@ -115,7 +116,7 @@ def test_the_page_shows_every_figure_in_engineering_units_with_its_verdict(verif
         if math.isfinite(row["gap"]):
             assert float(cells["gap ± SE [%]"].split(" ± ")[0]) == pytest.approx(100 * row["gap"], rel=5e-3)
         assert cells["verdict"].startswith(row["verdict"]) and (row["cause"] in cells["verdict"])
-        colour = {"agrees": "ok", "within limits": "ok", "gap": "gap", "beyond limit": "bad", "outside validity": "bad", "info": "info"}[row["verdict"]]
+        colour = VERDICT_CLASSES[row["verdict"]]  # every verdict the engine gives has its colour
         assert f'<span class="verdict {colour}">{html.escape(cells["verdict"])}</span>' in page and cells["linear ± SE"] in page
     assert f"{verification.verdict}</span></h1>" in page  # the design's verdict, in the title
     assert "road: R = 2" in page and "T = 4 s" in page
@@ -143,24 +144,11 @@ def test_a_limit_near_the_records_is_drawn_and_a_far_one_named():
 
 # --- a run with verified designs -------------------------------------------------------------------
 def _write_verification(folder: Path, verification: Verification, row: int | None, values: dict[str, float]) -> None:
+    """``verify.csv``, ``verify.json`` and ``verify.html`` as ``hisopt verify`` writes them, of ``verification`` told it is of ``values``."""
+    from hisopt.studies.verify_designs import write_verification
+
     folder.mkdir(parents=True, exist_ok=True)
-    summary = {
-        "format": VERIFY_FORMAT,
-        "problem": verification.problem,
-        "design": f"front.csv row {row}",
-        "row": row,
-        "verdict": verification.verdict,
-        "values": values,
-        "realisations": {c.traces.case: c.realisations for c in verification.cases},
-        "duration_s": verification.settings.duration_s,
-        "settle_s": verification.settings.settle_s,
-        "seed": verification.settings.seed,
-        "notes": list(verification.notes),
-    }
-    (folder / "verify.json").write_text(json.dumps(summary), encoding="utf-8")
-    frame = verification.frame()
-    write_csv(frame, folder / "verify.csv", units={c: "-" for c in frame.columns})
-    (folder / "verify.html").write_text("<!doctype html><title>verify</title>", encoding="utf-8")
+    write_verification(replace(verification, values=values, design=f"front.csv row {row}"), folder, row)
 
 
 @pytest.fixture(scope="module")

@@ -35,7 +35,8 @@ from hisopt.plausibility import BOUND_TOLERANCE
 from hisopt.report.tables import REPORT_CSS
 from hisopt.studies.buildability import BINDING_RULE, BUILDABLE
 from hisopt.studies.decision_room import KINDS, VERIFIED
-from hisopt.studies.verified import VERDICTS, VERIFY_HTML, VERIFY_PREFIX
+from hisopt.studies.verified import VERDICTS, VERIFY_PREFIX
+from hisopt.studies.verify_designs import VERIFY_HTML
 from hisopt.units import display_for, is_psd
 
 if TYPE_CHECKING:

@@ -124,6 +124,7 @@ def verification(sheet: DesignSheet) -> tuple[str, pd.DataFrame | None]:
     the notes, and every figure in engineering units; without one, the line that says how
     to make it and no table (``("", None)`` for a sheet not of a run)."""
     from hisopt.report.verify_page import VERDICT_SENTENCES, figures_table
+    from hisopt.simulation.verification_rows import MATERIAL_GAP
 
     found = sheet.verified
     if found is None:
@@ -135,7 +136,8 @@ def verification(sheet: DesignSheet) -> tuple[str, pd.DataFrame | None]:
         f"Verdict: {s['verdict']}: {VERDICT_SENTENCES.get(s['verdict'], s['verdict'])}. Each load case on R seeded road realisations "
         f"(each with its mirror) of {format_quantity(float(s['duration_s']), 's')} after {format_quantity(float(s['settle_s']), 's')} "
         f"of settling, seed {s['seed']}: {cases}. {notes} Linear: the state space the frequency domain integrates, on the same roads; "
-        "nonlinear: gas law, valve laws, tyre lift-off; gap: nonlinear over linear minus 1, agrees within three standard errors. "
+        "nonlinear: gas law, valve laws, tyre lift-off; gap: nonlinear over linear minus 1, agrees within three standard errors "
+        f"(a small gap: beyond them but below {format_quantity(100 * MATERIAL_GAP, '%')}). "
         f"The figures and time histories: {found.folder / 'verify.html'} (SI: verify.csv)."
     )
     return line, figures_table(found.rows).drop(columns=["what"])

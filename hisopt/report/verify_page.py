@@ -22,6 +22,7 @@ import pandas as pd
 
 from hisopt.report.embed import PageFigures
 from hisopt.report.tables import REPORT_CSS
+from hisopt.simulation.verification_rows import MATERIAL_GAP
 from hisopt.units import NO_UNIT, Display, display_for, format_design, format_number
 
 if TYPE_CHECKING:
@@ -30,6 +31,7 @@ if TYPE_CHECKING:
 VERDICT_CLASSES = {
     "agrees": "ok",
     "within limits": "ok",
+    "small gap": "small",
     "gap": "gap",
     "beyond limit": "bad",
     "outside validity": "bad",
@@ -39,7 +41,7 @@ VERDICT_CLASSES = {
 
 VERDICT_CSS = """
 .verdict{display:inline-block;padding:1px 8px;border-radius:10px;font-weight:600}
-.verdict.ok{background:#e3f1e6;color:#1e6b34} .verdict.gap{background:#fdf0d5;color:#8a5a00}
+.verdict.ok{background:#e3f1e6;color:#1e6b34} .verdict.small{background:#eef3d9;color:#56641a} .verdict.gap{background:#fdf0d5;color:#8a5a00}
 .verdict.bad{background:#fbe3e1;color:#a3261e} .verdict.info{background:#eef1f5;color:#556}
 h1 .verdict{font-size:20px;vertical-align:middle}
 table.data.figures th,table.data.figures td{padding:4px 8px}
@@ -314,8 +316,9 @@ TABLE_NOTE = (
     "tyre-off share: the Gaussian share beyond the static load; pressures: static ± 3 road sigmas). linear, nonlinear: the "
     "simulations' means over the realisations ± their standard errors (extremes: the lowest or highest over every record). "
     "gap: nonlinear over linear on the same roads, minus 1 (RMS figures: the square root of the mean squares' ratio) ± its "
-    "standard error; agrees: within three standard errors, else gap with the nonlinearity that causes it (the one whose "
-    "removal takes away at least half of it). limit: the buildability rules' pressure limits and the model's validity; "
+    "standard error; agrees: within three standard errors, else a gap with the nonlinearity that causes it (the one whose "
+    f"removal takes away at least half of it): a small gap below {format_number(100 * MATERIAL_GAP)} %, too small to change a "
+    "design decision. limit: the buildability rules' pressure limits and the model's validity; "
     "values in each row's unit, SI in verify.csv."
 )
 """What the figures table's columns mean."""

@@ -20,11 +20,9 @@ import pandas as pd
 
 from hisopt.errors import ConfigError, RunError
 from hisopt.simulation.verification_rows import ROW_COLUMNS
+from hisopt.studies.verify_designs import SUMMARY_FORMAT as VERIFY_FORMAT  # the writer's: one format
+from hisopt.studies.verify_designs import VERIFY_CSV, VERIFY_JSON
 
-VERIFY_FORMAT = "hisopt-verify/1"
-"""The ``format`` of a ``verify.json`` this module reads."""
-VERIFY_JSON, VERIFY_CSV, VERIFY_HTML = "verify.json", "verify.csv", "verify.html"
-"""The files of a verification's folder."""
 VERIFY_PREFIX = "verify-"
 """``RUN_DIR/verify-N``: the verification of front row ``N``."""
 VERDICTS = ("agrees", "gap", "beyond limit", "outside validity")
