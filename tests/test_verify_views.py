@@ -33,9 +33,9 @@ from hisopt.studies.verified import VERIFY_FORMAT, read_verification_summary, ve
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM
 
-SCALES = {"Pa": (1e-6, "MPa"), "m": (1e3, "mm"), "m^3": (1e3, "L"), "m/s^2": (1.0, "m/s^2")}
-"""[display unit per SI unit] The engineering units these rows show in (hisopt.units' table:
-pressures above 0.1 MPa, strokes between 0.1 mm and 1 m, gas volumes above 0.1 L)."""
+SCALES = {"Pa": (1e-6, "MPa"), "m": (1e3, "mm"), "m^3": (1e3, "L"), "m^3/s": (6e4, "L/min"), "N": (1e-3, "kN"), "-": (100.0, "%"), "m/s^2": (1.0, "m/s^2")}
+"""[display unit per SI unit] The units a verification shows (a pressure in MPa, a stroke in mm,
+a volume in L, a flow in L/min, a force in kN, a share in %; an acceleration as it is)."""
 MANOEUVRES = pd.DataFrame(
     {
         "case": ["road", "road"],
@@ -86,13 +86,9 @@ class _Balance(HTMLParser):
             self.stack.pop()
 
 
-def _shown(value: float, unit: str, figure: str) -> str:
+def _shown(value: float, unit: str) -> str:
     """The row's value as the page shows it, computed here from the unit table."""
-    if figure.endswith("_share"):
-        scale = 100.0
-    else:
-        scale = SCALES[unit][0]
-    text = f"{value * scale:.4g}"
+    text = f"{value * SCALES[unit][0]:.4g}"
     if "e" in text:  # 8.5e-05 -> 8.5e-5
         mantissa, exponent = text.split("e")
         text = f"{mantissa}e{int(exponent)}"
@@ -108,11 +104,9 @@ def test_the_page_shows_every_figure_in_engineering_units_with_its_verdict(verif
     shown = figures_table(frame)
     assert len(shown) == len(frame)
     for (_, row), (_, cells) in zip(frame.iterrows(), shown.iterrows(), strict=True):
-        if row["unit"] in SCALES and not row["figure"].endswith("_share"):
-            assert cells["unit"] == SCALES[row["unit"]][1], row["figure"]
+        assert cells["unit"] == SCALES[row["unit"]][1], row["figure"]
         for column, cell in (("linear", "linear ± SE"), ("nonlinear", "nonlinear ± SE")):
-            if row["unit"] in SCALES or row["figure"].endswith("_share"):
-                assert cells[cell].split(" ± ")[0] == _shown(float(row[column]), row["unit"], row["figure"]), (row["figure"], cells[cell])
+            assert cells[cell].split(" ± ")[0] == _shown(float(row[column]), row["unit"]), (row["figure"], cells[cell])
         if math.isfinite(row["gap"]):
             assert float(cells["gap ± SE [%]"].split(" ± ")[0]) == pytest.approx(100 * row["gap"], rel=5e-3)
         assert cells["verdict"].startswith(row["verdict"]) and (row["cause"] in cells["verdict"])
@@ -225,7 +219,7 @@ def test_the_sheet_shows_the_verification_or_how_to_make_it(run, verification, t
     section = text[text.index("## Verified in the time domain") :]
     assert f"Verdict: {verification.verdict}:" in section and "road: R = 2" in section
     row = verification.frame().set_index("figure").loc["chamber_pressure_max"]
-    assert f"| road | chamber_pressure_max | MPa | {_shown(row['frequency_domain'], 'Pa', '')} |" in section
+    assert f"| road | chamber_pressure_max | MPa | {_shown(row['frequency_domain'], 'Pa')} |" in section
     assert f"Verified in the time domain: {verification.verdict}." in text  # in the sheet's opening line too
     html_text = (tmp_path / "two" / "sheet.html").read_text(encoding="utf-8")
     assert "<h2>Verified in the time domain</h2>" in html_text

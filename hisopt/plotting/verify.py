@@ -1,7 +1,8 @@
 """Figures of a time-domain verification (``verify.html``, docs/model.md §22.6), from the
 data handed to them: the worst second of a load case in the linear and the nonlinear model,
 the simulated spectra over the frequency domain's, and each pressure's range against its
-limits. Values in engineering units (:func:`hisopt.units.display_for`); PSDs in SI.
+limits. Values in the units :data:`VERIFY_UNITS` names (:func:`verify_display`), the same in
+``verify.html``'s tables, the design sheet and the terminal; PSDs in SI.
 """
 
 from __future__ import annotations
@@ -15,10 +16,26 @@ from numpy.typing import NDArray
 
 from hisopt.plotting.axes import log_axis
 from hisopt.plotting.theme import COLORS, template
+from hisopt.quantities import unit_factor
 from hisopt.units import Display, display_for, psd_unit
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
+
+VERIFY_UNITS = {"Pa": "MPa", "m^3/s": "L/min", "m^3": "L", "m": "mm", "N": "kN", "-": "%", "rad": "deg", "rad/s": "deg/s"}
+"""How a verification shows each SI unit, whatever the size (one unit per kind: a pressure in
+MPa, a flow in L/min, a volume in L, a stroke in mm, a force in kN, a share in %, an angle in
+degrees); any other unit as :func:`hisopt.units.display_for` shows it."""
+
+
+def verify_display(unit: str, values: NDArray[np.float64] | float = 0.0) -> Display:
+    """How a verification's quantity in SI ``unit`` is shown (:data:`VERIFY_UNITS`); ``values``
+    pick the display of a unit not listed there."""
+    shown = VERIFY_UNITS.get(unit)
+    if shown is None:
+        return display_for(unit, values)
+    return Display(shown, 100.0 if shown == "%" else 1.0 / unit_factor(shown, unit))
+
 
 Pair = tuple[NDArray[np.float64], NDArray[np.float64]]
 """A signal's ``(linear, nonlinear)`` records."""
@@ -115,7 +132,7 @@ def worst_second_figure(
     for row, (prefix, _, chosen) in enumerate(panels, start=1):
         unit = units[next(n for n in signals if (n.startswith(prefix) if prefix.endswith("_") else n == prefix))]
         values = np.concatenate([np.concatenate(pair) for _, pair in chosen])
-        shown = display_for(unit, values)
+        shown = verify_display(unit, values)
         legend = "legend" if row == 1 else f"legend{row}"
         for k, (name, (linear, nonlinear)) in enumerate(chosen):
             color = COLORS[k % len(COLORS)]
@@ -258,8 +275,7 @@ def pressure_range_figure(ranges: Sequence[tuple[str, Mapping[str, tuple[float, 
     """
     import plotly.graph_objects as go
 
-    values = [v for _, spans, bounds in ranges for pair in (*spans.values(), bounds) for v in pair if math.isfinite(v)]
-    shown = display_for("Pa", np.asarray(values or [0.0]))
+    shown = verify_display("Pa")
     fig = go.Figure(layout={"template": template()})
     colors = {"frequency domain": "#8a94a6", "linear": COLORS[0], "nonlinear": COLORS[1]}
     labels = []

@@ -23,7 +23,7 @@ import pandas as pd
 from hisopt.report.embed import PageFigures
 from hisopt.report.tables import REPORT_CSS
 from hisopt.simulation.verification_rows import MATERIAL_GAP
-from hisopt.units import NO_UNIT, Display, display_for, format_design, format_number
+from hisopt.units import Display, format_design, format_number
 
 if TYPE_CHECKING:
     from hisopt.simulation.verification import CaseVerification, Verification
@@ -91,11 +91,12 @@ def figure_words(figure: str) -> str:
     return figure
 
 
-def row_display(figure: str, unit: str, values: list[float]) -> Display:
-    """How a row's numbers are shown: a share in %, else the engineering unit of its largest value."""
-    if figure.endswith("_share") and unit in (NO_UNIT, ""):
-        return Display("%", 100.0)
-    return display_for(unit, np.asarray([v for v in values if math.isfinite(v)] or [0.0]))
+def row_display(unit: str, values: list[float]) -> Display:
+    """How a row's numbers are shown: in its kind's unit (:data:`hisopt.plotting.verify.VERIFY_UNITS`,
+    a share in %), else the engineering unit of its largest value."""
+    from hisopt.plotting.verify import verify_display
+
+    return verify_display(unit, np.asarray([v for v in values if math.isfinite(v)] or [0.0]))
 
 
 def _value(shown: Display, value: float, error: float = math.nan) -> str:
@@ -126,7 +127,7 @@ def figures_table(frame: pd.DataFrame) -> pd.DataFrame:
     the verdict (with its cause)."""
     rows = []
     for r in frame.itertuples(index=False):
-        shown = row_display(r.figure, r.unit, [float(r.frequency_domain), float(r.linear), float(r.nonlinear), float(r.limit)])
+        shown = row_display(r.unit, [float(r.frequency_domain), float(r.linear), float(r.nonlinear), float(r.limit)])
         cause = r.cause if isinstance(r.cause, str) and r.cause else ""
         rows.append(
             {
@@ -152,7 +153,7 @@ def manoeuvres_table(frame: pd.DataFrame) -> pd.DataFrame:
     numeric = [c for c in ("transient", "linear", "nonlinear") if c in frame.columns]
     for _, r in frame.iterrows():
         values = [float(r[c]) for c in numeric]
-        shown = row_display(str(r.get("figure", "")), str(r.get("unit", "")), values)
+        shown = row_display(str(r.get("unit", "")), values)
         row: dict[str, Any] = {"load case": r.get("case", ""), "manoeuvre": r.get("manoeuvre", ""), "figure": r.get("figure", ""), "unit": shown.unit}
         row |= {c: _value(shown, float(r[c])) for c in numeric}
         if "linear" in numeric and "nonlinear" in numeric and float(r["linear"]) != 0.0:
