@@ -151,6 +151,8 @@ def manoeuvres_table(frame: pd.DataFrame) -> pd.DataFrame:
     unit, and the nonlinear run against the linear one in %."""
     rows = []
     numeric = [c for c in ("transient", "linear", "nonlinear") if c in frame.columns]
+    others = [c for c in frame.columns if c not in (*numeric, "case", "manoeuvre", "figure", "unit")]
+    extras = [c for c in others if frame[c].map(lambda v: not pd.isna(v) and str(v) != "").any()]  # a column of blanks says nothing
     for _, r in frame.iterrows():
         values = [float(r[c]) for c in numeric]
         shown = row_display(str(r.get("unit", "")), values)
@@ -158,9 +160,8 @@ def manoeuvres_table(frame: pd.DataFrame) -> pd.DataFrame:
         row |= {c: _value(shown, float(r[c])) for c in numeric}
         if "linear" in numeric and "nonlinear" in numeric and float(r["linear"]) != 0.0:
             row["nonlinear vs linear [%]"] = _gap(float(r["nonlinear"]) / float(r["linear"]) - 1.0, math.nan)
-        for extra in frame.columns:
-            if extra not in (*numeric, "case", "manoeuvre", "figure", "unit"):
-                row[extra] = str(r[extra])
+        for extra in extras:
+            row[extra] = "" if pd.isna(r[extra]) else str(r[extra])
         rows.append(row)
     return pd.DataFrame(rows)
 
