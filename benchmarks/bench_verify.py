@@ -6,7 +6,7 @@ core), and, as the straightforward baseline of the same run, the first load case
 simulated one at a time (:func:`hisopt.simulation.timedomain.simulate`) against the same roads
 in one batch (:func:`~hisopt.simulation.timedomain.simulate_batch`)::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_verify.py [--problem problems/roll_plane_his_robust.toml]
+    python benchmarks/bench_verify.py [--problem problems/roll_plane_his_robust.toml]
 """
 
 from __future__ import annotations

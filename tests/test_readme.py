@@ -59,6 +59,7 @@ BUDGETS = {
     "droptest": {"--p0": "2e6"},  # one precharge: three drop simulations, not nine
     "sensitivity": {"--samples": "64"},
     "tolerance": {"--samples": "2000"},
+    "verify": {"--realisations": "2"},
 }
 REFINE_BUDGET = {"--max-points": "2"}  # optimize --refine
 

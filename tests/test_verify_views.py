@@ -33,9 +33,9 @@ from hisopt.studies.verified import VERIFY_FORMAT, read_verification_summary, ve
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM
 
-SCALES = {"Pa": (1e-6, "MPa"), "m": (1e3, "mm"), "m^3": (1e3, "L"), "m^3/s": (6e4, "L/min"), "N": (1e-3, "kN"), "-": (100.0, "%"), "m/s^2": (1.0, "m/s^2")}
+SCALES = {"Pa": (1e-6, "MPa"), "m": (1e3, "mm"), "m^3": (1e3, "L"), "m^3/s": (1e3, "L/s"), "N": (1e-3, "kN"), "-": (100.0, "%"), "m/s^2": (1.0, "m/s^2")}
 """[display unit per SI unit] The units a verification shows (a pressure in MPa, a stroke in mm,
-a volume in L, a flow in L/min, a force in kN, a share in %; an acceleration as it is)."""
+a volume in L, a flow in L/s, a force in kN, a share in %; an acceleration as it is)."""
 MANOEUVRES = pd.DataFrame(
     {
         "case": ["road", "road"],
@@ -139,10 +139,12 @@ def test_a_limit_near_the_records_is_drawn_and_a_far_one_named():
 # --- a run with verified designs -------------------------------------------------------------------
 def _write_verification(folder: Path, verification: Verification, row: int | None, values: dict[str, float]) -> None:
     """``verify.csv``, ``verify.json`` and ``verify.html`` as ``hisopt verify`` writes them, of ``verification`` told it is of ``values``."""
+    from hisopt.report.verify_page import verify_page
     from hisopt.studies.verify_designs import write_verification
 
     folder.mkdir(parents=True, exist_ok=True)
-    write_verification(replace(verification, values=values, design=f"front.csv row {row}"), folder, row)
+    verification = replace(verification, values=values, design=f"front.csv row {row}")
+    write_verification(verification, folder, row, verify_page(verification))
 
 
 @pytest.fixture(scope="module")

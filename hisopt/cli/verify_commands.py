@@ -14,9 +14,6 @@ from hisopt.cli.usage import SchedulerOpt, WorkersOpt, integer, quantity
 if TYPE_CHECKING:
     from hisopt.simulation.verification import Verification
 
-DISPLAY_UNITS = {"Pa": "MPa", "m^3/s": "L/min", "m^3": "L", "m": "mm", "N": "kN", "-": "%", "rad": "deg", "rad/s": "deg/s"}
-"""How the terminal shows each SI unit of verify.csv."""
-
 
 def verify_cmd(
     target: Annotated[
@@ -70,11 +67,14 @@ def verify_cmd(
         check_claim(t.folder, VERIFY)  # before any work: a folder of another kind, or a user's, is refused
     with open_backend(workers, scheduler) as backend:
         results = verify_designs(problem, chosen, settings, backend, manoeuvres)
+    from hisopt.report.verify_page import verify_page
+    from hisopt.units import variable_units
+
     for t, verification in zip(chosen, results, strict=True):
         check_error(verification, settings)
         claim(t.folder, VERIFY)
         show(verification)
-        for path in write_verification(verification, t.folder, t.row):
+        for path in write_verification(verification, t.folder, t.row, verify_page(verification, variable_units(problem))):
             typer.echo(f"wrote {path}")
 
 
@@ -102,8 +102,7 @@ def show(verification: Verification) -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from hisopt.quantities import unit_factor
-    from hisopt.units import format_number
+    from hisopt.plotting.verify import verify_display
 
     console = Console(width=170)
     chosen = ", ".join(f"{c.traces.case} R = {c.realisations}" for c in verification.cases)
@@ -116,8 +115,7 @@ def show(verification: Verification) -> None:
     def num(value: float, unit: str) -> str:
         if not math.isfinite(value):
             return "-" if math.isnan(value) else str(value)
-        shown = DISPLAY_UNITS.get(unit, unit)
-        return format_number(100.0 * value if shown == "%" else value / unit_factor(shown, unit) if shown != unit else value)
+        return verify_display(unit, value).number(value)
 
     def with_error(value: float, error: float, unit: str) -> str:
         text = num(value, unit)
@@ -130,7 +128,7 @@ def show(verification: Verification) -> None:
         table.add_row(
             row["case"],
             row["figure"],
-            DISPLAY_UNITS.get(unit, unit),
+            verify_display(unit, row["linear"]).unit,
             num(row["frequency_domain"], unit),
             with_error(row["linear"], row["linear_se"], unit),
             with_error(row["nonlinear"], row["nonlinear_se"], unit),
@@ -145,7 +143,7 @@ def show(verification: Verification) -> None:
             man.add_column(Text(col), justify="left" if col in ("case", "manoeuvre", "figure", "unit") else "right")
         for row in verification.manoeuvres.to_dict("records"):
             unit = row["unit"]
-            shown = "%" if unit == "-" else DISPLAY_UNITS.get(unit, unit)
+            shown = verify_display(unit, row["linear"]).unit
             man.add_row(row["case"], row["manoeuvre"], row["figure"], shown, num(row["transient"], unit), num(row["linear"], unit), num(row["nonlinear"], unit))
         console.print(man)
     for note in verification.notes:

@@ -22,9 +22,9 @@ from hisopt.units import Display, display_for, psd_unit
 if TYPE_CHECKING:
     import plotly.graph_objects as go
 
-VERIFY_UNITS = {"Pa": "MPa", "m^3/s": "L/min", "m^3": "L", "m": "mm", "N": "kN", "-": "%", "rad": "deg", "rad/s": "deg/s"}
+VERIFY_UNITS = {"Pa": "MPa", "m^3/s": "L/s", "m^3": "L", "m": "mm", "N": "kN", "-": "%", "rad": "deg", "rad/s": "deg/s"}
 """How a verification shows each SI unit, whatever the size (one unit per kind: a pressure in
-MPa, a flow in L/min, a volume in L, a stroke in mm, a force in kN, a share in %, an angle in
+MPa, a flow in L/s (as the design sheet's valves), a volume in L, a stroke in mm, a force in kN, a share in %, an angle in
 degrees); any other unit as :func:`hisopt.units.display_for` shows it."""
 
 

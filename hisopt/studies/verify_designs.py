@@ -8,7 +8,6 @@ in this process, or on Dask with ``--workers``/``--scheduler`` (:func:`verify_de
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -120,11 +119,10 @@ ROW_UNITS = {"case": "-", "figure": "-", "unit": "-", "verdict": "-", "cause": "
 """verify.csv's units row: each value in its row's ``unit`` column; gaps relative [-]."""
 
 
-def write_verification(verification: Verification, folder: Path, row: int | None) -> list[Path]:
+def write_verification(verification: Verification, folder: Path, row: int | None, page: str) -> list[Path]:
     """Write ``verify.csv`` (every figure; manoeuvres as ``<manoeuvre>@<case>`` rows),
-    ``verify.json`` (the summary) and ``verify.html`` into ``folder`` (already claimed)."""
-    from hisopt.report.verify_page import verify_page
-
+    ``verify.json`` (the summary) and the HTML ``page`` as ``verify.html`` into ``folder``
+    (already claimed)."""
     frame = verification.frame()
     if not verification.manoeuvres.empty:
         m = verification.manoeuvres
@@ -136,20 +134,8 @@ def write_verification(verification: Verification, folder: Path, row: int | None
     units = ROW_UNITS | {"gap": "-", "gap_se": "-"}
     paths = [write_csv(frame, folder / VERIFY_CSV, units)]
     paths.append(atomic_write_json(folder / VERIFY_JSON, summary(verification, row)))
-    paths.append(atomic_write_text(folder / VERIFY_HTML, verify_page(verification)))
+    paths.append(atomic_write_text(folder / VERIFY_HTML, page))
     return paths
 
 
-def read_summary(folder: Path) -> dict[str, Any]:
-    """A verification folder's ``verify.json``; :class:`RunError` in one line if unreadable."""
-    path = Path(folder) / VERIFY_JSON
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise RunError(f"{path}: unreadable ({exc}); expected a verification written by hisopt verify") from None
-    if not isinstance(data, dict) or data.get("format") != SUMMARY_FORMAT:
-        raise RunError(f"{path}: not a verification summary (format {SUMMARY_FORMAT!r} expected)")
-    return data
-
-
-__all__ = ["Target", "parse_rows", "read_summary", "summary", "targets", "verify_designs", "write_verification"]
+__all__ = ["Target", "parse_rows", "summary", "targets", "verify_designs", "write_verification"]
