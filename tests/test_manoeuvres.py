@@ -27,6 +27,7 @@ import pytest
 from scipy.linalg import expm
 
 from hisopt.constants import G_MPS2
+from hisopt.errors import ConfigError, ModelError
 from hisopt.evaluation.transient import STEP_NAMES, gravity_softened, roll_moment_input, transient_quantities
 from hisopt.problem import load_problem
 from hisopt.road.profiles import half_sine_profile
@@ -198,8 +199,6 @@ def test_a_small_step_steer_parts_linear_and_nonlinear_by_the_gas_laws_odd_and_e
 
 
 def test_every_load_case_gets_its_table_and_bad_requests_are_refused():
-    from hisopt.errors import ConfigError
-
     paper = _case(str(PAPER))
     table = problem_manoeuvres(paper)
     assert tuple(table.columns) == ("case", *COLUMNS) and set(table.case) == {""} and len(table) == 24
@@ -207,3 +206,23 @@ def test_every_load_case_gets_its_table_and_bad_requests_are_refused():
         manoeuvre_table(_case(str(ROBUST)))
     with pytest.raises(ConfigError, match="one design"):
         manoeuvre_table(paper, np.stack([paper.baseline, paper.baseline]))
+    for bad in (lambda: StepSteer(float("nan")), lambda: SineWithDwell(0.4, after_s=0.5), lambda: HalfSineBump(0.0), lambda: HalfSineBump(10.0, length_m=-1.0)):
+        with pytest.raises(ConfigError, match="expected"):
+            bad()
+
+
+def test_a_nonlinear_run_that_leaves_the_model_is_said_so_and_its_figures_are_nan(monkeypatch):
+    import hisopt.simulation.manoeuvres as manoeuvres
+
+    real = manoeuvres.simulate
+
+    def bottoming(model, t, road, mode, **options):  # type: ignore[no-untyped-def]
+        if mode == "nonlinear":
+            raise ModelError("an accumulator bottomed out (oil filled its gas volume): reduce the input or raise V0")
+        return real(model, t, road, mode, **options)
+
+    monkeypatch.setattr(manoeuvres, "simulate", bottoming)
+    case = _case(str(PAPER))
+    table = manoeuvre_table(case, manoeuvres=[StepSteer(0.4)])
+    assert table.nonlinear.isna().all() and table.linear.notna().all()
+    assert (table.note == "nonlinear run stopped: an accumulator bottomed out (oil filled its gas volume): reduce the input or raise V0").all()

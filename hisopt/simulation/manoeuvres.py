@@ -31,7 +31,7 @@ import pandas as pd
 
 from hisopt.constants import G_MPS2
 from hisopt.errors import ConfigError, ModelError
-from hisopt.road.profiles import half_sine_profile
+from hisopt.road.profiles import Wheel, half_sine_profile
 from hisopt.simulation.timedomain import SimulationMode, TimeResponse, simulate
 
 if TYPE_CHECKING:
@@ -82,12 +82,16 @@ class StepSteer:
 
     3 s covers the peak (the roll mode's first half period, 0.2 s on the paper's car) and lets
     the roll settle to about 1e-3 of its overshoot there; 2 ms samples keep the peaks'
-    refinement error under 1e-8 (:func:`refined_peak`)."""
+    refinement error under 1e-8 on that car (:func:`refined_peak`; linear runs sample finer
+    where the modes need it, :func:`linear_step_s`)."""
 
     accel_g: float
     duration_s: float = 3.0
     dt_s: float = 0.002
     name: str = "step_steer"
+
+    def __post_init__(self) -> None:
+        _check({"accel_g": (self.accel_g, False), "duration_s": (self.duration_s, True), "dt_s": (self.dt_s, True)})
 
     def lateral_acceleration(self, t_s: Any) -> np.ndarray:
         """[m/s^2] ``a_y`` at times ``t_s`` [s] (``accel_g g`` from ``t = 0``)."""
@@ -114,6 +118,11 @@ class SineWithDwell:
     dt_s: float = 0.002
     name: str = "sine_with_dwell"
 
+    def __post_init__(self) -> None:
+        _check({"accel_g": (self.accel_g, False), "frequency_hz": (self.frequency_hz, True), "dt_s": (self.dt_s, True)})
+        if not (self.dwell_s >= 0.0 and self.after_s >= 1.0):
+            raise ConfigError(f"expected dwell_s >= 0 [s] and after_s >= 1 [s] (roll_ratio_1s reads 1 s past the end), got {self.dwell_s!r}, {self.after_s!r}")
+
     @property
     def end_s(self) -> float:
         """[s] End of the steering input, ``1 / f + dwell``."""
@@ -135,7 +144,7 @@ class SineWithDwell:
 
 @dataclass(frozen=True)
 class HalfSineBump:
-    """A half-sine bump ``height_m sin(pi s / length_m)`` under the left wheels, front then rear
+    """A half-sine bump ``height_m sin(pi s / length_m)`` under ``wheels`` (the left), front then rear
     after the wheelbase, driven over at ``speed_mps`` [m/s] (the case's road speed).
 
     50 mm by 1 m is a chosen test, not a standard's: a speed bump's height on a road hump's
@@ -149,7 +158,13 @@ class HalfSineBump:
     length_m: float = 1.0
     settle_s: float = 1.5
     dt_s: float = 0.002
+    wheels: tuple[Wheel, ...] = ("fl", "rl")
     name: str = "half_sine_bump"
+
+    def __post_init__(self) -> None:
+        _check({"speed_mps": (self.speed_mps, True), "height_m": (self.height_m, False), "length_m": (self.length_m, True), "dt_s": (self.dt_s, True)})
+        if not self.settle_s >= 0.0:
+            raise ConfigError(f"expected settle_s >= 0 [s], got {self.settle_s!r}")
 
     def duration_s(self, wheelbase_m: float) -> float:
         """[s] Length of the record on a car of ``wheelbase_m`` [m]."""
@@ -158,6 +173,13 @@ class HalfSineBump:
     def step_s(self) -> float:
         """[s] Sample spacing."""
         return min(self.dt_s, self.length_m / self.speed_mps / 20.0)
+
+
+def _check(values: dict[str, tuple[float, bool]]) -> None:
+    """Each ``name: (value, positive)``: finite, and > 0 when ``positive`` (else nonzero)."""
+    for name, (value, positive) in values.items():
+        if not (np.isfinite(value) and (value > 0.0 if positive else value != 0.0)):
+            raise ConfigError(f"expected {name} finite and {'> 0' if positive else 'nonzero'}, got {value!r}")
 
 
 Manoeuvre = StepSteer | SineWithDwell | HalfSineBump
@@ -231,7 +253,7 @@ def simulate_manoeuvre(
     duration = manoeuvre.duration_s(wheelbase) if isinstance(manoeuvre, HalfSineBump) else manoeuvre.duration_s
     t = dt_s * np.arange(int(np.floor(duration / dt_s + 1e-9)) + 1)
     if isinstance(manoeuvre, HalfSineBump):
-        road = half_sine_profile(t, manoeuvre.height_m, manoeuvre.length_m, manoeuvre.speed_mps, wheelbase, ("fl", "rl"))
+        road = half_sine_profile(t, manoeuvre.height_m, manoeuvre.length_m, manoeuvre.speed_mps, wheelbase, manoeuvre.wheels)
         force = None
     else:
         road = np.zeros((t.size, 4))
