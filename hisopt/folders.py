@@ -73,6 +73,7 @@ class FolderKind:
 
 RUN, SEED_STUDY, LAYOUT_STUDY, SYNTHESIS = "run", "seed-study", "layout-study", "synthesis"
 SWEEP, REGIONS, SHEET, TOLERANCE, SENSITIVITY, RESPONSE, DROPTEST = "sweep", "regions", "sheet", "tolerance", "sensitivity", "response", "droptest"
+VERIFY = "verification"
 
 KINDS: dict[str, FolderKind] = {
     kind.name: kind
@@ -88,6 +89,7 @@ KINDS: dict[str, FolderKind] = {
         FolderKind(SENSITIVITY, "a sensitivity study", "hisopt sensitivity", MARKER, ("sensitivity.csv", "sensitivity.html")),
         FolderKind(RESPONSE, "a response study", "hisopt response", MARKER, ("response.csv", "response.html")),
         FolderKind(DROPTEST, "a drop test study", "hisopt droptest", MARKER, ("droptest.csv", "droptest.html")),
+        FolderKind(VERIFY, "a time-domain verification", "hisopt verify", MARKER, ("verify.csv", "verify.json", "verify.html")),
     )
 }
 """Every kind of folder a hisopt command writes, by name."""

@@ -42,6 +42,7 @@ WRITERS: dict[str, Callable[[Path, Path], tuple[object, ...]]] = {
     folders.SENSITIVITY: lambda out, run: ("sensitivity", UNCERTAIN, "--samples", "4", "--out", out),
     folders.RESPONSE: lambda out, run: ("response", DEFAULT_PROBLEM, "--out", out),
     folders.DROPTEST: lambda out, run: ("droptest", DEFAULT_PROBLEM, "--p0", "2e6", "--out", out),
+    folders.VERIFY: lambda out, run: ("verify", DEFAULT_PROBLEM, "--out", out, "--realisations", "2", "--no-manoeuvres"),
 }
 # commands that read a folder (and write into a run or a layout study, their own)
 READERS: dict[str, Callable[[Path], tuple[object, ...]]] = {

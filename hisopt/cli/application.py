@@ -14,7 +14,7 @@ from typing import Annotated
 
 import typer
 
-from hisopt.cli import compare, model_commands, run_commands, study_commands, synthesis_commands, uncertainty_commands
+from hisopt.cli import compare, model_commands, run_commands, study_commands, synthesis_commands, uncertainty_commands, verify_commands
 from hisopt.cli.options import DEBUG
 from hisopt.cli.signals import install_signal_handlers
 
@@ -45,7 +45,7 @@ def _main(
 
 
 # In the order `hisopt --help` lists them.
-for _commands in (model_commands, run_commands, study_commands, compare, synthesis_commands, uncertainty_commands):
+for _commands in (model_commands, run_commands, study_commands, compare, synthesis_commands, uncertainty_commands, verify_commands):
     _commands.register(app)
 
 

@@ -282,8 +282,9 @@ def sheet(
     envelope and its modes; its buildability (every rule, constrained or not: where it
     binds, its value, limit and margin, and the verdict); with physical damper valves, their
     settings and per load case their RMS flows, equivalent resistances (outside the validated
-    range marked) and the roll and bounce damping. `hisopt evaluate sheet.toml` reproduces
-    it. docs/model.md §17.4.
+    range marked) and the roll and bounce damping; its verification in the time domain when
+    `hisopt verify RUN_DIR --design N` has written one. `hisopt evaluate sheet.toml`
+    reproduces it. docs/model.md §17.4.
     """
     from hisopt.folders import SHEET, check_claim
     from hisopt.optim.decision import front_design
@@ -296,7 +297,7 @@ def sheet(
     row, x = front_design(problem, source, design)
     folder = out or Path(run_dir) / f"sheet-{row}"
     check_claim(folder, SHEET)  # before any work: a folder of another kind, or a user's, is refused
-    paths = write_sheet(design_sheet(problem, x, row, str(source)), folder)
+    paths = write_sheet(design_sheet(problem, x, row, str(source), run_dir=run_dir), folder)
     for path in paths:
         typer.echo(f"wrote {path}")
 

@@ -259,13 +259,32 @@ def pressure_rules(model: CoupledModel, limits: BuildLimits, swing: RoadSwing, r
     his = model.his
     assert his is not None
     ext = pressure_extremes(model, limits, swing) if ext is None else ext
+    bounds = pressure_limits(his, limits, rating)
+    low = np.concatenate([ext.port_low, ext.accumulator_low], axis=-1)
+    floor = np.concatenate([np.broadcast_to(bounds.port_floor, ext.port_low.shape), bounds.accumulator_floor], axis=-1)
+    high = np.concatenate([ext.port_high, ext.accumulator_high], axis=-1) - P_ATM_PA
+    ceiling = np.concatenate([np.broadcast_to(bounds.port_ceiling, ext.port_high.shape), bounds.accumulator_ceiling], axis=-1)
+    return {"pressure_floor_usage": binding(low, floor, "floor"), "pressure_ceiling_usage": binding(high, ceiling, "ceiling")}
+
+
+@dataclass(frozen=True)
+class PressureLimits:
+    """What the pressure rules hold each chamber (port) and accumulator to: floors [Pa abs]
+    and ceilings [Pa gauge], ``B + (n_ports,)`` (or one value for all) and ``B + (n_acc,)``."""
+
+    port_floor: Any
+    port_ceiling: Any
+    accumulator_floor: np.ndarray
+    accumulator_ceiling: np.ndarray
+
+
+def pressure_limits(his: HydraulicSystem, limits: BuildLimits, rating: AccumulatorRating) -> PressureLimits:
+    """The :class:`PressureLimits` of a batch: air release for every chamber and accumulator,
+    an accumulator's also ``precharge_margin`` times its precharge at the temperature; the
+    cylinders' ``cylinder_pressure`` and each accumulator's ``rating``."""
     precharge = precharges_at_temperature(his)
     acc_floor = np.maximum(limits.air_release_pressure, limits.precharge_margin * precharge)
-    low = np.concatenate([ext.port_low, ext.accumulator_low], axis=-1)
-    floor = np.concatenate([np.full(ext.port_low.shape, limits.air_release_pressure), acc_floor], axis=-1)
-    high = np.concatenate([ext.port_high, ext.accumulator_high], axis=-1) - P_ATM_PA
-    ceiling = np.concatenate([np.full(ext.port_high.shape, limits.cylinder_pressure), rating(his)], axis=-1)
-    return {"pressure_floor_usage": binding(low, floor, "floor"), "pressure_ceiling_usage": binding(high, ceiling, "ceiling")}
+    return PressureLimits(limits.air_release_pressure, limits.cylinder_pressure, acc_floor, rating(his))
 
 
 # --- the cylinders and the struts' static balance (numpy batches and CasADi alike) -----------

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hisopt.constants import WHEEL_NAMES
 from hisopt.linalg import bmm
 from hisopt.vehicle import VehicleParams, stroke_matrix
 
@@ -57,8 +58,9 @@ def standard_outputs(vehicle: VehicleParams) -> dict[str, Output]:
     """Every output of docs/model.md §5.1, keyed by name.
 
     ``acc_z`` (CG vertical), ``acc_x = h_0s theta''``, ``acc_y = -h_0s phi''`` (paper Eq. 26),
-    ``acc_roll``/``acc_pitch`` (angular), ``roll``, ``pitch``, ``stroke_fl`` (``delta_1``,
-    extension positive) and ``tire_load_fl = k_t (z_u1 - z_g1) + c_t s (z_u1 - z_g1)``.
+    ``acc_roll``/``acc_pitch`` (angular), ``roll``, ``pitch``, ``stroke_<w>`` (``delta_i``,
+    extension positive) and ``tire_load_<w> = k_t (z_ui - z_gi) + c_t s (z_ui - z_gi)`` for
+    every wheel ``<w>`` of FL, FR, RL, RR (the metrics read FL's).
     """
     v = vehicle
     zero7, zero4 = np.zeros(7), np.zeros(4)
@@ -69,22 +71,27 @@ def standard_outputs(vehicle: VehicleParams) -> dict[str, Output]:
     acc = lambda c: poly(zero7, zero7, c)  # noqa: E731  s^2 x
     acc_d = poly(zero4, zero4, zero4)
     g = stroke_matrix(v)
-    return {
-        "acc_z": Output("acc_z", "m/s^2", acc(_unit(0, 7)), acc_d, "Wk"),
-        "acc_x": Output("acc_x", "m/s^2", acc(v.h_0s * _unit(2, 7)), acc_d, "Wd"),
-        "acc_y": Output("acc_y", "m/s^2", acc(-v.h_0s * _unit(1, 7)), acc_d, "Wd"),
-        "acc_roll": Output("acc_roll", "rad/s^2", acc(_unit(1, 7)), acc_d, "We"),
-        "acc_pitch": Output("acc_pitch", "rad/s^2", acc(_unit(2, 7)), acc_d, "We"),
-        "roll": Output("roll", "rad", poly(_unit(1, 7)), poly(zero4)),
-        "pitch": Output("pitch", "rad", poly(_unit(2, 7)), poly(zero4)),
-        "stroke_fl": Output("stroke_fl", "m", poly(g[0]), poly(zero4)),
-        "tire_load_fl": Output(
-            "tire_load_fl",
-            "N",
-            poly(v.k_tf * _unit(3, 7), v.c_tf * _unit(3, 7)),
-            poly(-v.k_tf * _unit(0, 4), -v.c_tf * _unit(0, 4)),
-        ),
-    }
+    return (
+        {
+            "acc_z": Output("acc_z", "m/s^2", acc(_unit(0, 7)), acc_d, "Wk"),
+            "acc_x": Output("acc_x", "m/s^2", acc(v.h_0s * _unit(2, 7)), acc_d, "Wd"),
+            "acc_y": Output("acc_y", "m/s^2", acc(-v.h_0s * _unit(1, 7)), acc_d, "Wd"),
+            "acc_roll": Output("acc_roll", "rad/s^2", acc(_unit(1, 7)), acc_d, "We"),
+            "acc_pitch": Output("acc_pitch", "rad/s^2", acc(_unit(2, 7)), acc_d, "We"),
+            "roll": Output("roll", "rad", poly(_unit(1, 7)), poly(zero4)),
+            "pitch": Output("pitch", "rad", poly(_unit(2, 7)), poly(zero4)),
+        }
+        | {f"stroke_{w}": Output(f"stroke_{w}", "m", poly(g[i]), poly(zero4)) for i, w in enumerate(WHEEL_NAMES)}
+        | {
+            f"tire_load_{w}": Output(
+                f"tire_load_{w}",
+                "N",
+                poly(k_t * _unit(3 + i, 7), c_t * _unit(3 + i, 7)),
+                poly(-k_t * _unit(i, 4), -c_t * _unit(i, 4)),
+            )
+            for i, (w, k_t, c_t) in enumerate(zip(WHEEL_NAMES, (v.k_tf, v.k_tf, v.k_tr, v.k_tr), (v.c_tf, v.c_tf, v.c_tr, v.c_tr), strict=True))
+        }
+    )
 
 
 def accumulator_outputs(n_accumulators: int) -> dict[str, Output]:

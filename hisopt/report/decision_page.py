@@ -5,10 +5,10 @@ The page holds the designs of :func:`hisopt.studies.decision_room.decision_room_
 draws, filters and navigates them in the browser (``decision_room.js``, no library and no
 network): parallel coordinates whose brushes filter the scatter matrix, the table and the
 count; a design's values, parts, damper valves' equivalent resistances (those outside the
-linearisation's validated range marked), buildability verdict, spectra and step response against
-the baseline's; filters for the front, feasibility, buildability, a load case, a layout and the
-variables' bounds; reference-point
-and E-NAUTILUS navigation (the rules of :mod:`hisopt.optim.navigation`); CSV and problem-file
+linearisation's validated range marked), buildability verdict, verdict in the time domain (a
+front design ``hisopt verify`` verified), spectra and step response against the baseline's;
+filters for the front, feasibility, buildability, a load case, a layout and the variables'
+bounds; reference-point and E-NAUTILUS navigation (the rules of :mod:`hisopt.optim.navigation`); CSV and problem-file
 export. Numbers travel as base64 arrays: the variables and objectives as float64 (an export
 is the design itself, bit for bit), the other quantities as float32, the curves as bytes on a
 log scale (a picture, not a value: the design sheet has the exact ones).
@@ -34,7 +34,9 @@ from hisopt.evaluation.valve_states import OUTSIDE_VALIDATED_RANGE, VALIDATED_RE
 from hisopt.plausibility import BOUND_TOLERANCE
 from hisopt.report.tables import REPORT_CSS
 from hisopt.studies.buildability import BINDING_RULE, BUILDABLE
-from hisopt.studies.decision_room import KINDS
+from hisopt.studies.decision_room import KINDS, VERIFIED
+from hisopt.studies.verified import VERDICTS, VERIFY_PREFIX
+from hisopt.studies.verify_designs import VERIFY_HTML
 from hisopt.units import display_for, is_psd
 
 if TYPE_CHECKING:
@@ -105,8 +107,9 @@ def _baseline_curves(curves: Curves) -> dict[str, list]:
     return {"spectra": np.nan_to_num(curves.spectra[0].T, nan=-1.0).tolist(), "step": np.nan_to_num(curves.step[0], nan=0.0).tolist()}
 
 
-def room_payload(room: Room, sheets: dict[int, str] | None = None) -> dict[str, Any]:
-    """Everything the page reads, as JSON-ready data (arrays as base64)."""
+def room_payload(room: Room, sheets: dict[int, str] | None = None, verify_pages: dict[int, str] | None = None) -> dict[str, Any]:
+    """Everything the page reads, as JSON-ready data (arrays as base64); ``sheets`` and
+    ``verify_pages`` the relative links of the front rows' design sheets and ``verify.html``."""
     table = room.table
     columns = []
     for name, group in room.groups.items():
@@ -138,6 +141,7 @@ def room_payload(room: Room, sheets: dict[int, str] | None = None) -> dict[str, 
     ]
     kind_names = list(KINDS)
     rules = ["", *RULES]  # "": a design without a verdict
+    verdicts = ["", *VERDICTS]  # "": a design not verified in the time domain
     return {
         "rows": len(table),
         "objectives": room.objectives,
@@ -152,11 +156,14 @@ def room_payload(room: Room, sheets: dict[int, str] | None = None) -> dict[str, 
         "buildable": _b64(table[BUILDABLE].to_numpy(dtype=np.uint8)),
         "rules": rules,
         "binding_rule": _b64(table[BINDING_RULE].map(rules.index).to_numpy(dtype=np.uint8)),
+        "verdicts": verdicts,
+        "verified": _b64(table[VERIFIED].map(verdicts.index).to_numpy(dtype=np.uint8)),
         "bound_tolerance": BOUND_TOLERANCE,
         "validated_resistance": VALIDATED_RESISTANCE,
         "outside_range": OUTSIDE_VALIDATED_RANGE,
         "curves": curve_payload(room.curves, room.baseline),
         "sheets": {str(k): v for k, v in (sheets or {}).items()},
+        "verify_pages": {str(k): v for k, v in (verify_pages or {}).items()},
     }
 
 
@@ -164,10 +171,11 @@ def _asset(name: str) -> str:
     return resources.files("hisopt.report").joinpath(name).read_text(encoding="utf-8")
 
 
-def decision_room_page(room: Room, title: str, note: str = "", sheets: dict[int, str] | None = None) -> str:
+def decision_room_page(room: Room, title: str, note: str = "", sheets: dict[int, str] | None = None, verify_pages: dict[int, str] | None = None) -> str:
     """The page (HTML text) of ``room``; ``note`` a line on where the designs come from,
-    ``sheets`` the design sheets already written (front row: relative link)."""
-    data = json.dumps(room_payload(room, sheets), separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    ``sheets`` and ``verify_pages`` the design sheets and verifications already written
+    (front row: relative link)."""
+    data = json.dumps(room_payload(room, sheets, verify_pages), separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
     return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <meta http-equiv="Content-Security-Policy" content="default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src data: blob:">
@@ -181,12 +189,14 @@ def decision_room_page(room: Room, title: str, note: str = "", sheets: dict[int,
 """
 
 
-def write_decision_room(room: Room, path: str | Path, title: str, note: str = "", sheets: dict[int, str] | None = None) -> Path:
+def write_decision_room(
+    room: Room, path: str | Path, title: str, note: str = "", sheets: dict[int, str] | None = None, verify_pages: dict[int, str] | None = None
+) -> Path:
     """Write the page of ``room`` to ``path`` (atomically); the path."""
     from hisopt.io import atomic_write_text
 
     path = Path(path)
-    atomic_write_text(path, decision_room_page(room, title, note, sheets))
+    atomic_write_text(path, decision_room_page(room, title, note, sheets, verify_pages))
     return path
 
 
@@ -199,14 +209,18 @@ def run_decision_room(run_dir: str | Path) -> Path:
     sources = run_sources(run_dir)
     room = decision_room_data(sources)
     sheets = {int(p.parent.name.removeprefix("sheet-")): f"{p.parent.name}/{p.name}" for p in run_dir.glob("sheet-*/sheet.html") if p.parent.name[6:].isdigit()}
+    front_rows = room.table.loc[room.table[VERIFIED].ne("").to_numpy(dtype=bool), "row"]
+    pages = {int(r): f"{VERIFY_PREFIX}{int(r)}/{VERIFY_HTML}" for r in front_rows if (run_dir / f"{VERIFY_PREFIX}{int(r)}" / VERIFY_HTML).is_file()}
     counts = room.table["kind"].value_counts()
     parts = [f"{int(counts.get('front', 0))} front designs"]
     if counts.get("refined"):
         parts.append(f"{int(counts['refined'])} refined")
     if counts.get("evaluated"):
         parts.append(f"{int(counts['evaluated'])} other evaluated designs (the latest)")
+    if len(front_rows):
+        parts.append(f"{len(front_rows)} front designs verified in the time domain (hisopt verify)")
     note = f"{run_dir}: {', '.join(parts)} of {sources[0].problem.name}; every quantity in engineering units, exports in SI."
-    return write_decision_room(room, run_dir / DECISION_FILE, f"Decision room: {sources[0].problem.name}", note, sheets)
+    return write_decision_room(room, run_dir / DECISION_FILE, f"Decision room: {sources[0].problem.name}", note, sheets, pages)
 
 
 def study_decision_room(result: LayoutStudyResult) -> Path | None:

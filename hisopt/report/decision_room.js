@@ -21,6 +21,7 @@
   const source = decode(D.source, Uint8Array), kind = decode(D.kind, Uint8Array), fileRow = decode(D.row, Int32Array);
   const feasible = decode(D.feasible, Uint8Array), onFront = decode(D.front, Uint8Array);
   const buildable = decode(D.buildable, Uint8Array), bindingRule = decode(D.binding_rule, Uint8Array);
+  const verified = decode(D.verified, Uint8Array); // index into D.verdicts: a front design's verdict in the time domain, "" where not verified
   const curveBytes = decode(D.curves.bytes, Uint8Array);
   const objectives = D.objectives.map((n) => byName[n]);
 
@@ -308,11 +309,14 @@
     const rule = D.rules[bindingRule[i]];
     return buildable[i] ? "yes" : rule ? "no (" + esc(rule) + ")" : "no (not evaluated)";
   }
+  function verifiedText(i) { // blank for a design not verified (hisopt verify RUN_DIR --design N)
+    return esc(D.verdicts[verified[i]] || "");
+  }
   function drawTable() {
     const rows = S.tableRows || [];
     const shownCols = cols.filter((c) => c.group === "variable" || c.group === "objective");
-    const head = "<thead><tr><th>export</th><th class=\"text\">design</th><th class=\"text\">buildable</th>" + shownCols.map((c) => "<th>" + esc(c.name) + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "</tr></thead>";
-    const body = rows.map((i) => "<tr data-row=\"" + i + "\"" + (i === S.shown ? " class=\"shown\"" : "") + "><td><input type=\"checkbox\" data-row=\"" + i + "\"" + (S.chosen.has(i) ? " checked" : "") + "></td><td class=\"text\">" + esc(rowName(i)) + "</td><td class=\"text\">" + verdictText(i) + "</td>" + shownCols.map((c) => "<td>" + number(c.values[i], c.display) + "</td>").join("") + "</tr>").join("");
+    const head = "<thead><tr><th>export</th><th class=\"text\">design</th><th class=\"text\">buildable</th><th class=\"text\" title=\"the verdict of hisopt verify (time domain, nonlinear), for the front designs verified\">verified</th>" + shownCols.map((c) => "<th>" + esc(c.name) + "<span class=\"unit\">[" + c.display.unit + "]</span></th>").join("") + "</tr></thead>";
+    const body = rows.map((i) => "<tr data-row=\"" + i + "\"" + (i === S.shown ? " class=\"shown\"" : "") + "><td><input type=\"checkbox\" data-row=\"" + i + "\"" + (S.chosen.has(i) ? " checked" : "") + "></td><td class=\"text\">" + esc(rowName(i)) + "</td><td class=\"text\">" + verdictText(i) + "</td><td class=\"text\">" + verifiedText(i) + "</td>" + shownCols.map((c) => "<td>" + number(c.values[i], c.display) + "</td>").join("") + "</tr>").join("");
     $("designs").innerHTML = head + "<tbody>" + body + "</tbody>";
   }
 
@@ -325,13 +329,14 @@
     const i = S.hovered >= 0 ? S.hovered : S.shown;
     if (i < 0) return;
     const outside = cols.some((c) => outsideRange(c, i));
-    $("d-title").textContent = rowName(i) + (feasible[i] ? "" : " (not feasible)") + (onFront[i] ? ", on the front" : "") + (buildable[i] ? ", buildable" : ", not buildable") + (outside ? ", a damper valve " + D.outside_range : "");
+    $("d-title").textContent = rowName(i) + (feasible[i] ? "" : " (not feasible)") + (onFront[i] ? ", on the front" : "") + (buildable[i] ? ", buildable" : ", not buildable") + (verified[i] ? ", verified: " + D.verdicts[verified[i]] : "") + (outside ? ", a damper valve " + D.outside_range : "");
     const src = D.sources[source[i]];
     const rows = cols.filter((c) => (c.group !== "variable" || src.variables.indexOf(c.name) >= 0) && inCase(c));
     $("d-table").innerHTML = "<thead><tr><th class=\"text\">quantity</th><th class=\"text\">kind</th><th>value</th></tr></thead><tbody><tr><td class=\"text\">binding_rule</td><td class=\"text\">build</td><td>" + esc(D.rules[bindingRule[i]] || "-") + "</td></tr>" + rows.map((c) => "<tr><td class=\"text\">" + esc(c.name) + "</td><td class=\"text\">" + c.group + "</td><td>" + withUnit(c.values[i], c.display) + (c.group === "variable" ? boundNote(i, esc(c.name)) : "") + (outsideRange(c, i) ? " (outside the validated range)" : "") + "</td></tr>").join("") + "</tbody>";
     const sheet = D.kinds[kind[i]] === "front" && D.sources.length === 1 ? D.sheets[String(fileRow[i])] : undefined;
     const command = D.kinds[kind[i]] === "front" && src.location ? "hisopt sheet " + src.location + " --design " + fileRow[i] : "";
-    $("d-sheet").innerHTML = (sheet ? "<a href=\"" + esc(sheet) + "\">design sheet</a> · " : "") + (command ? "its design sheet: <code>" + command + "</code>" : "export its problem file to evaluate or sheet it");
+    const verifyPage = D.kinds[kind[i]] === "front" && D.sources.length === 1 ? D.verify_pages[String(fileRow[i])] : undefined;
+    $("d-sheet").innerHTML = (sheet ? "<a href=\"" + esc(sheet) + "\">design sheet</a> · " : "") + (verifyPage ? "<a href=\"" + esc(verifyPage) + "\">verified in the time domain: " + verifiedText(i) + "</a> · " : "") + (command ? "its design sheet: <code>" + command + "</code>" : "export its problem file to evaluate or sheet it");
     drawCurves(i);
   }
   function drawCurves(i) {

@@ -114,6 +114,35 @@ def notes(sheet: DesignSheet) -> dict[str, str]:
     return out
 
 
+VERIFY_SECTION = "Verified in the time domain"
+"""The title of the section of the design's time-domain verification (:func:`verification`)."""
+
+
+def verification(sheet: DesignSheet) -> tuple[str, pd.DataFrame | None]:
+    """The section of the design's verification in the time domain (``hisopt verify``):
+    ``(line, table)``: the verdict in words, the realisations and record of each load case,
+    the notes, and every figure in engineering units; without one, the line that says how
+    to make it and no table (``("", None)`` for a sheet not of a run)."""
+    from hisopt.report.verify_page import VERDICT_SENTENCES, figures_table
+    from hisopt.simulation.verification_rows import MATERIAL_GAP
+
+    found = sheet.verified
+    if found is None:
+        return sheet.verify_hint, None
+    s = found.summary
+    cases = ", ".join(f"{case}: R = {r}" for case, r in s["realisations"].items())
+    notes = " ".join(s["notes"]) if s["notes"] else "The nonlinear model stayed within its validity on every road."
+    line = (
+        f"Verdict: {s['verdict']}: {VERDICT_SENTENCES.get(s['verdict'], s['verdict'])}. Each load case on R seeded road realisations "
+        f"(each with its mirror) of {format_quantity(float(s['duration_s']), 's')} after {format_quantity(float(s['settle_s']), 's')} "
+        f"of settling, seed {s['seed']}: {cases}. {notes} Linear: the state space the frequency domain integrates, on the same roads; "
+        "nonlinear: gas law, valve laws, tyre lift-off; gap: nonlinear over linear minus 1, agrees within three standard errors "
+        f"(a small gap: beyond them but below {format_quantity(100 * MATERIAL_GAP, '%')}). "
+        f"The figures and time histories: {found.folder / 'verify.html'} (SI: verify.csv)."
+    )
+    return line, figures_table(found.rows).drop(columns=["what"])
+
+
 def heading(sheet: DesignSheet) -> tuple[str, str]:
     """``(title, line)``: the design and where it comes from, and whether it is feasible."""
     status = sheet.quantities["status"].iloc[0]
@@ -125,7 +154,8 @@ def heading(sheet: DesignSheet) -> tuple[str, str]:
     outside = sorted(set(cases.loc[cases["validated_range"] == OUTSIDE, "load_case"])) if len(cases) else []
     valves = f" Its damper valves are {OUTSIDE_VALIDATED_RANGE} in: {', '.join(outside)}." if outside else ""
     build = f" {verdict_sentence(sheet.build)}" if len(sheet.build) else ""
-    return f"Design sheet: {p.name}, design {sheet.design}", f"Front row {sheet.design} of {sheet.source}; {feasible}.{bounds}{valves}{build}"
+    verified = f" Verified in the time domain: {sheet.verified.summary['verdict']}." if sheet.verified is not None else ""
+    return f"Design sheet: {p.name}, design {sheet.design}", f"Front row {sheet.design} of {sheet.source}; {feasible}.{bounds}{valves}{build}{verified}"
 
 
 def markdown(sheet: DesignSheet) -> str:
@@ -135,6 +165,9 @@ def markdown(sheet: DesignSheet) -> str:
     said = notes(sheet)
     for name, table in tables(sheet):
         parts += [f"## {name}", "", _pipe_table(table), ""] + ([said[name], ""] if name in said else [])
+    line, found = verification(sheet)
+    if line:
+        parts += [f"## {VERIFY_SECTION}", "", line, ""] + ([_pipe_table(found), ""] if found is not None else [])
     return "\n".join(parts)
 
 
@@ -156,10 +189,16 @@ def html_page(sheet: DesignSheet) -> str:
         text = tuple(c for c in table.columns if str(c).split(" [")[0] in TEXT_COLUMNS)
         body += [f"<h2>{html.escape(name)}</h2>", f'<div class="figure">{html_table(table, text_columns=text)}</div>']
         body += [f'<p class="meta">{html.escape(said[name])}</p>'] if name in said else []
+    line, found = verification(sheet)
+    if line:
+        body += [f"<h2>{html.escape(VERIFY_SECTION)}</h2>", f'<p class="meta">{html.escape(line)}</p>']
+        body += [f'<div class="figure">{html_table(found, text_columns=VERIFY_TEXT)}</div>'] if found is not None else []
     head = f'<meta charset="utf-8"><title>{html.escape(title)}</title><style>{REPORT_CSS}</style>'
     return f"<!DOCTYPE html><html><head>{head}</head><body>{''.join(body)}</body></html>\n"
 
 
+VERIFY_TEXT = ("load case", "figure", "unit", "verdict")
+"""The columns of words of the verification's table."""
 TEXT_COLUMNS = ("item", "note", "quantity", "mode", "motion", "valve", "key", "load_case", "validated_range", "rule", "check", "pressure", "holds")
 """The columns of words, not numbers (set left in the HTML tables)."""
 

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hisopt.coupled.model import CoupledModel
-from hisopt.coupled.response import standard_outputs
+from hisopt.coupled.response import Output, standard_outputs
 from hisopt.errors import ConfigError
 from hisopt.evaluation.evaluate import Evaluator
 from hisopt.evaluation.valve_states import valve_states
@@ -73,6 +73,18 @@ def band_mean_square(signal: NDArray[np.float64], dt_s: float, f_min_hz: float, 
     return float(np.sum(gain * power[keep]))
 
 
+def output_signal(output: Output, response: TimeResponse) -> NDArray[np.float64]:
+    """One of :func:`hisopt.coupled.response.standard_outputs` read from a simulated record by
+    the evaluator's own definition, ``sum_p s^p (c_p X + d_p z_g)``, ``(n_t,)``."""
+    assert not output.d[2:].any()  # no output reads the road's acceleration
+    motion = (response.displacement, response.velocity, response.acceleration)
+    road = (response.road_m, RoadInput(response.t_s, response.road_m, "cubic").sampled_rate())
+    total = np.zeros(response.t_s.size)
+    for p in range(output.c.shape[0]):
+        total = total + motion[p] @ output.c[p][:7] + (road[p] @ output.d[p] if p < 2 else 0.0)
+    return total
+
+
 def response_mean_squares(problem: Problem, response: TimeResponse, settle_s: float) -> NDArray[np.float64]:
     """Band mean squares of :data:`FIGURES` (``sigma_aw`` as its square) of a simulated
     ``response`` after ``settle_s`` [s], each output built from the motion by the evaluator's own
@@ -81,16 +93,9 @@ def response_mean_squares(problem: Problem, response: TimeResponse, settle_s: fl
     dt = float(response.t_s[1] - response.t_s[0])
     band = problem.spec.band
     outputs = standard_outputs(problem.vehicle)
-    motion = (response.displacement, response.velocity, response.acceleration)
-    road = (response.road_m, RoadInput(response.t_s, response.road_m, "cubic").sampled_rate())
 
     def signal(name: str) -> NDArray[np.float64]:
-        out = outputs[name]
-        assert not out.d[2:].any()  # no output reads the road's acceleration
-        total = np.zeros(response.t_s.size)
-        for p in range(out.c.shape[0]):
-            total = total + motion[p] @ out.c[p][:7] + (road[p] @ out.d[p] if p < 2 else 0.0)
-        return total[keep]
+        return output_signal(outputs[name], response)[keep]
 
     def mean_square(x: NDArray[np.float64], weighting: str | None = None) -> float:
         return band_mean_square(x, dt, band.f_min_hz, band.f_max_hz, weighting)
@@ -268,6 +273,7 @@ __all__ = [
     "Agreement",
     "band_mean_square",
     "frequency_domain_figures",
+    "output_signal",
     "response_mean_squares",
     "road_agreement",
     "road_realisation",

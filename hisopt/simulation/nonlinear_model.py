@@ -352,6 +352,46 @@ class NonlinearModel:
         dw[self.acc_state] = flows[self.acc_state]  # accumulator nodes integrate their volume
         return np.concatenate([vel, force / self.m[:, None], dw]), h
 
+    @property
+    def linear_network(self) -> bool:
+        """Whether the algebraic part (valve flows, compliance-free nodes) is linear: every
+        valve at a constant resistance, so ``h`` is a fixed linear map of ``(h_dyn, V)``."""
+        return not (self.alg.size and (self.kq_alg.any() or self.dampers))
+
+    def _rate_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``[dV/dt; dw/dt] = M_s [X; V] + M_h h_dyn`` with a linear network: ``(M_s, M_h)``
+        and the wheels' inverse masses ``(4, 1)``; built once."""
+        if "_rate" not in self.__dict__:
+            n_d = self.dyn.size
+            h_d, h_v = np.zeros((self.n_h, n_d)), np.zeros((self.n_h, 7))
+            h_d[self.dyn, np.arange(n_d)] = 1.0
+            if self.alg.size:
+                h_d[self.alg], h_v[self.alg] = self.solve_lin_d, self.solve_lin_v
+            inv_m = 1.0 / self.m[:, None]
+            row = np.where(np.isin(np.arange(n_d), self.acc_state), 1.0, 1.0 / self.e_dyn)[:, None]
+            m_s = np.vstack(
+                [
+                    np.hstack([-self.k_susp * inv_m, (-self.c_susp - self.coupling.T @ h_v) * inv_m]),
+                    np.hstack([np.zeros((n_d, 7)), row * (self.a_dyn @ h_v + self.cp_dyn)]),
+                ]
+            )
+            m_h = np.vstack([-(self.coupling.T @ h_d) * inv_m, row * (self.a_dyn @ h_d)])
+            self._rate = (m_s, m_h, inv_m[3:])
+        return self._rate
+
+    def rate(self, y: np.ndarray, u: np.ndarray, du: np.ndarray) -> np.ndarray:
+        """``dy/dt`` of :meth:`derivative` alone, for states ``y`` ``(n, k)``: with a linear
+        network by precomputed matrices (the integrator's hot path), else through it."""
+        if not self.linear_network:
+            return self.derivative(y, u, du)[0]
+        m_s, m_h, inv_m = self._rate_matrices()
+        w = y[14:]
+        h_dyn = w.copy()
+        h_dyn[self.acc_state] = self.node_pressure(w[self.acc_state])
+        rest = m_s @ y[:14] + m_h @ h_dyn
+        rest[3:7] += self.tyre_force(y[:7], y[7:14], u, du) * inv_m
+        return np.concatenate([y[7:14], rest])
+
     def jacobian(self, y: np.ndarray, u: np.ndarray, du: np.ndarray) -> np.ndarray:
         """Exact Jacobian ``d(dy/dt)/dy`` at one state ``y`` ``(n,)`` (for implicit solvers).
 

@@ -421,7 +421,7 @@ def simulate_batch(
     road = RoadInput(t_s, np.moveaxis(roads, 0, -1), interpolation)
     force = _force_reader(body_force, road.t_s)
     ((_, contracted),) = model.groups()  # a single design: one group
-    quadratic = valve_kq > 0.0 or (mode == "nonlinear" and switches.valve_law and _has_nonlinear_valve(model))
+    quadratic = valve_kq > 0.0 or (mode == "nonlinear" and switches.valve_law and has_nonlinear_valve(model))
     if contracted is not model and quadratic:
         raise ModelError(
             "a valve with R_v = 0 between two oil volumes has no linear resistance for the orifice law to start from; "
@@ -442,7 +442,7 @@ def simulate_batch(
     return _simulate_nonlinear(model, ss, road, chosen, rtol, u_scale, kq, switches, force, gravity)
 
 
-def _has_nonlinear_valve(model: CoupledModel) -> bool:
+def has_nonlinear_valve(model: CoupledModel) -> bool:
     """Whether the model's network has a physical damper valve or an orifice element with a
     quadratic coefficient."""
     if model.his is None:
@@ -542,7 +542,7 @@ def _simulate_nonlinear(
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
         du = road.rate(t) if has_ct else zeros
-        dy, _ = net.derivative(view(y), road.value(t), du)
+        dy = net.rate(view(y), road.value(t), du)
         dy[7:14] += force(t)[:, None] * inv_mass
         return dy.reshape(-1)
 

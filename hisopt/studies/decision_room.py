@@ -26,6 +26,7 @@ from hisopt.hydraulics import laws
 from hisopt.optim.archive import non_dominated_mask
 from hisopt.studies.build_verdicts import run_verdicts
 from hisopt.studies.buildability import BINDING_RULE, BUILD_MARGIN, BUILDABLE
+from hisopt.studies.verified import front_verdicts
 from hisopt.units import psd_unit
 
 if TYPE_CHECKING:
@@ -50,6 +51,8 @@ CURVE_METHODS = ("modal", "direct")
 
 GROUPS = ("variable", "objective", "constraint", "load case", "part", "valve", "build")
 """The kinds of a room's quantity columns, in the page's order (:class:`Room`)."""
+VERIFIED = "verified"
+"""The column of each front design's verdict in the time domain (``hisopt verify``; ``""``: not verified)."""
 KINDS = ("front", "refined", "evaluated")
 """Where a row comes from: ``front.csv``, a refined front (``front_refined.csv``, ``front_refined_ipopt.csv``) or ``evaluations.parquet``."""
 
@@ -94,7 +97,9 @@ class Room:
     load-case quantities, parts and damper valves' equivalent resistances
     (:func:`valve_columns`), the buildability verdict (``build_margin``, ``buildable`` and
     ``binding_rule``, :mod:`hisopt.studies.build_verdicts`: every rule, constrained or not),
-    ``feasible`` and ``front`` (non-dominated among the feasible rows); ``groups`` says which
+    ``verified`` (a front design's verdict in the time domain from ``RUN_DIR/verify-N``,
+    :mod:`hisopt.studies.verified`; ``""`` where not verified), ``feasible`` and ``front``
+    (non-dominated among the feasible rows); ``groups`` says which
     of those each quantity column is (``variable``, ``objective``, ``constraint``, ``load
     case``, ``part``, ``valve``, ``build``) and ``units`` its SI unit.
     ``bounds`` per source the box of each variable; ``curves`` per row and ``baseline`` per
@@ -326,6 +331,7 @@ def decision_room_data(sources: Sequence[Source], method: str = "modal") -> Room
                 frame[c] = own[group][0][c] if group in own else q[c].to_numpy(dtype=float)
         frame[BUILDABLE] = verdicts[BUILDABLE].to_numpy(dtype=bool)
         frame[BINDING_RULE] = verdicts[BINDING_RULE].to_numpy(dtype=str)
+        frame[VERIFIED] = front_verdicts(source.location or None, list(p.variable_names), source.x, source.kind, source.row)
         frame["feasible"] = q["feasible"].to_numpy(dtype=bool)
         frames.append(frame)
         curves.append(design_curves(p, source.x, f_hz, method))

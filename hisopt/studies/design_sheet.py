@@ -23,6 +23,7 @@ from hisopt.problem import Problem
 from hisopt.studies import damper_valves
 from hisopt.studies.buildability import load_case_rules, rule_sheet
 from hisopt.studies.envelope import envelope_table
+from hisopt.studies.verified import VERIFY_JSON, VerifiedDesign, read_verification, same_design, verify_folder
 
 MODE_COLUMNS = ("mode", "motion", "frequency_hz", "damping_ratio")
 """The modes' columns a sheet shows."""
@@ -60,6 +61,12 @@ class DesignSheet:
     build : pd.DataFrame
         every buildability rule, whether or not the problem enforces it: where it binds, its
         value, limit, usage and margin (:func:`hisopt.studies.buildability.rule_sheet`)
+    verified : VerifiedDesign | None
+        its verification in the time domain (``RUN_DIR/verify-N``,
+        :mod:`hisopt.studies.verified`); None when not verified
+    verify_hint : str
+        why it is not verified and the command that would verify it (``""`` for a sheet not
+        of a run)
     """
 
     problem: Problem
@@ -73,6 +80,8 @@ class DesignSheet:
     valve_cases: pd.DataFrame = field(default_factory=pd.DataFrame)
     valve_modes: pd.DataFrame = field(default_factory=pd.DataFrame)
     build: pd.DataFrame = field(default_factory=pd.DataFrame)
+    verified: VerifiedDesign | None = None
+    verify_hint: str = ""
 
     def problem_data(self) -> dict[str, Any]:
         """The problem file of the design (its ``[his]`` values are the design's), as TOML data:
@@ -89,15 +98,26 @@ def without_none(data: Any) -> Any:
     return data
 
 
-def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str) -> DesignSheet:
-    """The sheet of design ``x`` (``(n_var,)`` [SI]) of ``problem``, row ``design`` of ``source``."""
+def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str, run_dir: str | Path | None = None) -> DesignSheet:
+    """The sheet of design ``x`` (``(n_var,)`` [SI]) of ``problem``, row ``design`` of
+    ``source``; with ``run_dir``, its verification in the time domain if the run holds one
+    (:func:`verification_of`).
+
+    Raises
+    ------
+    RunError
+        the run's ``verify-N`` folder holds a malformed summary or table.
+    """
     sheet_problem = problem.replace_values(dict(zip(problem.variable_names, (float(v) for v in x), strict=True)))
     baseline = sheet_problem.baseline[None, :]
     quantities = sheet_problem.evaluate(baseline, log=False)
     modes = modal_analysis(sheet_problem)[list(MODE_COLUMNS)]
     modes.attrs = {"units": {"mode": "-", "motion": "-", "frequency_hz": "Hz", "damping_ratio": "-"}}
     build = rule_sheet(load_case_rules(sheet_problem, baseline))
-    sheet = DesignSheet(sheet_problem, design, source, parts_table(sheet_problem), quantities, envelope_table(sheet_problem), modes, build=build)
+    verified, hint = verification_of(run_dir, design, list(problem.variable_names), x) if run_dir is not None else (None, "")
+    parts = parts_table(sheet_problem)
+    envelope = envelope_table(sheet_problem)
+    sheet = DesignSheet(sheet_problem, design, source, parts, quantities, envelope, modes, build=build, verified=verified, verify_hint=hint)
     if not damper_valves.has_damper_valves(sheet_problem):
         return sheet
     cases = damper_valves.load_case_valves(sheet_problem, baseline)
@@ -105,6 +125,26 @@ def design_sheet(problem: Problem, x: np.ndarray, design: int, source: str) -> D
     per_case = table.drop(columns=["design", "converged"])
     per_case.attrs = {"units": {k: v for k, v in table.attrs["units"].items() if k in per_case.columns}}
     return replace(sheet, valves=damper_valves.valve_settings(cases[0]), valve_cases=per_case, valve_modes=damper_valves.mode_damping(cases))
+
+
+def verification_of(run_dir: str | Path, design: int, names: list[str], x: np.ndarray) -> tuple[VerifiedDesign | None, str]:
+    """``(verification, "")`` of front row ``design`` (values ``x`` [SI] of variables
+    ``names``) when ``RUN_DIR/verify-N`` holds one of this design; else ``(None, why not and
+    the command that verifies it)``.
+
+    Raises
+    ------
+    RunError
+        the folder holds a malformed summary or table (:func:`hisopt.studies.verified.read_verification`).
+    """
+    folder = verify_folder(run_dir, design)
+    command = f"hisopt verify {run_dir} --design {design}"
+    if not (folder / VERIFY_JSON).is_file():
+        return None, f"not verified: run {command}"
+    found = read_verification(folder)
+    if found.summary["row"] != design or not same_design(found.summary["values"], names, x):
+        return None, f"not verified: {folder} holds the verification of another design (a front before the run was resumed); run {command}"
+    return found, ""
 
 
 def parts_table(problem: Problem) -> pd.DataFrame:
