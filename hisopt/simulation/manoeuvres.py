@@ -22,7 +22,7 @@ moment follows ``[handling] gravity_moment`` in all three, as the transient quan
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -31,7 +31,7 @@ import pandas as pd
 
 from hisopt.constants import G_MPS2
 from hisopt.errors import ConfigError, ModelError
-from hisopt.road.profiles import half_sine_profile
+from hisopt.road.profiles import Wheel, half_sine_profile
 from hisopt.simulation.timedomain import SimulationMode, TimeResponse, simulate
 
 if TYPE_CHECKING:
@@ -41,9 +41,17 @@ if TYPE_CHECKING:
 ROLL = 1
 """Index of the roll angle among the DOFs (``hisopt.constants.DOF_NAMES``)."""
 
-RTOL = 1e-9
-"""[-] Relative tolerance of every manoeuvre's integration: the linear step steer's peaks
-reproduce the transient quantities to 1e-6 (docs/model.md §22.4)."""
+RTOL = {"linear": 1e-9, "nonlinear": 1e-6}
+"""[-] Relative tolerance of the integration by mode: the linear step steer's peaks reproduce the
+transient quantities to 1e-6 (docs/model.md §22.4); the nonlinear figures are read against the
+linear ones at the 1e-3 level, and 1e-6 costs half of 1e-9 on a model with hoses and valves."""
+
+REFINEMENT = 1e-7
+"""[-] Budget of the linear runs' peak refinement between samples, a share of the peak
+(:func:`linear_step_s`)."""
+
+FINEST_STEP_S = 1e-4
+"""[s] The linear runs' samples are never finer (a 1.6 kHz ripple is resolved to the budget)."""
 
 FIGURES = {
     "peak_roll": "rad",
@@ -74,12 +82,16 @@ class StepSteer:
 
     3 s covers the peak (the roll mode's first half period, 0.2 s on the paper's car) and lets
     the roll settle to about 1e-3 of its overshoot there; 2 ms samples keep the peaks'
-    refinement error under 1e-8 (:func:`refined_peak`)."""
+    refinement error under 1e-8 on that car (:func:`refined_peak`; linear runs sample finer
+    where the modes need it, :func:`linear_step_s`)."""
 
     accel_g: float
     duration_s: float = 3.0
     dt_s: float = 0.002
     name: str = "step_steer"
+
+    def __post_init__(self) -> None:
+        _check({"accel_g": (self.accel_g, False), "duration_s": (self.duration_s, True), "dt_s": (self.dt_s, True)})
 
     def lateral_acceleration(self, t_s: Any) -> np.ndarray:
         """[m/s^2] ``a_y`` at times ``t_s`` [s] (``accel_g g`` from ``t = 0``)."""
@@ -106,6 +118,11 @@ class SineWithDwell:
     dt_s: float = 0.002
     name: str = "sine_with_dwell"
 
+    def __post_init__(self) -> None:
+        _check({"accel_g": (self.accel_g, False), "frequency_hz": (self.frequency_hz, True), "dt_s": (self.dt_s, True)})
+        if not (self.dwell_s >= 0.0 and self.after_s >= 1.0):
+            raise ConfigError(f"expected dwell_s >= 0 [s] and after_s >= 1 [s] (roll_ratio_1s reads 1 s past the end), got {self.dwell_s!r}, {self.after_s!r}")
+
     @property
     def end_s(self) -> float:
         """[s] End of the steering input, ``1 / f + dwell``."""
@@ -127,7 +144,7 @@ class SineWithDwell:
 
 @dataclass(frozen=True)
 class HalfSineBump:
-    """A half-sine bump ``height_m sin(pi s / length_m)`` under the left wheels, front then rear
+    """A half-sine bump ``height_m sin(pi s / length_m)`` under ``wheels`` (the left), front then rear
     after the wheelbase, driven over at ``speed_mps`` [m/s] (the case's road speed).
 
     50 mm by 1 m is a chosen test, not a standard's: a speed bump's height on a road hump's
@@ -141,7 +158,13 @@ class HalfSineBump:
     length_m: float = 1.0
     settle_s: float = 1.5
     dt_s: float = 0.002
+    wheels: tuple[Wheel, ...] = ("fl", "rl")
     name: str = "half_sine_bump"
+
+    def __post_init__(self) -> None:
+        _check({"speed_mps": (self.speed_mps, True), "height_m": (self.height_m, False), "length_m": (self.length_m, True), "dt_s": (self.dt_s, True)})
+        if not self.settle_s >= 0.0:
+            raise ConfigError(f"expected settle_s >= 0 [s], got {self.settle_s!r}")
 
     def duration_s(self, wheelbase_m: float) -> float:
         """[s] Length of the record on a car of ``wheelbase_m`` [m]."""
@@ -150,6 +173,13 @@ class HalfSineBump:
     def step_s(self) -> float:
         """[s] Sample spacing."""
         return min(self.dt_s, self.length_m / self.speed_mps / 20.0)
+
+
+def _check(values: dict[str, tuple[float, bool]]) -> None:
+    """Each ``name: (value, positive)``: finite, and > 0 when ``positive`` (else nonzero)."""
+    for name, (value, positive) in values.items():
+        if not (np.isfinite(value) and (value > 0.0 if positive else value != 0.0)):
+            raise ConfigError(f"expected {name} finite and {'> 0' if positive else 'nonzero'}, got {value!r}")
 
 
 Manoeuvre = StepSteer | SineWithDwell | HalfSineBump
@@ -181,23 +211,55 @@ def roll_moment(model: CoupledModel, accel: Callable[[Any], np.ndarray]) -> Call
     return force
 
 
-def simulate_manoeuvre(model: CoupledModel, manoeuvre: Manoeuvre, mode: SimulationMode, gravity_moment: bool, rtol: float = RTOL) -> TimeResponse:
+def linear_step_s(model: CoupledModel, gravity_moment: bool, cap_s: float) -> float:
+    """[s] Sample spacing of a linear run: ``cap_s`` divided by the smallest whole number that
+    keeps the peak refinement's bound (:func:`refined_peak`) within :data:`REFINEMENT`.
+
+    The bound sums ``(h |lambda_k|)^4 / 384`` over the roll's modes under a roll moment
+    (:func:`hisopt.evaluation.transient.modal_form`), weighted by each mode's share of the roll
+    (``|r_k / lambda_k|``) and of the roll rate (``|r_k|``): a hose's kilohertz mode that
+    carries 1e-3 of the roll rate needs samples a tenth of a millisecond apart, the paper's car
+    2 ms. Never below :data:`FINEST_STEP_S`; ``cap_s`` when the modes are not trusted."""
+    from hisopt.evaluation.transient import gravity_softened, modal_form, roll_moment_input, stable, static_roll_gain
+
+    a = np.asarray(model.state_space().a, dtype=float)
+    a = a.reshape((-1,) + a.shape[-2:])[:1]
+    b = roll_moment_input(model.car, a.shape[-1])[None]
+    with np.errstate(all="ignore"):
+        form, trusted = modal_form(gravity_softened(a, b) if gravity_moment else a, b, static_roll_gain(model, gravity_moment)[:1])
+    lam, res = form.lam[0], form.res[0]
+    if not (trusted[0] and stable(form.lam)[0]):
+        return cap_s
+    weight = max(float(np.sum(np.abs(w) * np.abs(lam) ** 4) / np.sum(np.abs(w))) for w in (res / lam, res))
+    h = (384.0 * REFINEMENT / weight) ** 0.25
+    return cap_s / int(np.ceil(cap_s / max(h, FINEST_STEP_S)))
+
+
+def simulate_manoeuvre(
+    model: CoupledModel, manoeuvre: Manoeuvre, mode: SimulationMode, gravity_moment: bool, rtol: float | None = None, dt_s: float | None = None
+) -> TimeResponse:
     """One manoeuvre on one design's lumped ``model``: ``"linear"``, or ``"nonlinear"`` with the
     gas law, the valve laws and tyre lift-off; ``gravity_moment`` as ``[handling]`` says.
 
-    Raises :class:`~hisopt.errors.ModelError` when the nonlinear run leaves the model (an
-    accumulator bottoming out) or the integrator fails."""
+    Samples every ``dt_s`` [s]; default the manoeuvre's spacing, in linear mode divided to keep
+    the peaks' refinement within :data:`REFINEMENT` (:func:`linear_step_s`). ``rtol`` default
+    :data:`RTOL` of the mode. Raises :class:`~hisopt.errors.ModelError` when the nonlinear run
+    leaves the model (an accumulator bottoming out) or the integrator fails."""
     nonlinear = mode == "nonlinear"
+    wheelbase = model.car.l_f + model.car.l_r
+    spacing = manoeuvre.step_s() if isinstance(manoeuvre, HalfSineBump) else manoeuvre.dt_s
+    if dt_s is None:
+        dt_s = spacing if nonlinear else linear_step_s(model, gravity_moment, spacing)
+    duration = manoeuvre.duration_s(wheelbase) if isinstance(manoeuvre, HalfSineBump) else manoeuvre.duration_s
+    t = dt_s * np.arange(int(np.floor(duration / dt_s + 1e-9)) + 1)
     if isinstance(manoeuvre, HalfSineBump):
-        dt = manoeuvre.step_s()
-        t = np.arange(0.0, manoeuvre.duration_s(model.car.l_f + model.car.l_r) + 0.5 * dt, dt)
-        road = half_sine_profile(t, manoeuvre.height_m, manoeuvre.length_m, manoeuvre.speed_mps, model.car.l_f + model.car.l_r, ("fl", "rl"))
+        road = half_sine_profile(t, manoeuvre.height_m, manoeuvre.length_m, manoeuvre.speed_mps, wheelbase, manoeuvre.wheels)
         force = None
     else:
-        t = np.arange(0.0, manoeuvre.duration_s + 0.5 * manoeuvre.dt_s, manoeuvre.dt_s)
         road = np.zeros((t.size, 4))
         force = roll_moment(model, manoeuvre.lateral_acceleration)
-    return simulate(model, t, road, mode, tyre_liftoff=nonlinear, rtol=rtol, body_force=force, gravity_moment=gravity_moment, gas_law=True, valve_law=True)
+    tol = RTOL[mode] if rtol is None else rtol
+    return simulate(model, t, road, mode, tyre_liftoff=nonlinear, rtol=tol, body_force=force, gravity_moment=gravity_moment, gas_law=True, valve_law=True)
 
 
 # --- figures ---------------------------------------------------------------------------------
@@ -314,17 +376,20 @@ def steady_roll(model: CoupledModel, accel_g: float, gravity_moment: bool) -> fl
     return float(static_roll_gain(model, gravity_moment)[0]) * accel_g * G_MPS2
 
 
-def manoeuvre_figures(model: CoupledModel, manoeuvre: Manoeuvre, gravity_moment: bool) -> tuple[dict[str, float], dict[str, float], str]:
+def manoeuvre_figures(
+    model: CoupledModel, manoeuvre: Manoeuvre, gravity_moment: bool, rtol: Mapping[str, float] = RTOL
+) -> tuple[dict[str, float], dict[str, float], str]:
     """The figures of one manoeuvre on one design, linear and nonlinear, and a note (the
     nonlinear run's :class:`~hisopt.errors.ModelError`, else empty: its figures are then NaN).
+    ``rtol``: the relative tolerance of each mode (:data:`RTOL`).
 
     The nonlinear step steer's steady roll is its record's last value corrected by the linear
     run's unsettled part there, ``phi_nl(T) + (phi_static - phi_lin(T))``."""
     runs: dict[str, TimeResponse] = {}
     note = ""
-    runs["linear"] = simulate_manoeuvre(model, manoeuvre, "linear", gravity_moment)
+    runs["linear"] = simulate_manoeuvre(model, manoeuvre, "linear", gravity_moment, rtol["linear"])
     try:
-        runs["nonlinear"] = simulate_manoeuvre(model, manoeuvre, "nonlinear", gravity_moment)
+        runs["nonlinear"] = simulate_manoeuvre(model, manoeuvre, "nonlinear", gravity_moment, rtol["nonlinear"])
     except ModelError as err:
         note = f"nonlinear run stopped: {err}"
     out: list[dict[str, float]] = []
@@ -408,6 +473,7 @@ __all__ = [
     "StepSteer",
     "bump_figures",
     "hydraulic_figures",
+    "linear_step_s",
     "manoeuvre_figures",
     "manoeuvre_table",
     "manoeuvres_of",
