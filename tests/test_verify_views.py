@@ -1,4 +1,4 @@
-"""What the user sees of a time-domain verification (docs/model.md §22.6): ``verify.html``,
+"""What the user sees of a time-domain verification (docs/model.md §22.5): ``verify.html``,
 the decision room's "verified" column and the design sheet's section, and the one reading of
 a run's ``verify-N`` folders they share (malformed files refused in one line).
 

@@ -1,4 +1,4 @@
-"""Figures of a time-domain verification (``verify.html``, docs/model.md §22.6), from the
+"""Figures of a time-domain verification (``verify.html``, docs/model.md §22.5), from the
 data handed to them: the worst second of a load case in the linear and the nonlinear model,
 the simulated spectra over the frequency domain's, and each pressure's range against its
 limits. Values in the units :data:`VERIFY_UNITS` names (:func:`verify_display`), the same in

@@ -1,5 +1,5 @@
 """``verify.html``: one design verified in the time domain, as one offline page (docs/model.md
-§22.6).
+§22.5).
 
 The page says the verdict and what it rests on (the realisations and record of each load
 case, the notes on the model's validity), tables every figure of every load case in

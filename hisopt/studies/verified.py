@@ -1,5 +1,5 @@
 """The time-domain verifications of a run's designs, as ``hisopt verify`` leaves them
-(docs/model.md §22.6): ``RUN_DIR/verify-N/verify.json`` (a summary) and ``verify.csv`` (every
+(docs/model.md §22.5): ``RUN_DIR/verify-N/verify.json`` (a summary) and ``verify.csv`` (every
 figure, SI, a units row) for front row ``N``.
 
 The decision room and the design sheet read them here, and only here: one format check, one
