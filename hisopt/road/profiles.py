@@ -163,6 +163,16 @@ def step_profile(
     return height_m * shape[:, None] * _wheel_mask(wheels)
 
 
+def _over_the_bump(t_s: ArrayLike, length_m: float, speed_mps: float, wheelbase_m: float, t0_s: float) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """[m] Each wheel's distance past the bump's start, ``(n_t, 4)`` (the front wheels reach it
+    at ``t0_s``, the rear ``wheelbase / speed`` later), and where it is on the bump."""
+    t, _ = _time_grid(t_s)
+    if not (length_m > 0.0 and speed_mps > 0.0 and wheelbase_m >= 0.0):
+        raise ConfigError(f"expected length_m > 0, speed_mps > 0, wheelbase_m >= 0; got {length_m!r}, {speed_mps!r}, {wheelbase_m!r}")
+    s = speed_mps * (t[:, None] - t0_s) - np.array([0.0, 0.0, wheelbase_m, wheelbase_m])
+    return s, (s >= 0.0) & (s <= length_m)
+
+
 def bump_profile(
     t_s: ArrayLike,
     height_m: float,
@@ -199,11 +209,7 @@ def bump_profile(
     ndarray, shape ``(n_t, 4)``
         [m] Displacements at FL, FR, RL, RR.
     """
-    t, _ = _time_grid(t_s)
-    if not (length_m > 0.0 and speed_mps > 0.0 and wheelbase_m >= 0.0):
-        raise ConfigError(f"expected length_m > 0, speed_mps > 0, wheelbase_m >= 0; got {length_m!r}, {speed_mps!r}, {wheelbase_m!r}")
-    s = speed_mps * (t[:, None] - t0_s) - np.array([0.0, 0.0, wheelbase_m, wheelbase_m])
-    inside = (s >= 0.0) & (s <= length_m)
+    s, inside = _over_the_bump(t_s, length_m, speed_mps, wheelbase_m, t0_s)
     shape = np.where(inside, 0.5 * (1.0 - np.cos(2.0 * np.pi * s / length_m)), 0.0)
     return height_m * shape * _wheel_mask(wheels)
 
@@ -245,11 +251,7 @@ def half_sine_profile(
     ndarray, shape ``(n_t, 4)``
         [m] Displacements at FL, FR, RL, RR.
     """
-    t, _ = _time_grid(t_s)
-    if not (length_m > 0.0 and speed_mps > 0.0 and wheelbase_m >= 0.0):
-        raise ConfigError(f"expected length_m > 0, speed_mps > 0, wheelbase_m >= 0; got {length_m!r}, {speed_mps!r}, {wheelbase_m!r}")
-    s = speed_mps * (t[:, None] - t0_s) - np.array([0.0, 0.0, wheelbase_m, wheelbase_m])
-    inside = (s >= 0.0) & (s <= length_m)
+    s, inside = _over_the_bump(t_s, length_m, speed_mps, wheelbase_m, t0_s)
     shape = np.where(inside, np.sin(np.pi * np.clip(s, 0.0, length_m) / length_m), 0.0)
     return height_m * shape * _wheel_mask(wheels)
 
