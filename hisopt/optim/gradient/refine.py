@@ -321,7 +321,15 @@ def constrained_problem(problem: Problem, objective: str, limits: dict[str, floa
     return problem_from_dict(data, f"{problem.name} ({objective} under limits)", warn_implausible=False)  # checked when read
 
 
-def refine_constrained(problem: Problem, x0: np.ndarray, objective: str, limits: dict[str, float], settings: RefineSettings | None = None) -> PointResult:
+def refine_constrained(
+    problem: Problem,
+    x0: np.ndarray,
+    objective: str,
+    limits: dict[str, float],
+    settings: RefineSettings | None = None,
+    *,
+    compile: bool = False,
+) -> PointResult:
     """Minimise ``objective`` subject to the problem's constraints and ``limits`` from ``x0``.
 
     The epsilon-constraint form of the refinement: :func:`refine_point` on
@@ -336,11 +344,18 @@ def refine_constrained(problem: Problem, x0: np.ndarray, objective: str, limits:
         [variable units] a start design meeting every limit, ``(n_var,)``
     objective, limits
         as :func:`constrained_problem`
+    settings : RefineSettings | None, optional
+        trust-region and IPOPT settings (default :class:`RefineSettings`)
+    compile : bool, optional
+        compile the CasADi model's node functions to C (:func:`~hisopt.optim.gradient.casadi_model.compiled`)
+        instead of evaluating them on CasADi's virtual machine. Off by default: a compilation
+        costs seconds to minutes per model (every layout and load case has its own), a few
+        such NLPs far less; both give the same numbers (docs/model.md §15.4).
     """
     sub = constrained_problem(problem, objective, limits)
     # The CasADi model does not depend on the limits (they enter the NLP's bounds): one per
     # problem and set of constrained quantities, whatever their limits.
-    parts = _worker_parts(_limits_one(sub))
+    parts = _worker_parts(_limits_one(sub), compile)
     x0 = np.asarray(x0, dtype=float)
     start = _evaluate(sub, x0)
     return refine_point(sub, parts, 0, x0, np.array([start[objective]]), np.ones(1), settings or RefineSettings())
@@ -360,23 +375,24 @@ _WORKER: dict[str, Any] = {}
 """Per-process cache: the problem and its CasADi model (built once per worker)."""
 
 
-def model_parts(problem: Problem) -> list[Part]:
-    """The load cases of ``problem`` with their CasADi models (one part without scenarios)."""
+def model_parts(problem: Problem, compile: bool = True) -> list[Part]:
+    """The load cases of ``problem`` with their CasADi models (one part without scenarios),
+    their node functions compiled to C unless ``compile`` is false (:class:`~hisopt.optim.gradient.casadi_model.CasadiModel`)."""
     from hisopt.optim.gradient.casadi_model import CasadiModel
     from hisopt.optim.gradient.sample_parts import sample_cases, uses_samples
 
     if uses_samples(problem):  # one part per common random sample (docs/model.md §18.4)
-        return [Part(c.name, c.space, CasadiModel(c.space), None, c.shift, c.scale, c.road) for c in sample_cases(problem)]
+        return [Part(c.name, c.space, CasadiModel(c.space, compile), None, c.shift, c.scale, c.road) for c in sample_cases(problem)]
     if not problem.spec.scenarios:
-        return [Part(None, problem, CasadiModel(problem))]
+        return [Part(None, problem, CasadiModel(problem, compile))]
     spaces = [(name, problem.scenario_space(name)) for name in problem.scenario_names]
-    return [Part(name, space, CasadiModel(space)) for name, space in spaces]  # type: ignore[arg-type]
+    return [Part(name, space, CasadiModel(space, compile)) for name, space in spaces]  # type: ignore[arg-type]
 
 
-def _worker_parts(problem: Problem) -> list[Part]:
-    key = problem.spec.model_dump_json()
+def _worker_parts(problem: Problem, compile: bool = True) -> list[Part]:
+    key = (problem.spec.model_dump_json(), compile)
     if _WORKER.get("key") != key:
-        _WORKER.update(key=key, problem=problem, parts=model_parts(problem))
+        _WORKER.update(key=key, problem=problem, parts=model_parts(problem, compile))
     return _WORKER["parts"]
 
 
