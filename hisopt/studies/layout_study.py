@@ -303,6 +303,7 @@ def run_layout_study(
     handling_limit: float | None = None,
     backend: Backend | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
+    refine_method: str = "slp",
 ) -> LayoutStudyResult:
     """Optimise every layout with every seed and compare them (module docstring).
 
@@ -328,11 +329,15 @@ def run_layout_study(
         where runs and refinements go (default this process; Dask: one task per run)
     progress : Callable[[dict[str, Any]], None] | None, optional
         called with ``{"layout", "seed", "evaluations", "feasible_designs"}`` as each run ends
+    refine_method : str, optional
+        [-] the solver of the equal-handling NLP: ``"slp"`` (batched SLP on the evaluator) or
+        ``"ipopt"`` (IPOPT on the CasADi model; docs/model.md §15.4)
 
     Raises
     ------
     ConfigError
-        An unknown layout, bad seeds, an unknown handling quantity or a non-positive limit.
+        An unknown layout, bad seeds, an unknown handling quantity, a non-positive limit or an
+        unknown ``refine_method``.
     RunError
         ``out`` holds a study of another problem or budget, a run that cannot be resumed, a
         folder of another kind or files hisopt did not write (:func:`hisopt.folders.claim`).
@@ -340,7 +345,10 @@ def run_layout_study(
     from hisopt.evaluation.parallel import Backend
     from hisopt.folders import LAYOUT_STUDY, check_claim, claim
 
+    from hisopt.optim.gradient.refine import method_settings
+
     seed_list, cases, handling = check_arguments(problem, layouts, seeds, handling, handling_limit)
+    method_settings(refine_method, None)  # an unknown method fails before any work
     budget = study_budget(problem, pop_size, generations)  # bad budgets fail before any work
     out_dir = None if out is None else Path(out)
     if out_dir is not None:
@@ -366,7 +374,7 @@ def run_layout_study(
     runs = backend.map(_run_task, tasks, problems, None if out_dir is None else str(out_dir), pop_size, generations, handling, on_result=report)
     from hisopt.studies.layout_tables import assemble
 
-    frames = assemble(cases, runs, norm, handling, handling_limit, backend)
+    frames = assemble(cases, runs, norm, handling, handling_limit, backend, method=refine_method)
     result = LayoutStudyResult(**frames, cases=cases, normalisation=norm, handling=handling, handling_limit=handling_limit, out=out_dir)
     if out_dir is not None:
         from hisopt.io import write_csv

@@ -22,12 +22,14 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
 
 
-def _refine_task(task: tuple[str, np.ndarray, float], problems: dict[str, Problem], handling: str) -> dict[str, Any]:
-    """Best comfort under ``handling <= limit`` from a start design, by the NLP."""
+def _refine_task(task: tuple[str, np.ndarray, float], problems: dict[str, Problem], handling: str, method: str = "slp") -> dict[str, Any]:
+    """Best comfort under ``handling <= limit`` from a start design, by the NLP (``method``:
+    the batched SLP, or IPOPT on CasADi's virtual machine, at most 8 trust-region rounds)."""
     from hisopt.optim.gradient.refine import RefineSettings, refine_constrained
 
     name, x0, limit = task
-    point = refine_constrained(problems[name], x0, COMFORT, {handling: limit}, RefineSettings(rounds=8))
+    settings = RefineSettings(rounds=8) if method == "ipopt" else None
+    point = refine_constrained(problems[name], x0, COMFORT, {handling: limit}, settings, method=method)
     return {"accepted": point.accepted, "x": point.x, COMFORT: point.quantities[COMFORT], handling: point.quantities[handling]}
 
 
@@ -54,6 +56,7 @@ def assemble(
     limit: float,
     backend: Backend,
     curve_refined: int = 4,
+    method: str = "slp",
 ) -> dict[str, pd.DataFrame]:
     """``table``, ``runs``, ``fronts``, ``curve`` and ``attainment`` of a study (module docstring).
 
@@ -73,6 +76,9 @@ def assemble(
         where the refinements run
     curve_refined : int, optional
         [-] refined points per layout on the trade-off curve
+    method : str, optional
+        [-] the refinements' solver, ``"slp"`` or ``"ipopt"``
+        (:func:`hisopt.optim.gradient.refine.refine_constrained`)
     """
     problems = {c.name: c.problem for c in cases}
     objectives = list(norm.objectives)
@@ -97,7 +103,7 @@ def assemble(
         pool, names = pools[c.name], list(c.problem.variable_names)
         for i in _curve_starts(pool, handling, curve_refined) if len(pool) and refinable[c.name] else []:
             tasks.append((c.name, pool.loc[i, names].to_numpy(dtype=float), float(pool.loc[i, handling])))
-    refined = backend.map(_refine_task, tasks, problems, handling)
+    refined = backend.map(_refine_task, tasks, problems, handling, method)
 
     # ---- per run: hypervolume in the shared normalisation ------------------------------------------
     run_rows, front_parts = [], []

@@ -79,6 +79,10 @@ class SlpSettings:
     chunk : int
         [-] designs refined together (one evaluator batch and one linear programme per
         iteration); a fixed size, so the result never depends on how many workers share them
+    correction : bool
+        [-] a step that breaks a constraint the linear model kept is corrected back onto it
+        (:func:`corrected_steps`) and evaluated again, so that a design can slide along a
+        curved constraint that binds (the epsilon-constraint NLP's handling limit)
 
     Notes
     -----
@@ -97,6 +101,7 @@ class SlpSettings:
     starts: int = 4
     start_spread: float = 0.5
     chunk: int = 25
+    correction: bool = False
 
     def __post_init__(self) -> None:
         if self.starts < 2 or self.chunk < 1 or self.iterations < 0:
@@ -324,6 +329,13 @@ def solve_slp(
         # 3. evaluate the steps; keep those that deliver
         trial_u = np.clip(ur + d, 0.0, 1.0)
         gap_t, con_t, valid_t, q_t = at(lower + span * trial_u, rows)
+        if settings.correction:
+            broken = valid_t & np.any(con_t > 0.0, axis=1)
+            if broken.any():
+                moved = corrected_steps(trial_u[broken], con_t[broken], con_jac.transpose(0, 2, 1)[~done][broken], low[~done][broken] != high[~done][broken])
+                gap_c, con_c, valid_c, q_c = at(lower + span * moved, rows[broken])
+                trial_u[broken], gap_t[broken], con_t[broken], valid_t[broken] = moved, gap_c, con_c, valid_c
+                q_t = {key: _with_rows(np.asarray(value), broken, np.asarray(q_c[key])) for key, value in q_t.items()}
         fall = current[rows] - merit(gap_t, path_rho[rows])
         good = valid_t & np.all(con_t <= 0.0, axis=1) & (fall >= 0.1 * promise)
         good &= ~monotone[rows] | np.all(gap_t <= 0.0, axis=1)
@@ -354,6 +366,29 @@ def solve_slp(
         evaluations=count[0],
         status=[str(s) for s in status],
     )
+
+
+def _with_rows(values: np.ndarray, rows: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """``values`` with its entries at mask ``rows`` replaced by ``new`` (a copy)."""
+    out = np.array(values, copy=True)
+    out[rows] = new
+    return out
+
+
+def corrected_steps(u: np.ndarray, con: np.ndarray, con_jac: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """[-] Second-order correction: trial designs ``u`` ``(n, m)`` moved back across the
+    constraints they break (``con > 0``, ``(n, c)``) by the least-norm step of their
+    linearisation ``con + con_jac . d = -0.1 con`` (``con_jac`` ``(n, c, m)`` at the step's
+    start), over the ``free`` variables ``(n, m)`` only, then clipped onto the box. Aiming a
+    tenth beyond the limit leaves room for the curvature the linear model misses.
+    """
+    out = np.array(u, copy=True)
+    for i in range(len(u)):
+        broken = con[i] > 0.0
+        a = np.where(free[i][None, :], con_jac[i][broken], 0.0)
+        step = np.linalg.lstsq(a, -1.1 * con[i][broken], rcond=None)[0]
+        out[i] = np.clip(u[i] + step, 0.0, 1.0)
+    return out
 
 
 def start_points(u0: np.ndarray, keys: np.ndarray, settings: SlpSettings) -> np.ndarray:
