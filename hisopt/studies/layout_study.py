@@ -344,7 +344,6 @@ def run_layout_study(
     """
     from hisopt.evaluation.parallel import Backend
     from hisopt.folders import LAYOUT_STUDY, check_claim, claim
-
     from hisopt.optim.gradient.refine import method_settings
 
     seed_list, cases, handling = check_arguments(problem, layouts, seeds, handling, handling_limit)
