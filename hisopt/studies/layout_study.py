@@ -12,9 +12,10 @@ objectives and constraints with the same budget per layout and seed, then compar
    problem's baseline design on the roll-plane layout), per layout the best comfort
    (``sigma_aw``) among every feasible design its runs evaluated that meets the limit, and
    the epsilon-constraint NLP (:func:`hisopt.optim.gradient.refine.refine_constrained`: minimise
-   ``sigma_aw`` subject to the constraints and ``handling <= limit``) started from each
+   ``sigma_aw`` subject to the constraints and ``handling <= limit``, by the batched SLP on the
+   evaluator, no C compilation; IPOPT with ``refine_method="ipopt"``) started from each
    seed's best such design (kept only if the evaluator confirms it; not for a layout with
-   damper valves whose RMS flows are solved per design, which the NLP's model cannot hold:
+   damper valves whose RMS flows are solved per design, which IPOPT's model cannot hold:
    its sampled designs stand); the best of these, and
    its gain over the roll-plane
    layout at the same limit, ``gain_vs_roll_plane_pct = 100 (1 - sigma_layout / sigma_roll_plane)``
