@@ -1,10 +1,11 @@
 """The equal-handling NLP of the layout study without a C compilation (docs/model.md §15.4).
 
 The layout study (and synthesis, which runs it) refines each layout's best design at the
-handling limit by the batched SLP on the evaluator (``refine_constrained``, ``method="slp"``,
-steps corrected back onto the limit). The old path is IPOPT on the CasADi model, whose node
-functions it compiled to C (``compile=True``); it now runs on CasADi's virtual machine by
-default (``compile=False``). Compared here, from each catalogue layout's baseline design on
+handling limit by IPOPT on the CasADi model evaluated on CasADi's virtual machine
+(``refine_constrained``, ``compile=False``); the old path compiled the model's node functions
+to C first (``compile=True``). The points along the trade-off curve, and the equal-handling
+NLPs with ``refine_method="slp"``, are solved by the batched SLP on the evaluator (steps
+corrected back onto the limit). Compared here, from each catalogue layout's baseline design on
 the paper's problem with the limit at the design's own roll gradient (so that the limit binds
 from the start, the hard case for a linear programme): the refined ``sigma_aw`` of the paths.
 
@@ -61,7 +62,7 @@ def _checked(case, point, limit, name):
 
 def _slp_meets_ipopt(problem, name):
     case, x0, limit = _start(problem, name)
-    slp = _checked(case, refine_constrained(case, x0, "sigma_aw", {"roll_gradient": limit}), limit, name)
+    slp = _checked(case, refine_constrained(case, x0, "sigma_aw", {"roll_gradient": limit}, method="slp"), limit, name)
     ipopt = _checked(case, refine_constrained(case, x0, "sigma_aw", {"roll_gradient": limit}, IPOPT, method="ipopt"), limit, name)
     assert np.log10(slp / ipopt) <= SLP_BUDGET, (name, slp, ipopt)
 

@@ -12,8 +12,8 @@ objectives and constraints with the same budget per layout and seed, then compar
    problem's baseline design on the roll-plane layout), per layout the best comfort
    (``sigma_aw``) among every feasible design its runs evaluated that meets the limit, and
    the epsilon-constraint NLP (:func:`hisopt.optim.gradient.refine.refine_constrained`: minimise
-   ``sigma_aw`` subject to the constraints and ``handling <= limit``, by the batched SLP on the
-   evaluator, no C compilation; IPOPT with ``refine_method="ipopt"``) started from each
+   ``sigma_aw`` subject to the constraints and ``handling <= limit``, by IPOPT on CasADi's
+   virtual machine, no C compilation; the batched SLP with ``refine_method="slp"``) started from each
    seed's best such design (kept only if the evaluator confirms it; not for a layout with
    damper valves whose RMS flows are solved per design, which IPOPT's model cannot hold:
    its sampled designs stand); the best of these, and
@@ -304,7 +304,7 @@ def run_layout_study(
     handling_limit: float | None = None,
     backend: Backend | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
-    refine_method: str = "slp",
+    refine_method: str = "ipopt",
 ) -> LayoutStudyResult:
     """Optimise every layout with every seed and compare them (module docstring).
 
@@ -331,8 +331,9 @@ def run_layout_study(
     progress : Callable[[dict[str, Any]], None] | None, optional
         called with ``{"layout", "seed", "evaluations", "feasible_designs"}`` as each run ends
     refine_method : str, optional
-        [-] the solver of the equal-handling NLP: ``"slp"`` (batched SLP on the evaluator) or
-        ``"ipopt"`` (IPOPT on the CasADi model; docs/model.md §15.4)
+        [-] the solver of the equal-handling NLP: ``"ipopt"`` (IPOPT on the CasADi model, on
+        CasADi's virtual machine) or ``"slp"`` (the batched SLP on the evaluator; the
+        trade-off curve's points always; docs/model.md §15.4)
 
     Raises
     ------

@@ -22,12 +22,12 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
 
 
-def _refine_task(task: tuple[str, np.ndarray, float], problems: dict[str, Problem], handling: str, method: str = "slp") -> dict[str, Any]:
-    """Best comfort under ``handling <= limit`` from a start design, by the NLP (``method``:
-    the batched SLP, or IPOPT on CasADi's virtual machine, at most 8 trust-region rounds)."""
+def _refine_task(task: tuple[str, np.ndarray, float, str], problems: dict[str, Problem], handling: str) -> dict[str, Any]:
+    """Best comfort under ``handling <= limit`` from a start design, by the NLP (its method:
+    IPOPT on CasADi's virtual machine, at most 8 trust-region rounds, or the batched SLP)."""
     from hisopt.optim.gradient.refine import RefineSettings, refine_constrained
 
-    name, x0, limit = task
+    name, x0, limit, method = task
     settings = RefineSettings(rounds=8) if method == "ipopt" else None
     point = refine_constrained(problems[name], x0, COMFORT, {handling: limit}, settings, method=method)
     return {"accepted": point.accepted, "x": point.x, COMFORT: point.quantities[COMFORT], handling: point.quantities[handling]}
@@ -56,7 +56,7 @@ def assemble(
     limit: float,
     backend: Backend,
     curve_refined: int = 4,
-    method: str = "slp",
+    method: str = "ipopt",
 ) -> dict[str, pd.DataFrame]:
     """``table``, ``runs``, ``fronts``, ``curve`` and ``attainment`` of a study (module docstring).
 
@@ -77,8 +77,9 @@ def assemble(
     curve_refined : int, optional
         [-] refined points per layout on the trade-off curve
     method : str, optional
-        [-] the refinements' solver, ``"slp"`` or ``"ipopt"``
-        (:func:`hisopt.optim.gradient.refine.refine_constrained`)
+        [-] the solver of the equal-handling refinements, ``"ipopt"`` (on CasADi's virtual
+        machine) or ``"slp"`` (:func:`hisopt.optim.gradient.refine.refine_constrained`); the
+        trade-off curve's points are refined by the SLP (docs/model.md §15.4)
     """
     problems = {c.name: c.problem for c in cases}
     objectives = list(norm.objectives)
@@ -86,7 +87,7 @@ def assemble(
     pools = {c.name: _pool(runs, c.name) for c in cases}
 
     # ---- refinements: from each seed's best design at the limit, then points along each curve ------
-    tasks: list[tuple[str, np.ndarray, float]] = []
+    tasks: list[tuple[str, np.ndarray, float, str]] = []
     best_row: dict[str, int | None] = {}
     # the NLP's CasADi model holds each valve at one resistance: damper valves whose RMS flows
     # are solved per design (docs/model.md §3.3) keep their layout's sampled designs unrefined
@@ -97,13 +98,13 @@ def assemble(
         for _, part in pool.groupby("seed", sort=True) if refinable[c.name] else ():  # several starts: the NLP finds local optima
             i = best_at_limit(part[COMFORT].to_numpy(), part[handling].to_numpy(), limit)
             if i is not None:
-                tasks.append((c.name, part.iloc[i][names].to_numpy(dtype=float), limit))
+                tasks.append((c.name, part.iloc[i][names].to_numpy(dtype=float), limit, method))
     n_equal = len(tasks)
     for c in cases:
         pool, names = pools[c.name], list(c.problem.variable_names)
         for i in _curve_starts(pool, handling, curve_refined) if len(pool) and refinable[c.name] else []:
-            tasks.append((c.name, pool.loc[i, names].to_numpy(dtype=float), float(pool.loc[i, handling])))
-    refined = backend.map(_refine_task, tasks, problems, handling, method)
+            tasks.append((c.name, pool.loc[i, names].to_numpy(dtype=float), float(pool.loc[i, handling]), "slp"))  # the curve: cheap
+    refined = backend.map(_refine_task, tasks, problems, handling)
 
     # ---- per run: hypervolume in the shared normalisation ------------------------------------------
     run_rows, front_parts = [], []

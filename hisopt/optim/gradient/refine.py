@@ -328,7 +328,7 @@ def refine_constrained(
     limits: dict[str, float],
     settings: RefineSettings | SlpSettings | None = None,
     *,
-    method: str = "slp",
+    method: str = "ipopt",
     compile: bool = False,
 ) -> PointResult:
     """Minimise ``objective`` subject to the problem's constraints and ``limits`` from ``x0``.
@@ -349,9 +349,9 @@ def refine_constrained(
     objective, limits
         as :func:`constrained_problem`
     settings : RefineSettings | SlpSettings | None, optional
-        the method's settings (default :data:`CONSTRAINED_SLP`, or :class:`RefineSettings`)
+        the method's settings (default :class:`RefineSettings`, or :data:`CONSTRAINED_SLP`)
     method : str, optional
-        [-] ``"slp"`` or ``"ipopt"`` (:data:`METHODS`)
+        [-] ``"ipopt"`` or ``"slp"`` (:data:`METHODS`)
     compile : bool, optional
         compile the CasADi model's node functions to C (:func:`~hisopt.optim.gradient.casadi_model.compiled`)
         instead of evaluating them on CasADi's virtual machine. Off by default: a compilation
