@@ -75,6 +75,38 @@ def test_every_catalogue_layout_is_a_candidate_with_its_stiffness_table(full_car
         assert tables["stiffness_coupling"][k] == pytest.approx(want["stiffness_coupling"], abs=1e-12)
 
 
+def test_a_charged_problem_screens_on_the_charged_stiffness_of_hisopt_layouts(full_car_10):
+    # issue 40/42: a charged HIS ([his.charge]) is screened as `hisopt layouts` screens it, at
+    # its static pressures: on the envelope problem (its own load case at the charge
+    # temperature, unladen, so each circuit alone sits at its charge pressure, exactly as in
+    # the whole layout) the candidates' rows equal mode_stiffness's, and roll_plane's k_roll
+    # is the hand value of tests/test_layouts.py: phi^2 ~ 1/2 halves the compliance, so about
+    # twice the uncharged 211.8 kN/m
+    from hisopt.constants import P_ATM_PA
+    from hisopt.plausibility import PlausibilityWarning
+    from hisopt.studies.screening import mode_stiffness
+
+    with pytest.warns(PlausibilityWarning):  # its -20 C case's extrapolated viscosity
+        problem = load_problem(ROOT / "problems" / "roll_plane_his_envelope.toml")
+    his = problem.spec.his
+    names = ("roll_plane", "axle_roll")
+    by_name = {name: i for i, name in synthesis.catalogue_names(full_car_10).items()}
+    subset = topology.Enumeration(
+        full_car_10.circuits, [full_car_10.candidates[by_name[n]] for n in names], full_car_10.chambers, True, 10, full_car_10.classes
+    )
+    tables = synthesis.candidate_tables(problem, subset)
+    want = mode_stiffness(problem).set_index("layout")
+    for k, name in enumerate(names):
+        for q in ("k_bounce", "k_roll", "k_pitch", "k_warp", "c_bounce", "c_roll", "c_pitch", "c_warp"):
+            # error budget: a sum over at most two circuits of the same per-circuit solves
+            scale = float(np.max(np.abs(want.loc[name, [f"{q[:2]}{p}" for p in ("bounce", "roll", "pitch", "warp")]].to_numpy(float))))
+            assert tables[q][k] == pytest.approx(float(want.loc[name, q]), rel=0, abs=1e-12 * scale), (name, q)
+    compliance = his.charge.gas_fraction**2 * his.V0 / (his.gamma * (his.p0 + P_ATM_PA))
+    a_b = his.dA / (1.0 - his.lam)
+    assert tables["k_roll"][0] == pytest.approx(2 * (2 * (his.lam * a_b + a_b)) ** 2 / compliance, rel=1e-9)
+    assert tables["k_roll"][0] == pytest.approx(432_273, rel=1e-5)
+
+
 def test_catalogue_layouts_are_recognised_in_their_own_element_count_only():
     counts = {name: sum(topology.element_count(g) for g in topology.layout_graphs(e.layout(False, False))) for name, e in catalogue().items()}
     assert counts == {

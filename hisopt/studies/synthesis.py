@@ -103,22 +103,30 @@ def synthesis_bounds() -> dict[str, dict[str, Any]]:
 # --- screening -----------------------------------------------------------------------------------
 def circuit_matrices(problem: Problem, graphs: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
     """[N/m], [N s/m] Static stroke stiffness and low-frequency damping (4 x 4 each) that each
-    one-circuit node graph adds at the problem's values (its pipes and chamber volumes):
-    shapes ``(n, 4, 4)``."""
+    one-circuit node graph adds at the problem's values (its pipes and chamber volumes) and
+    temperature, linearised at the static operating point of the problem's own load case as
+    its model is (:func:`hisopt.specification.design_space.at_operating_point`: a charged HIS
+    at its static pressures, as ``hisopt layouts`` screens it): shapes ``(n, 4, 4)``.
+
+    Each circuit is solved alone: exact for a charged HIS at its charge temperature without a
+    payload (each circuit sits at its own charge pressure) and for the precharge; under a
+    payload or away from the charge temperature the car's static displacement, which all
+    circuits share, is the one circuit's."""
     from hisopt.hydraulics.catalogue import his_parameter_values, with_chamber_lines
     from hisopt.hydraulics.coupling import HydraulicSystem
     from hisopt.hydraulics.layout import Layout
     from hisopt.hydraulics.network import compile_network
+    from hisopt.specification.design_space import at_operating_point
 
     his = problem.spec.his
-    values = his_parameter_values(his.model_copy(update={"layout": "custom", "parameters": {}}), synthesis_parameters())
+    values = his_parameter_values(his.model_copy(update={"layout": "custom", "parameters": {}}), synthesis_parameters(), problem.spec.temperature)
     values |= damper_valve_resistances(problem)
     pipes, chamber = his.pipes is not None, his.chamber_volume > 0
     k = np.zeros((len(graphs), 4, 4))
     c = np.zeros((len(graphs), 4, 4))
     for i, graph in enumerate(graphs):
         layout = with_chamber_lines(Layout((topology.circuit_of_graph(graph, "A"),)), pipes, chamber)
-        system = HydraulicSystem(compile_network(layout, "lumped"), values)
+        system = at_operating_point(problem.spec, HydraulicSystem(compile_network(layout, "lumped"), values))
         k[i] = np.asarray(system.static_stiffness(), dtype=float).reshape(4, 4)
         c[i] = np.asarray(system.low_frequency_damping(), dtype=float).reshape(4, 4)
     return k, c
