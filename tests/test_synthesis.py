@@ -300,6 +300,75 @@ def test_run_commands_given_a_synthesis_say_what_it_is(tmp_path):
         assert "a topology synthesis" in outcome.stderr and "/study" in outcome.stderr
 
 
+# --- successive halving (docs/model.md §20.6) -------------------------------------------------------
+HALVING_ARGS = ("--max-elements", "4", "--chambers", "front", "--seeds", "1-2", "--pop", "8", "--gens", "2")
+
+
+@pytest.fixture(scope="module")
+def screened_problem(tmp_path_factory) -> Path:
+    """The paper's problem with the robust problem's screen: 4 of 54 front candidates kept at K = 4."""
+    path = tmp_path_factory.mktemp("halving") / "problem.toml"
+    path.write_text(DEFAULT_PROBLEM.read_text() + '\n[synthesis]\nscreen = { k_roll = { min = "50 kN/m" }, k_bounce = { max = "23.6 kN/m" } }\n')
+    return path
+
+
+@pytest.fixture(scope="module")
+def halving_run(screened_problem, tmp_path_factory):
+    out = tmp_path_factory.mktemp("halving") / "syn"
+    outcome = run_cli("synthesize", str(screened_problem), "--out", str(out), *HALVING_ARGS, "--rungs", "2", "--first-gens", "1")
+    return outcome, out
+
+
+def test_halving_runs_every_screened_in_candidate_and_the_best_half_at_full_budget(halving_run):
+    import json
+
+    from scipy.stats import spearmanr
+
+    from hisopt.io import read_csv
+
+    outcome, out = halving_run
+    assert outcome.code == 0, outcome.stderr
+    frame = read_csv(out / "candidates.csv")
+    kept = frame[frame["screen_rank"].notna()].sort_values("screen_rank")
+    assert len(kept) == 4 and (frame["status"] != synthesis.STATUS_SCREENED_IN).all()  # every screened-in candidate ran
+    # rung 1: all four at 1 generation, one seed; rung 2: ceil(4 / 3) = 2 at the full 2 generations, seeds 1-2
+    assert kept["rung"].tolist().count(2) == 2 and kept["rung"].tolist().count(1) == 2
+    assert kept["gain_rung_1"].notna().all() and kept["gain_rung_2"].notna().sum() == 2
+    # the two that went on are the two best of rung 1 (every one has a design at the limit here)
+    best_two = kept.sort_values(["gain_rung_1", "screen_rank"], ascending=[False, True])["candidate"].head(2)
+    assert set(best_two) == set(kept.loc[kept["rung"] == 2, "candidate"])
+    assert set(read_csv(out / "layouts.csv")["layout"]) == set(best_two) | {"roll_plane"}
+    runs = read_csv(out / "rung-1" / "runs.csv")
+    assert set(runs["seed"]) == {1} and len(runs) == 5
+    assert set(read_csv(out / "study" / "runs.csv")["seed"]) == {1, 2}
+    halving = json.loads((out / "halving.json").read_text())
+    assert [(g["candidates"], g["generations"], g["seeds"]) for g in halving["plan"]] == [(4, 1, [1]), (2, 2, [1, 2])]
+    # the Spearman figure of the first rung, recomputed from the CSV (ranks: 1 the best)
+    want = spearmanr(kept["screen_rank"], -kept["gain_rung_1"]).statistic
+    assert halving["spearman_first"]["rho"] == pytest.approx(want, abs=1e-12) and halving["spearman_first"]["candidates"] == 4
+    assert halving["spearman_final"] == {"rho": None, "p_value": None, "candidates": 2}  # two candidates: undefined
+    # the old rule optimised the screen's first ten: all four here, so it misses nothing
+    assert halving["top_ten"] == frame.dropna(subset=["final_rank"]).sort_values("final_rank")["candidate"].tolist()
+    assert halving["top_ten_missed_by_old_rule"] == []
+    assert "Spearman rank correlation" in outcome.stdout and "rung 2: 2 x 2 generations x 2 seeds" in outcome.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (("--rungs", "4", "--first-gens", "1", "--gens", "100"), "--rungs 4 with 4 candidates"),  # 4 -> 2 -> 1: nothing for rung 4
+        (("--rungs", "2", "--first-gens", "0"), "--first-gens: expected at least 1 generation"),
+        (("--rungs", "2", "--first-gens", "2"), "rung 1 would run 2 generations"),  # the full budget is 2
+        (("--optimise", "2", "--rungs", "2"), "--optimise"),
+    ],
+)
+def test_bad_halving_input_is_one_line_exit_2_and_writes_nothing(screened_problem, tmp_path, args, needle):
+    outcome = run_cli("synthesize", str(screened_problem), "--out", str(tmp_path / "s"), *HALVING_ARGS, *args)
+    assert outcome.code == 2 and len(outcome.error_lines) == 1, outcome.stderr
+    assert needle in outcome.stderr and "Traceback" not in outcome.stderr
+    assert not (tmp_path / "s").exists()
+
+
 # --- the run: resume after SIGKILL ---------------------------------------------------------------
 CLI_ARGS = ("--max-elements", "4", "--chambers", "front", "--optimise", "2", "--seeds", "1-2", "--pop", "12", "--gens", "12")
 FILES = ("candidates.csv", "layouts.csv", "synthesis.json", "layouts/c000006.toml")

@@ -521,9 +521,8 @@ def run_synthesis(
         check_claim(out_dir, SYNTHESIS)  # a folder of another kind, or a user's, is refused
         check_record(out_dir, record)  # so is another synthesis
         read_study_record(out_dir / STUDY_DIR, problem, budget)
-    say(f"enumerating {count:,} candidates of at most {max_elements} elements")
+    # no news before the plan is checked: a refused plan is one line (its count needs the screen)
     enumeration = topology.enumerate_layouts(max_elements, chambers, symmetric)
-    say("screening their mode-stiffness tables")
     candidates = screening_frame(problem, enumeration)
     screen_order = pick_survivors(candidates, len(candidates))
     plan = None
@@ -536,6 +535,7 @@ def run_synthesis(
     if out_dir is not None:
         claim(out_dir, SYNTHESIS)
         atomic_write_json(out_dir / SYNTHESIS_JSON, record)
+    say(f"enumerated and screened {count:,} candidates of at most {max_elements} elements: {len(screen_order):,} screened in")
     picked = screen_order if plan is not None else screen_order[: int(optimise or 0)]
     study, halving = None, None
     files: dict[str, Path] = {}
