@@ -351,6 +351,7 @@ def test_halving_runs_every_screened_in_candidate_and_the_best_half_at_full_budg
     assert halving["top_ten"] == frame.dropna(subset=["final_rank"]).sort_values("final_rank")["candidate"].tolist()
     assert halving["top_ten_missed_by_old_rule"] == []
     assert "Spearman rank correlation" in outcome.stdout and "rung 2: 2 x 2 generations x 2 seeds" in outcome.stdout
+    assert "<h2>Successive halving</h2>" in (out / "report.html").read_text()
 
 
 @pytest.mark.parametrize(

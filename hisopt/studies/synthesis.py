@@ -553,7 +553,7 @@ def run_synthesis(
             extra = sh.rung_columns(run, list(candidates["candidate"]), names)
             units = dict(candidates.attrs["units"]) | sh.rung_units(len(plan))
             candidates = with_units(pd.concat([candidates, extra], axis=1), units)
-            files = {n: files[n] for n in run.result.entrants[-1]}  # type: ignore[index]
+            files = {str(n): files[str(n)] for n in run.result.entrants[-1]}
             for i, reached in enumerate(candidates["rung"]):
                 if reached:
                     candidates.loc[i, "status"] = STATUS_OPTIMISED if reached == len(plan) else f"stopped at rung {reached} of {len(plan)}"
