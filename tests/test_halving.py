@@ -1,4 +1,4 @@
-"""Successive halving (docs/model.md §20.6, :mod:`hisopt.studies.halving`), on synthetic candidates.
+"""Successive halving (docs/model.md §20.4, :mod:`hisopt.studies.halving`), on synthetic candidates.
 
 - the rung arithmetic equals the closed form, computed here with exact fractions: rung r
   takes ceil(n / 3^(r-1)) candidates at G 3^(r-1) generations with one seed, the last rung
@@ -48,7 +48,7 @@ def test_rung_sizes_and_budgets_equal_the_closed_form(n):
 
 
 def test_the_full_car_k10_plan_by_hand():
-    # 2,039 screened in (docs/model.md §20.6): default 5 rungs, 2 generations first, 200 full
+    # 2,039 screened in (docs/model.md §20.4): default 5 rungs, 2 generations first, 200 full
     assert default_rungs(2039) == 5 and default_first_generations(5, 200) == 2
     plan = halving_plan(2039, 5, 2, 200, [1, 2, 3])
     assert [(g.candidates, g.generations, len(g.seeds)) for g in plan] == [(2039, 2, 1), (680, 6, 1), (227, 18, 1), (76, 54, 1), (26, 200, 3)]

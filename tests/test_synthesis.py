@@ -300,7 +300,7 @@ def test_run_commands_given_a_synthesis_say_what_it_is(tmp_path):
         assert "a topology synthesis" in outcome.stderr and "/study" in outcome.stderr
 
 
-# --- successive halving (docs/model.md §20.6) -------------------------------------------------------
+# --- successive halving (docs/model.md §20.4) -------------------------------------------------------
 HALVING_ARGS = ("--max-elements", "4", "--chambers", "front", "--seeds", "1-2", "--pop", "8", "--gens", "2")
 
 

@@ -83,7 +83,7 @@ def halving_html(halving: dict[str, Any]) -> str:
     missed = halving["top_ten_missed_by_old_rule"]
     return (
         "<h2>Successive halving</h2>"
-        f'<p class="meta">{html.escape(rungs)} (docs/model.md §20.6; each candidate\'s rung and measure per rung in candidates.csv). '
+        f'<p class="meta">{html.escape(rungs)} (docs/model.md §20.4; each candidate\'s rung and measure per rung in candidates.csv). '
         f"Spearman rank correlation of the screen's order (roll selectivity) and the measured order: {rho(halving['spearman_final'])} over the "
         f"{halving['spearman_final']['candidates']} candidates of the last rung, {rho(halving['spearman_first'])} over the "
         f"{halving['spearman_first']['candidates']} of the first (+1: the screen predicts the order). Of the final top ten, the old rule "

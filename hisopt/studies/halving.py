@@ -1,5 +1,5 @@
 """Successive halving over candidates: a small budget for all, the full budget for the best
-(docs/model.md §20.6; Li et al., Hyperband, JMLR 2018).
+(docs/model.md §20.4; Li et al., Hyperband, JMLR 2018).
 
 A pure module: the rung plan (:func:`halving_plan`) and its application to any scoring
 function (:func:`successive_halving`); :func:`hisopt.studies.synthesis.run_synthesis` scores

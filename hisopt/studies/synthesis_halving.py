@@ -1,5 +1,5 @@
 """Successive halving of a synthesis's screened-in candidates with the layout study
-(docs/model.md §20.6; the plan: :mod:`hisopt.studies.halving`).
+(docs/model.md §20.4; the plan: :mod:`hisopt.studies.halving`).
 
 Each rung is a layout study (:func:`hisopt.studies.layout_study.run_layout_study`: one task
 per candidate and seed on the backend, roll_plane at the same budget as the reference) of the
