@@ -422,3 +422,35 @@ def test_synthesis_resumes_after_sigkill_to_identical_files(tmp_path):
     )
     lines = [line for line in other.stderr.splitlines() if line.strip()]
     assert other.returncode == 2 and len(lines) == 1 and "max_elements" in lines[0], other.stderr
+
+
+@pytest.mark.slow
+def test_halving_resumes_after_sigkill_in_its_last_rung_to_identical_files(tmp_path):
+    problem = tmp_path / "problem.toml"
+    problem.write_text(DEFAULT_PROBLEM.read_text() + '\n[synthesis]\nscreen = { k_roll = { min = "50 kN/m" }, k_bounce = { max = "23.6 kN/m" } }\n')
+    args = ("--max-elements", "4", "--chambers", "front", "--seeds", "1-2", "--pop", "12", "--gens", "12", "--rungs", "2", "--first-gens", "4")
+
+    def command(out: Path) -> list[str]:
+        return [sys.executable, "-m", "hisopt", "synthesize", str(problem), "--out", str(out), *args]
+
+    reference = subprocess.run(command(tmp_path / "reference"), cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert reference.returncode == 0, reference.stderr
+    out = tmp_path / "killed"
+    target = out / "study" / "roll_plane" / "seed-1"  # the last rung: rung 1 is finished by then
+    proc = subprocess.Popen(command(out), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 600
+        while not ((target / rundir.CHECKPOINT).exists() and rundir.checkpoint_generation(target) >= 3):
+            assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
+            assert time.monotonic() < deadline, "no checkpoint in time"
+            time.sleep(0.005)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        if proc.poll() is None:
+            proc.kill()  # ours, by its id
+        proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL and not (out / "halving.json").exists()
+    again = subprocess.run(command(out), cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert again.returncode == 0, again.stderr
+    for name in ("candidates.csv", "layouts.csv", "halving.json", "synthesis.json", "rung-1/layouts.csv", "study/layouts.csv", "study/runs.csv"):
+        assert (out / name).read_bytes() == (tmp_path / "reference" / name).read_bytes(), name
