@@ -166,6 +166,7 @@ def _table(result: Any) -> Any:
         "sigma_aw_at_limit",
         "handling_at_best",
         "gain_vs_roll_plane_pct",
+        "gain_vs_conventional_pct",
         "k_roll",
         "k_warp",
     ]

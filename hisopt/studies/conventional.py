@@ -21,19 +21,18 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pandas as pd
 
 from hisopt.coupled.model import CoupledModel
 from hisopt.metrics import METRICS
 from hisopt.problem import Problem, problem_from_dict
 from hisopt.specification.design_space import VEHICLE_PREFIX
+from hisopt.studies.layout_cases import CONVENTIONAL
 from hisopt.studies.layout_metrics import COMFORT
 from hisopt.vehicle.batch import VehicleBatch
 
 if TYPE_CHECKING:
     from hisopt.specification.design_space import Inputs
-
-CONVENTIONAL = "conventional"
-"""The reference layout without circuits (``--layouts conventional``)."""
 
 BAR_VARIABLES = ("k_arb_f", "k_arb_r")
 """[-] The two design variables: the front and rear bar rates at the wheel (VehicleParams fields)."""
@@ -173,3 +172,33 @@ def _best(comfort: np.ndarray, quantity: np.ndarray, ok: np.ndarray, limit: floa
     if not meets.any():
         return None
     return int(np.flatnonzero(meets)[np.argmin(comfort[meets])])
+
+
+def with_conventional(table: pd.DataFrame, result: ConventionalResult, handling: str, limit: float) -> pd.DataFrame:
+    """A layout study's table with the ``conventional`` row (``source`` ``"reference"``, its
+    bars in ``best_k_arb_f``/``best_k_arb_r``, empty hypervolumes: it has no front) and
+    ``gain_vs_conventional_pct = 100 (1 - sigma_layout / sigma_conventional)`` after
+    ``gain_vs_roll_plane_pct``."""
+    from hisopt.studies.layout_cases import REFERENCE_LAYOUT
+
+    met = np.isfinite(result.sigma_aw)
+    row: dict[str, Any] = {
+        "layout": CONVENTIONAL,
+        "source": "reference",
+        "variables": " ".join(BAR_VARIABLES),
+        "handling": handling,
+        "handling_limit": limit,
+        "sigma_aw_at_limit": result.sigma_aw,
+        "handling_at_best": result.handling,
+        "refined": False,
+        "handling_least": result.handling_least,
+        "at_limit": "met" if met else f"no bar rates in the box meet {handling} <= {limit:g}",
+        "best_k_arb_f": result.k_arb_f,
+        "best_k_arb_r": result.k_arb_r,
+    }
+    reference = table.loc[table["layout"] == REFERENCE_LAYOUT, "sigma_aw_at_limit"].to_numpy()
+    row["gain_vs_roll_plane_pct"] = 100.0 * (1.0 - result.sigma_aw / reference[0]) if len(reference) else np.nan
+    out = pd.concat([table, pd.DataFrame([row])], ignore_index=True)
+    out.insert(out.columns.get_loc("gain_vs_roll_plane_pct") + 1, "gain_vs_conventional_pct", 100.0 * (1.0 - out["sigma_aw_at_limit"] / result.sigma_aw))
+    out.attrs["units"] = dict(table.attrs.get("units", {})) | {"gain_vs_conventional_pct": "%", "best_k_arb_f": "N/m", "best_k_arb_r": "N/m"}
+    return out
