@@ -103,6 +103,11 @@ class ConventionalResult:
     dropped: tuple[str, ...]
     evaluations: int
 
+    @property
+    def met(self) -> bool:
+        """[-] Whether some bar rates in the box meet the limit."""
+        return bool(np.isfinite(self.sigma_aw))
+
 
 def car_problem(problem: Problem, handling: str) -> tuple[CarWithoutCircuits, tuple[str, ...]]:
     """The car of ``problem`` evaluating ``sigma_aw``, ``handling`` and the constraints a car
@@ -181,7 +186,7 @@ def with_conventional(table: pd.DataFrame, result: ConventionalResult, handling:
     ``gain_vs_roll_plane_pct``."""
     from hisopt.studies.layout_cases import REFERENCE_LAYOUT
 
-    met = np.isfinite(result.sigma_aw)
+    met = result.met
     row: dict[str, Any] = {
         "layout": CONVENTIONAL,
         "source": "reference",
