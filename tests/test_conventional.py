@@ -134,7 +134,8 @@ def test_conventional_is_sized_at_the_limit() -> None:
 
 def test_compare_layouts_reports_the_gain_against_conventional(tmp_path) -> None:
     out = tmp_path / "study"
-    result = run_cli("compare-layouts", "problems/roll_plane_his.toml", "--layouts", "conventional", "--seeds", "1", "--pop", "8", "--gens", "2", "--out", str(out))
+    args = ("--layouts", "conventional", "--seeds", "1", "--pop", "8", "--gens", "2", "--out", str(out))
+    result = run_cli("compare-layouts", "problems/roll_plane_his.toml", *args)
     assert result.code == 0, result.stderr
     from hisopt.io import read_csv
 

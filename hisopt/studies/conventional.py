@@ -12,7 +12,9 @@ is deterministic and costs a few hundred evaluations of the car (a second).
 
 The HIS-only quantities (accumulator and pressure quantities, the buildability rules) are
 not defined for it: such constraints are not applied (:attr:`ConventionalResult.dropped`
-names them) and its buildability columns stay empty.
+names them) and its buildability columns stay empty. The car is evaluated at the inputs'
+nominal values (a problem's load cases included, not statistics over ``[[uncertain]]``
+samples).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.coupled.model import CoupledModel
+from hisopt.evaluation.scenarios import case_evaluator_for
 from hisopt.metrics import METRICS
 from hisopt.problem import Problem, problem_from_dict
 from hisopt.specification.design_space import VEHICLE_PREFIX
@@ -125,7 +128,7 @@ def car_problem(problem: Problem, handling: str) -> tuple[CarWithoutCircuits, tu
 def _evaluate(car: CarWithoutCircuits, handling: str, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``sigma_aw``, ``handling`` and feasibility (the kept constraints met) of bar rates ``(n, 2)``."""
     x = np.repeat(car.baseline[None, :], len(rates), axis=0)
-    q = car.evaluator()(x, inputs={VEHICLE_PREFIX + name: rates[:, j] for j, name in enumerate(BAR_VARIABLES)})
+    q = case_evaluator_for(car)(x, inputs={VEHICLE_PREFIX + name: rates[:, j] for j, name in enumerate(BAR_VARIABLES)})
     ok = np.asarray(q["valid"], dtype=bool) & np.isfinite(q[COMFORT]) & np.isfinite(q[handling])
     for c in car.spec.constraints:
         ok &= np.asarray(q[c.name]) <= c.limit
