@@ -147,3 +147,7 @@ def test_compare_layouts_reports_the_gain_against_conventional(tmp_path) -> None
     assert row.loc["roll_plane", "gain_vs_conventional_pct"] == pytest.approx(expected, rel=1e-12)
     assert row.loc["conventional", "handling_at_best"] <= row.loc["conventional", "handling_limit"]
     assert "gain_vs_conventional_pct" in result.stdout
+    before = (out / "report.html").read_bytes()
+    again = run_cli("report", str(out))  # the study re-read from its files: conventional has no runs
+    assert again.code == 0, again.stderr
+    assert (out / "report.html").read_bytes() == before
