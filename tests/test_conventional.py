@@ -11,6 +11,8 @@ solved one to the conditioning of the 7 x 7 solve (rtol 1e-9).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -151,3 +153,35 @@ def test_compare_layouts_reports_the_gain_against_conventional(tmp_path) -> None
     again = run_cli("report", str(out))  # the study re-read from its files: conventional has no runs
     assert again.code == 0, again.stderr
     assert (out / "report.html").read_bytes() == before
+
+
+def _with_bars(tmp_path: Path, lines: str) -> Path:
+    text = Path("problems/roll_plane_his.toml").read_text(encoding="utf-8").replace("\n[vehicle]\n", f"\n[vehicle]\n{lines}\n", 1)
+    path = tmp_path / "bars.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_bars_in_a_problem_file_reach_the_numpy_and_casadi_models(tmp_path) -> None:
+    """``[vehicle] k_arb_f = "30 kN/m"`` is read in its unit, and the one stiffness matrix
+    carries the bars into both engines: the CasADi model's roll gradient (not compiled) equals
+    the numpy evaluator's to the rounding of the same 7 x 7 solve."""
+    import casadi as ca
+
+    from hisopt.optim.gradient.casadi_model import CasadiModel
+
+    problem = load_problem(_with_bars(tmp_path, 'k_arb_f = "30 kN/m"\nk_arb_r = 12000.0'))
+    assert (problem.vehicle.k_arb_f, problem.vehicle.k_arb_r) == (30_000.0, 12_000.0)
+    x = problem.baseline
+    numpy_value = roll_gradient(problem.model(x[None, :]), problem.spec.handling.gravity_moment).item()
+    symbol = ca.MX.sym("x", len(x))
+    casadi_value = float(ca.Function("rg", [symbol], [CasadiModel(problem, compile=False).roll_gradient(symbol)])(x))
+    assert casadi_value == pytest.approx(numpy_value, rel=1e-10)
+    plain = roll_gradient(load_problem("problems/roll_plane_his.toml").model(x[None, :]), False).item()
+    assert numpy_value < plain  # the bars stiffen roll
+
+
+def test_a_negative_bar_rate_is_one_line_and_exit_2(tmp_path) -> None:
+    outcome = run_cli("modes", str(_with_bars(tmp_path, "k_arb_f = -5.0")))
+    assert outcome.code == 2 and len(outcome.error_lines) == 1, outcome.stderr
+    assert "vehicle.k_arb_f" in outcome.stderr and "greater than or equal to 0" in outcome.stderr
