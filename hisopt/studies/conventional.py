@@ -41,11 +41,11 @@ BAR_VARIABLES = ("k_arb_f", "k_arb_r")
 """[-] The two design variables: the front and rear bar rates at the wheel (VehicleParams fields)."""
 
 BAR_BOUNDS = (0.0, 60_000.0)
-"""[N/m] Bounds of each bar rate at the wheel. A passenger car's bars carry a share of the
-roll stiffness comparable to its springs' (Milliken & Milliken, Race Car Vehicle Dynamics,
-SAE 1995, ch. 16-18); 60 kN/m at the wheel on the default car (half track 0.74 m) gives
-``4 k t^2`` = 131 kN m/rad per axle, 6.7 times its springs' ``2 k_s t^2`` = 19.7 kN m/rad,
-so the box holds any realistic bar and the default problem's handling limits."""
+"""[N/m] Bounds of each bar rate at the wheel, set from the car's springs, not from a cited
+range of production bars (none was found to cite): 60 kN/m at the wheel on the default car
+(half track 0.74 m) gives ``4 k t^2`` = 131 kN m/rad per axle, 6.7 times its springs'
+``2 k_s t^2`` = 19.7 kN m/rad, a generous box for a passenger car's bar that holds the
+default problem's handling limit (docs/model.md §15.6)."""
 
 GRID = 21
 """[-] Grid points per bar of the first full-factorial grid."""
