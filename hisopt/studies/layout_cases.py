@@ -139,7 +139,7 @@ def layout_case(problem: Problem, item: str) -> LayoutCase:
     if path.suffix == ".toml":
         raise ConfigError(f"layout file {item!r} not found; expected a problem file with the custom layout", key="--layouts")
     raise ConfigError(
-        f"unknown layout {item!r}; expected one of {', '.join(CATALOGUE_NAMES)} or a problem file (.toml) with a custom layout",
+        f"unknown layout {item!r}; expected one of {', '.join(CATALOGUE_NAMES)}, {CONVENTIONAL} or a problem file (.toml) with a custom layout",
         key="--layouts",
     )
 
