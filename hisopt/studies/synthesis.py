@@ -22,7 +22,8 @@ Directory ``DIR``::
     synthesis.json    what was asked (problem SHA-256, K, chambers, symmetry, optimise)
     candidates.csv    every candidate: description, elements, stiffness table, status
     layouts/<c>.toml  each optimised candidate as a problem file with its custom layout
-    study/            the layout study of the survivors and roll_plane
+    study/            the layout study of the survivors and roll_plane (and conventional,
+                      the car with anti-roll bars sized at the limit: gain_vs_conventional_pct)
     layouts.csv       the optimised layouts ranked by gain at equal handling
     report.html       :mod:`hisopt.report.synthesis_report`
 
@@ -500,11 +501,12 @@ def run_synthesis(
     if picked:
         files = _write_layout_files(problem, enumeration, picked, out_dir)
         say(f"optimising {len(picked)} of {int((candidates['status'] == STATUS_SCREENED_IN).sum())} screened-in candidates and roll_plane")
+        from hisopt.studies.layout_cases import CONVENTIONAL
         from hisopt.studies.layout_study import run_layout_study
 
         study = run_layout_study(
             problem,
-            [str(p) for p in files.values()],
+            [*(str(p) for p in files.values()), CONVENTIONAL],  # the car with bars: gains against it too (a second, no runs)
             seeds,
             out=None if out_dir is None else out_dir / STUDY_DIR,
             pop_size=pop_size,
@@ -548,23 +550,31 @@ def _shown_path(path: Path, out_dir: Path | None) -> str:
 def _layouts_table(candidates: pd.DataFrame, study: LayoutStudyResult | None, files: dict[str, Path], out_dir: Path | None) -> pd.DataFrame:
     """``layouts.csv``: the study's table with each candidate's description and problem file
     (relative to ``DIR``), best gain first (roll_plane, the reference, included)."""
+    from hisopt.studies.layout_cases import CONVENTIONAL
+
     if study is None:
         return with_units(pd.DataFrame({"layout": [], "gain_vs_roll_plane_pct": []}), {"layout": NO_UNIT, "gain_vs_roll_plane_pct": "%"})
     table = study.table.copy()
     info = candidates.set_index("candidate")
-    table.insert(1, "elements", [int(info.loc[n, "elements"]) if n in info.index else _catalogue_elements(n) for n in table["layout"]])
+    table.insert(1, "elements", [int(info.loc[n, "elements"]) if n in info.index else _catalogue_elements(n) for n in table["layout"]])  # conventional: 0
     table.insert(2, "catalogue", [info.loc[n, "catalogue"] if n in info.index else n for n in table["layout"]])
     table.insert(3, "file", [_shown_path(files[n], out_dir) if n in files else "" for n in table["layout"]])
     if "source" in table:
         table["source"] = ["synthesis" if n in files else source for n, source in zip(table["layout"], table["source"], strict=True)]
-    table.insert(4, "description", [info.loc[n, "description"] if n in info.index else "catalogue layout (reference)" for n in table["layout"]])
+    references = {CONVENTIONAL: "car without circuits, anti-roll bars sized at the limit (reference)"}
+    described = [info.loc[n, "description"] if n in info.index else references.get(n, "catalogue layout (reference)") for n in table["layout"]]
+    table.insert(4, "description", described)
     table = table.sort_values("gain_vs_roll_plane_pct", ascending=False, na_position="last", kind="stable").reset_index(drop=True)
     units = dict(study.table.attrs["units"]) | {"elements": NO_UNIT, "catalogue": NO_UNIT, "file": NO_UNIT, "description": NO_UNIT}
     return with_units(table, units)
 
 
 def _catalogue_elements(name: str) -> int:
-    """[-] Accumulators plus valves of a catalogue layout."""
+    """[-] Accumulators plus valves of a catalogue layout (0 for the car without circuits)."""
     from hisopt.hydraulics.catalogue import catalogue
+    from hisopt.studies.layout_cases import CONVENTIONAL
+
+    if name == CONVENTIONAL:
+        return 0
 
     return sum(topology.element_count(g) for g in topology.layout_graphs(catalogue()[name].layout(False, False)))
