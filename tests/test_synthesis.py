@@ -337,7 +337,8 @@ def test_halving_runs_every_screened_in_candidate_and_the_best_half_at_full_budg
     # the two that went on are the two best of rung 1 (every one has a design at the limit here)
     best_two = kept.sort_values(["gain_rung_1", "screen_rank"], ascending=[False, True])["candidate"].head(2)
     assert set(best_two) == set(kept.loc[kept["rung"] == 2, "candidate"])
-    assert set(read_csv(out / "layouts.csv")["layout"]) == set(best_two) | {"roll_plane"}
+    assert set(read_csv(out / "layouts.csv")["layout"]) == set(best_two) | {"roll_plane", "conventional"}
+    assert "conventional" not in set(read_csv(out / "rung-1" / "layouts.csv")["layout"])  # the last rung's reference only
     runs = read_csv(out / "rung-1" / "runs.csv")
     assert set(runs["seed"]) == {1} and len(runs) == 5
     assert set(read_csv(out / "study" / "runs.csv")["seed"]) == {1, 2}

@@ -186,6 +186,7 @@ def _ranking(result: Any) -> Any:
         "catalogue",
         "sigma_aw_at_limit",
         "gain_vs_roll_plane_pct",
+        "gain_vs_conventional_pct",
         "hv_mean",
         "hv_std",
         "k_bounce",

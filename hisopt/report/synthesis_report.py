@@ -36,7 +36,8 @@ def best_schematics(result: SynthesisResult, count: int = BEST_SHOWN) -> list[go
         return []
     cases = {c.name: c for c in result.study.cases}
     figs = []
-    for row in result.layouts.head(count).itertuples(index=False):
+    with_circuits = [row for row in result.layouts.itertuples(index=False) if row.layout in cases]  # not the car without circuits
+    for row in with_circuits[:count]:
         case = cases[row.layout]
         gain = row.gain_vs_roll_plane_pct
         title = f"{row.layout} ({row.elements} elements{', ' + row.catalogue if row.catalogue and row.catalogue != row.layout else ''}): " + (

@@ -30,6 +30,8 @@ Directory ``DIR``::
     layouts/<c>.toml  each optimised candidate as a problem file with its custom layout
     rung-<r>/         halving: the layout study of an early rung
     study/            the layout study at the full budget (the last rung) and roll_plane
+                      (and conventional, the car with anti-roll bars sized at the limit:
+                      gain_vs_conventional_pct)
     layouts.csv       the layouts at the full budget ranked by gain at equal handling
     halving.json      halving: the plan, Spearman of screen and final order, the top ten
     report.html       :mod:`hisopt.report.synthesis_report`
@@ -542,11 +544,13 @@ def run_synthesis(
     if picked:
         files = _write_layout_files(problem, enumeration, picked, out_dir)
         in_count = len(screen_order)
+        from hisopt.studies.layout_cases import CONVENTIONAL
+
         if plan is not None:
             from hisopt.studies import synthesis_halving as sh
 
             say(f"successive halving over {in_count} screened-in candidates: " + ", ".join(f"{g.candidates} x {g.generations} gen" for g in plan))
-            run = sh.run_halving(problem, files, plan, out=out_dir, pop_size=pop_size, handling=handling, backend=backend, say=say)
+            run = sh.run_halving(problem, files, plan, out=out_dir, pop_size=pop_size, handling=handling, backend=backend, say=say, references=[CONVENTIONAL])
             study = run.studies[-1]
             names = [candidate_name(i) for i in screen_order]
             halving = sh.halving_summary(run, names, names[: sh.TOP])
@@ -563,7 +567,7 @@ def run_synthesis(
 
             study = run_layout_study(
                 problem,
-                [str(p) for p in files.values()],
+                [*(str(p) for p in files.values()), CONVENTIONAL],  # the car with bars: gains against it too (a second, no runs)
                 seeds,
                 out=None if out_dir is None else out_dir / STUDY_DIR,
                 pop_size=pop_size,
@@ -636,23 +640,31 @@ def _shown_path(path: Path, out_dir: Path | None) -> str:
 def _layouts_table(candidates: pd.DataFrame, study: LayoutStudyResult | None, files: dict[str, Path], out_dir: Path | None) -> pd.DataFrame:
     """``layouts.csv``: the study's table with each candidate's description and problem file
     (relative to ``DIR``), best gain first (roll_plane, the reference, included)."""
+    from hisopt.studies.layout_cases import CONVENTIONAL
+
     if study is None:
         return with_units(pd.DataFrame({"layout": [], "gain_vs_roll_plane_pct": []}), {"layout": NO_UNIT, "gain_vs_roll_plane_pct": "%"})
     table = study.table.copy()
     info = candidates.set_index("candidate")
-    table.insert(1, "elements", [int(info.loc[n, "elements"]) if n in info.index else _catalogue_elements(n) for n in table["layout"]])
+    table.insert(1, "elements", [int(info.loc[n, "elements"]) if n in info.index else _catalogue_elements(n) for n in table["layout"]])  # conventional: 0
     table.insert(2, "catalogue", [info.loc[n, "catalogue"] if n in info.index else n for n in table["layout"]])
     table.insert(3, "file", [_shown_path(files[n], out_dir) if n in files else "" for n in table["layout"]])
     if "source" in table:
         table["source"] = ["synthesis" if n in files else source for n, source in zip(table["layout"], table["source"], strict=True)]
-    table.insert(4, "description", [info.loc[n, "description"] if n in info.index else "catalogue layout (reference)" for n in table["layout"]])
+    references = {CONVENTIONAL: "car without circuits, anti-roll bars sized at the limit (reference)"}
+    described = [info.loc[n, "description"] if n in info.index else references.get(n, "catalogue layout (reference)") for n in table["layout"]]
+    table.insert(4, "description", described)
     table = table.sort_values("gain_vs_roll_plane_pct", ascending=False, na_position="last", kind="stable").reset_index(drop=True)
     units = dict(study.table.attrs["units"]) | {"elements": NO_UNIT, "catalogue": NO_UNIT, "file": NO_UNIT, "description": NO_UNIT}
     return with_units(table, units)
 
 
 def _catalogue_elements(name: str) -> int:
-    """[-] Accumulators plus valves of a catalogue layout."""
+    """[-] Accumulators plus valves of a catalogue layout (0 for the car without circuits)."""
     from hisopt.hydraulics.catalogue import catalogue
+    from hisopt.studies.layout_cases import CONVENTIONAL
+
+    if name == CONVENTIONAL:
+        return 0
 
     return sum(topology.element_count(g) for g in topology.layout_graphs(catalogue()[name].layout(False, False)))

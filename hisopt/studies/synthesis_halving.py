@@ -76,9 +76,11 @@ def run_halving(
     handling: str | None,
     backend: Backend | None,
     say: Callable[[str], None],
+    references: Sequence[str] = (),
 ) -> HalvingRun:
     """Successive halving over the candidates ``files`` (name -> problem file, in the screen's
-    order) with ``plan`` (module docstring)."""
+    order) with ``plan`` (module docstring); ``references`` (layout names, e.g.
+    ``conventional``) join the last rung's study only."""
     from hisopt.studies.layout_study import run_layout_study
 
     studies: list[LayoutStudyResult] = []
@@ -88,9 +90,10 @@ def run_halving(
             f"rung {rung.number} of {len(plan)}: {len(names)} candidates and roll_plane, {rung.generations} generations, "
             f"seed{'s' if len(rung.seeds) > 1 else ''} {', '.join(str(s) for s in rung.seeds)}"
         )
+        last = rung.number == len(plan)
         study = run_layout_study(
             problem,
-            [str(files[str(n)]) for n in names],
+            [*(str(files[str(n)]) for n in names), *(references if last else ())],
             rung.seeds,
             out=rung_directory(out, rung, len(plan)),
             pop_size=pop_size,
