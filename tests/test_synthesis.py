@@ -75,6 +75,38 @@ def test_every_catalogue_layout_is_a_candidate_with_its_stiffness_table(full_car
         assert tables["stiffness_coupling"][k] == pytest.approx(want["stiffness_coupling"], abs=1e-12)
 
 
+def test_a_charged_problem_screens_on_the_charged_stiffness_of_hisopt_layouts(full_car_10):
+    # issue 40/42: a charged HIS ([his.charge]) is screened as `hisopt layouts` screens it, at
+    # its static pressures: on the envelope problem (its own load case at the charge
+    # temperature, unladen, so each circuit alone sits at its charge pressure, exactly as in
+    # the whole layout) the candidates' rows equal mode_stiffness's, and roll_plane's k_roll
+    # is the hand value of tests/test_layouts.py: phi^2 ~ 1/2 halves the compliance, so about
+    # twice the uncharged 211.8 kN/m
+    from hisopt.constants import P_ATM_PA
+    from hisopt.plausibility import PlausibilityWarning
+    from hisopt.studies.screening import mode_stiffness
+
+    with pytest.warns(PlausibilityWarning):  # its -20 C case's extrapolated viscosity
+        problem = load_problem(ROOT / "problems" / "roll_plane_his_envelope.toml")
+    his = problem.spec.his
+    names = ("roll_plane", "axle_roll")
+    by_name = {name: i for i, name in synthesis.catalogue_names(full_car_10).items()}
+    subset = topology.Enumeration(
+        full_car_10.circuits, [full_car_10.candidates[by_name[n]] for n in names], full_car_10.chambers, True, 10, full_car_10.classes
+    )
+    tables = synthesis.candidate_tables(problem, subset)
+    want = mode_stiffness(problem).set_index("layout")
+    for k, name in enumerate(names):
+        for q in ("k_bounce", "k_roll", "k_pitch", "k_warp", "c_bounce", "c_roll", "c_pitch", "c_warp"):
+            # error budget: a sum over at most two circuits of the same per-circuit solves
+            scale = float(np.max(np.abs(want.loc[name, [f"{q[:2]}{p}" for p in ("bounce", "roll", "pitch", "warp")]].to_numpy(float))))
+            assert tables[q][k] == pytest.approx(float(want.loc[name, q]), rel=0, abs=1e-12 * scale), (name, q)
+    compliance = his.charge.gas_fraction**2 * his.V0 / (his.gamma * (his.p0 + P_ATM_PA))
+    a_b = his.dA / (1.0 - his.lam)
+    assert tables["k_roll"][0] == pytest.approx(2 * (2 * (his.lam * a_b + a_b)) ** 2 / compliance, rel=1e-9)
+    assert tables["k_roll"][0] == pytest.approx(432_273, rel=1e-5)
+
+
 def test_catalogue_layouts_are_recognised_in_their_own_element_count_only():
     counts = {name: sum(topology.element_count(g) for g in topology.layout_graphs(e.layout(False, False))) for name, e in catalogue().items()}
     assert counts == {
@@ -268,6 +300,77 @@ def test_run_commands_given_a_synthesis_say_what_it_is(tmp_path):
         assert "a topology synthesis" in outcome.stderr and "/study" in outcome.stderr
 
 
+# --- successive halving (docs/model.md §20.4) -------------------------------------------------------
+HALVING_ARGS = ("--max-elements", "4", "--chambers", "front", "--seeds", "1-2", "--pop", "8", "--gens", "2")
+
+
+@pytest.fixture(scope="module")
+def screened_problem(tmp_path_factory) -> Path:
+    """The paper's problem with the robust problem's screen: 4 of 54 front candidates kept at K = 4."""
+    path = tmp_path_factory.mktemp("halving") / "problem.toml"
+    path.write_text(DEFAULT_PROBLEM.read_text() + '\n[synthesis]\nscreen = { k_roll = { min = "50 kN/m" }, k_bounce = { max = "23.6 kN/m" } }\n')
+    return path
+
+
+@pytest.fixture(scope="module")
+def halving_run(screened_problem, tmp_path_factory):
+    out = tmp_path_factory.mktemp("halving") / "syn"
+    outcome = run_cli("synthesize", str(screened_problem), "--out", str(out), *HALVING_ARGS, "--rungs", "2", "--first-gens", "1")
+    return outcome, out
+
+
+def test_halving_runs_every_screened_in_candidate_and_the_best_half_at_full_budget(halving_run):
+    import json
+
+    from scipy.stats import spearmanr
+
+    from hisopt.io import read_csv
+
+    outcome, out = halving_run
+    assert outcome.code == 0, outcome.stderr
+    frame = read_csv(out / "candidates.csv")
+    kept = frame[frame["screen_rank"].notna()].sort_values("screen_rank")
+    assert len(kept) == 4 and (frame["status"] != synthesis.STATUS_SCREENED_IN).all()  # every screened-in candidate ran
+    # rung 1: all four at 1 generation, one seed; rung 2: ceil(4 / 3) = 2 at the full 2 generations, seeds 1-2
+    assert kept["rung"].tolist().count(2) == 2 and kept["rung"].tolist().count(1) == 2
+    assert kept["gain_rung_1"].notna().all() and kept["gain_rung_2"].notna().sum() == 2
+    # the two that went on are the two best of rung 1 (every one has a design at the limit here)
+    best_two = kept.sort_values(["gain_rung_1", "screen_rank"], ascending=[False, True])["candidate"].head(2)
+    assert set(best_two) == set(kept.loc[kept["rung"] == 2, "candidate"])
+    assert set(read_csv(out / "layouts.csv")["layout"]) == set(best_two) | {"roll_plane", "conventional"}
+    assert "conventional" not in set(read_csv(out / "rung-1" / "layouts.csv")["layout"])  # the last rung's reference only
+    runs = read_csv(out / "rung-1" / "runs.csv")
+    assert set(runs["seed"]) == {1} and len(runs) == 5
+    assert set(read_csv(out / "study" / "runs.csv")["seed"]) == {1, 2}
+    halving = json.loads((out / "halving.json").read_text())
+    assert [(g["candidates"], g["generations"], g["seeds"]) for g in halving["plan"]] == [(4, 1, [1]), (2, 2, [1, 2])]
+    # the Spearman figure of the first rung, recomputed from the CSV (ranks: 1 the best)
+    want = spearmanr(kept["screen_rank"], -kept["gain_rung_1"]).statistic
+    assert halving["spearman_first"]["rho"] == pytest.approx(want, abs=1e-12) and halving["spearman_first"]["candidates"] == 4
+    assert halving["spearman_final"] == {"rho": None, "p_value": None, "candidates": 2}  # two candidates: undefined
+    # the old rule optimised the screen's first ten: all four here, so it misses nothing
+    assert halving["top_ten"] == frame.dropna(subset=["final_rank"]).sort_values("final_rank")["candidate"].tolist()
+    assert halving["top_ten_missed_by_old_rule"] == []
+    assert "Spearman rank correlation" in outcome.stdout and "rung 2: 2 x 2 generations x 2 seeds" in outcome.stdout
+    assert "<h2>Successive halving</h2>" in (out / "report.html").read_text()
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (("--rungs", "4", "--first-gens", "1", "--gens", "100"), "--rungs 4 with 4 candidates"),  # 4 -> 2 -> 1: nothing for rung 4
+        (("--rungs", "2", "--first-gens", "0"), "--first-gens: expected at least 1 generation"),
+        (("--rungs", "2", "--first-gens", "2"), "rung 1 would run 2 generations"),  # the full budget is 2
+        (("--optimise", "2", "--rungs", "2"), "--optimise"),
+    ],
+)
+def test_bad_halving_input_is_one_line_exit_2_and_writes_nothing(screened_problem, tmp_path, args, needle):
+    outcome = run_cli("synthesize", str(screened_problem), "--out", str(tmp_path / "s"), *HALVING_ARGS, *args)
+    assert outcome.code == 2 and len(outcome.error_lines) == 1, outcome.stderr
+    assert needle in outcome.stderr and "Traceback" not in outcome.stderr
+    assert not (tmp_path / "s").exists()
+
+
 # --- the run: resume after SIGKILL ---------------------------------------------------------------
 CLI_ARGS = ("--max-elements", "4", "--chambers", "front", "--optimise", "2", "--seeds", "1-2", "--pop", "12", "--gens", "12")
 FILES = ("candidates.csv", "layouts.csv", "synthesis.json", "layouts/c000006.toml")
@@ -320,3 +423,36 @@ def test_synthesis_resumes_after_sigkill_to_identical_files(tmp_path):
     )
     lines = [line for line in other.stderr.splitlines() if line.strip()]
     assert other.returncode == 2 and len(lines) == 1 and "max_elements" in lines[0], other.stderr
+
+
+@pytest.mark.slow
+def test_halving_resumes_after_sigkill_in_its_last_rung_to_identical_files(tmp_path):
+    problem = tmp_path / "problem.toml"
+    problem.write_text(DEFAULT_PROBLEM.read_text() + '\n[synthesis]\nscreen = { k_roll = { min = "50 kN/m" }, k_bounce = { max = "23.6 kN/m" } }\n')
+    args = ("--max-elements", "4", "--chambers", "front", "--seeds", "1-2", "--pop", "12", "--gens", "12", "--rungs", "2", "--first-gens", "4")
+
+    def command(out: Path) -> list[str]:
+        return [sys.executable, "-m", "hisopt", "synthesize", str(problem), "--out", str(out), *args]
+
+    reference = subprocess.run(command(tmp_path / "reference"), cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert reference.returncode == 0, reference.stderr
+    out = tmp_path / "killed"
+    target = out / "study" / "roll_plane" / "seed-1"  # the last rung: rung 1 is finished by then
+    proc = subprocess.Popen(command(out), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 600
+        while not ((target / rundir.CHECKPOINT).exists() and rundir.checkpoint_generation(target) >= 3):
+            assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
+            assert time.monotonic() < deadline, "no checkpoint in time"
+            time.sleep(0.005)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        if proc.poll() is None:
+            proc.kill()  # ours, by its id
+        proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL and not (out / "halving.json").exists()
+    again = subprocess.run(command(out), cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert again.returncode == 0, again.stderr
+    for name in ("candidates.csv", "layouts.csv", "halving.json", "synthesis.json", "rung-1/layouts.csv", "study/layouts.csv", "study/runs.csv"):
+        # the rungs' studies name each candidate's problem file by its path, in its own DIR
+        assert (out / name).read_bytes().replace(b"/killed/", b"/reference/") == (tmp_path / "reference" / name).read_bytes(), name

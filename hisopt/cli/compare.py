@@ -21,7 +21,11 @@ def register(app: typer.Typer) -> None:
         layouts: Annotated[
             str | None,
             typer.Option(
-                metavar="A,B,...", help="catalogue layouts and custom layouts' problem files (default: the whole catalogue; roll_plane is always included)"
+                metavar="A,B,...",
+                help=(
+                    "catalogue layouts, custom layouts' problem files and conventional (the car with anti-roll bars sized at the limit) "
+                    "(default: the whole catalogue; roll_plane is always included)"
+                ),
             ),
         ] = None,
         seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds per layout, e.g. 1-3 or 1,3,5")] = "1-3",
@@ -166,6 +170,7 @@ def _table(result: Any) -> Any:
         "sigma_aw_at_limit",
         "handling_at_best",
         "gain_vs_roll_plane_pct",
+        "gain_vs_conventional_pct",
         "k_roll",
         "k_warp",
     ]

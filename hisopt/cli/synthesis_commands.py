@@ -20,7 +20,33 @@ def synthesize_cmd(
     seeds: Annotated[str, typer.Option(metavar="SEEDS", help="seeds per optimised layout, e.g. 1-3")] = "1-3",
     pop: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="population size (default: problem file)")] = None,
     gens: Annotated[int | None, typer.Option(parser=integer, metavar="N", help="generations (default: problem file)")] = None,
-    optimise: Annotated[int, typer.Option("--optimise", parser=integer, metavar="N", help="optimise at most N screened-in candidates (0: screen only)")] = 10,
+    optimise: Annotated[
+        int | None,
+        typer.Option(
+            "--optimise",
+            parser=integer,
+            metavar="N",
+            help="the old top-N mode instead of successive halving: the screen's first N candidates, each at the full budget (0: screen only)",
+        ),
+    ] = None,
+    rungs: Annotated[
+        int | None,
+        typer.Option(
+            "--rungs",
+            parser=integer,
+            metavar="R",
+            help="successive halving's rungs (default: as many as leave at least ten candidates for the last; not with --optimise)",
+        ),
+    ] = None,
+    first_gens: Annotated[
+        int | None,
+        typer.Option(
+            "--first-gens",
+            parser=integer,
+            metavar="G",
+            help="generations of the first rung, tripled each rung; the last runs --gens (default 2, less if that reaches --gens)",
+        ),
+    ] = None,
     max_candidates: Annotated[int, typer.Option("--max-candidates", parser=integer, metavar="N", help="refuse a search with more candidates")] = 100_000,
     handling: Annotated[str | None, typer.Option(metavar="QUANTITY", help="quantity held equal (default as compare-layouts)")] = None,
     workers: WorkersOpt = None,
@@ -31,10 +57,15 @@ def synthesize_cmd(
     Enumerates the layouts (accumulators on nodes, directly or behind a valve; damper valves
     on chamber lines and between nodes), screens them by the problem's [synthesis] screen on
     their mode-stiffness tables, optimises the survivors as compare-layouts does and ranks
-    them by comfort gain over roll_plane at equal handling (docs/model.md §20). The same
-    command resumes an interrupted synthesis.
+    them by comfort gain over roll_plane at equal handling (docs/model.md §20). By default
+    successive halving: every screened-in candidate runs a small budget (--first-gens, one
+    seed), each rung keeps the best third and triples the budget, the last rung runs the full
+    budget (--gens) with every seed; --optimise N instead optimises the screen's first N at
+    the full budget. The same command resumes an interrupted synthesis.
     """
-    code = synthesize_command(problem, max_elements, out, chambers, asymmetric, seeds, pop, gens, optimise, max_candidates, handling, workers, scheduler)
+    code = synthesize_command(
+        problem, max_elements, out, chambers, asymmetric, seeds, pop, gens, optimise, rungs, first_gens, max_candidates, handling, workers, scheduler
+    )
     if code:
         raise SystemExit(code)
 
@@ -48,7 +79,9 @@ def synthesize_command(
     seeds: str,
     pop: int | None,
     gens: int | None,
-    optimise: int,
+    optimise: int | None,
+    rungs: int | None,
+    first_gens: int | None,
     max_candidates: int,
     handling: str | None,
     workers: int | None,
@@ -61,10 +94,12 @@ def synthesize_command(
     from hisopt.evaluation.parallel import open_backend
     from hisopt.problem import load_problem
     from hisopt.report.synthesis_report import write_synthesis_report
-    from hisopt.studies.synthesis import check_search_arguments, run_synthesis
+    from hisopt.studies.layout_study import study_budget
+    from hisopt.studies.synthesis import check_mode, check_search_arguments, run_synthesis
 
     problem = load_problem(problem_path)
-    check_search_arguments(max_elements, chambers, max_candidates)  # the library's own check, before the backend starts
+    check_search_arguments(max_elements, chambers, max_candidates)  # the library's own checks, before the backend starts
+    check_mode(optimise, rungs, first_gens, study_budget(problem, pop, gens)["generations"])
     try:
         with interrupt.signals_as_interrupts(), open_backend(workers, scheduler) as backend:
             result = run_synthesis(
@@ -77,6 +112,8 @@ def synthesize_command(
                 pop_size=pop,
                 generations=gens,
                 optimise=optimise,
+                rungs=rungs,
+                first_generations=first_gens,
                 max_candidates=max_candidates,
                 handling=handling,
                 backend=backend,
@@ -94,9 +131,34 @@ def synthesize_command(
     console.print(_counts(result))
     if len(result.layouts):
         console.print(_ranking(result))
+    if result.halving is not None:
+        typer.echo(halving_lines(result.halving))
     files = f" and each optimised layout's problem file in {out / 'layouts'}" if result.study is not None else " (no candidate optimised)"
     typer.echo(f"wrote {out / 'candidates.csv'}, {out / 'layouts.csv'}, {report}{files}")
     return 0
+
+
+def halving_lines(halving: dict[str, Any]) -> str:
+    """The terminal's account of successive halving: the rungs, the Spearman correlations of
+    the screen's order and the measured one, the top ten the old rule would have missed."""
+    rungs = ", ".join(
+        f"rung {g['rung']}: {g['candidates']} x {g['generations']} generations x {len(g['seeds'])} seed{'s' if len(g['seeds']) > 1 else ''}"
+        for g in halving["plan"]
+    )
+
+    def rho(found: dict[str, Any]) -> str:
+        value = found["rho"]
+        return f"{value:+.2f} over {found['candidates']} candidates" if value is not None else f"undefined over {found['candidates']} candidates"
+
+    missed = halving["top_ten_missed_by_old_rule"]
+    return "\n".join(
+        [
+            f"successive halving: {rungs}",
+            f"Spearman rank correlation of the screen's order (roll selectivity) and the measured one: {rho(halving['spearman_final'])} of the last rung, "
+            f"{rho(halving['spearman_first'])} of the first (+1: the screen predicts the order)",
+            f"of the final top ten, the old rule (--optimise 10) would have missed {len(missed)}" + (f": {', '.join(missed)}" if missed else ""),
+        ]
+    )
 
 
 def _counts(result: Any) -> Any:
@@ -124,6 +186,7 @@ def _ranking(result: Any) -> Any:
         "catalogue",
         "sigma_aw_at_limit",
         "gain_vs_roll_plane_pct",
+        "gain_vs_conventional_pct",
         "hv_mean",
         "hv_std",
         "k_bounce",

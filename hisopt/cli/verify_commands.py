@@ -46,7 +46,7 @@ def verify_cmd(
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
 ) -> None:
-    """Verify designs in the time domain, nonlinear, beside the frequency domain.
+    """Verify designs in the time domain, nonlinear.
 
     For each load case: R seeded ISO 8608 road realisations (each with its mirror) of T seconds
     through the linear model and the nonlinear one (gas law, valve laws, tyre lift-off):

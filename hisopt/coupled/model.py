@@ -126,7 +126,7 @@ class CoupledModel:
 
     @property
     def car(self) -> VehicleParams:
-        """The one car of this model.
+        """The one car of this model (a batch of one car is that car).
 
         Raises
         ------
@@ -134,6 +134,8 @@ class CoupledModel:
             The model holds a batch of cars, which the transient quantities, the roll
             gradient and the time-domain simulation do not take yet.
         """
+        if isinstance(self.vehicle, VehicleBatch) and self.vehicle.shape == (1,):
+            return self.vehicle.car(0)
         if isinstance(self.vehicle, VehicleBatch):
             raise ModelError("a batch of cars reaches only the frequency-domain model so far (CoupledModel.car)")
         return self.vehicle
@@ -325,8 +327,10 @@ class CoupledModel:
     def groups(self) -> list[tuple[np.ndarray, CoupledModel]]:
         """The batch split by the valves each design shorts (``R = 0``): ``(rows, model)`` pairs
         whose models have the shorted valves merged away (one group when none is shorted)."""
-        if self.his is None or self.his.network.fidelity != "lumped":
-            return [(np.arange(int(np.prod(self.his.batch_shape)) if self.his else 1), self)]
+        if self.his is None:  # the car without circuits: one group of its cars
+            return [(np.arange(int(np.prod(self.vehicle.shape)) if isinstance(self.vehicle, VehicleBatch) else 1), self)]
+        if self.his.network.fidelity != "lumped":
+            return [(np.arange(int(np.prod(self.his.batch_shape))), self)]
         if not self.his.network.valves():
             return [(np.arange(int(np.prod(self.his.batch_shape))), self)]
         net = self.his.network

@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
 Route = Literal["design", "batched", "road", "problem"]
 
-BATCHED_VEHICLE = frozenset({"m_s", "I_x", "I_y", "m_uf", "m_ur", "k_sf", "k_sr", "c_sf", "c_sr", "k_tr", "c_tr"})
+BATCHED_VEHICLE = frozenset({"m_s", "I_x", "I_y", "m_uf", "m_ur", "k_sf", "k_sr", "c_sf", "c_sr", "k_arb_f", "k_arb_r", "k_tr", "c_tr"})
 """Car fields a batch of cars carries through the frequency-domain evaluator: those no
 output, road delay or coherence reads (the roll gradient takes each car's ``m_s``)."""
 

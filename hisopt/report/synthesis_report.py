@@ -1,6 +1,7 @@
 """``DIR/report.html`` of a topology synthesis (:mod:`hisopt.studies.synthesis`): one offline page.
 
-The candidates per element count and what the screen kept, the ranking of the optimised
+The candidates per element count and what the screen kept, successive halving's rungs and
+how well the screen's order predicted the measured one (Spearman), the ranking of the optimised
 layouts at equal handling (with the buildability verdict of each one's design at the limit), the schematics of the best ten and their trade-off curves (best
 comfort against the handling limit); engineering units throughout. The layout study of the
 survivors keeps its own fuller report in ``DIR/study/report.html``.
@@ -10,7 +11,7 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from hisopt.report.layout_report import verdict_html
 from hisopt.report.tables import REPORT_CSS, html_table
@@ -35,7 +36,8 @@ def best_schematics(result: SynthesisResult, count: int = BEST_SHOWN) -> list[go
         return []
     cases = {c.name: c for c in result.study.cases}
     figs = []
-    for row in result.layouts.head(count).itertuples(index=False):
+    with_circuits = [row for row in result.layouts.itertuples(index=False) if row.layout in cases]  # not the car without circuits
+    for row in with_circuits[:count]:
         case = cases[row.layout]
         gain = row.gain_vs_roll_plane_pct
         title = f"{row.layout} ({row.elements} elements{', ' + row.catalogue if row.catalogue and row.catalogue != row.layout else ''}): " + (
@@ -71,6 +73,25 @@ def _ranking_html(result: SynthesisResult) -> str:
     )
 
 
+def halving_html(halving: dict[str, Any]) -> str:
+    """The successive-halving paragraph: the rungs, the Spearman correlations of the screen's
+    order and the measured one, and the top ten the old rule would have missed."""
+    rungs = "; ".join(f"rung {g['rung']}: {g['candidates']} candidates x {g['generations']} generations x {len(g['seeds'])} seed(s)" for g in halving["plan"])
+
+    def rho(found: dict[str, Any]) -> str:
+        return f"{found['rho']:+.2f}" if found["rho"] is not None else "undefined"
+
+    missed = halving["top_ten_missed_by_old_rule"]
+    return (
+        "<h2>Successive halving</h2>"
+        f'<p class="meta">{html.escape(rungs)} (docs/model.md §20.4; each candidate\'s rung and measure per rung in candidates.csv). '
+        f"Spearman rank correlation of the screen's order (roll selectivity) and the measured order: {rho(halving['spearman_final'])} over the "
+        f"{halving['spearman_final']['candidates']} candidates of the last rung, {rho(halving['spearman_first'])} over the "
+        f"{halving['spearman_first']['candidates']} of the first (+1: the screen predicts the order). Of the final top ten, the old rule "
+        f"(the screen's first ten) would have missed {len(missed)}{': ' + html.escape(', '.join(missed)) if missed else ''}.</p>"
+    )
+
+
 def write_synthesis_report(result: SynthesisResult, path: str | Path | None = None) -> Path:
     """Write the report (default ``DIR/report.html``) and the study's own; return its path."""
     from hisopt.errors import ConfigError
@@ -91,6 +112,7 @@ def write_synthesis_report(result: SynthesisResult, path: str | Path | None = No
         cells = "".join(f"<div>{page_figures.div(f, f'schematic{i}', config={'displayModeBar': False})}</div>" for i, f in enumerate(best_schematics(result)))
         limit = format_quantity(result.study.handling_limit, result.study.table.attrs["units"]["handling_limit"])
         parts += [
+            *([halving_html(result.halving)] if result.halving is not None else []),
             "<h2>Ranking</h2>",
             f'<p class="meta">Equal handling: {html.escape(result.study.handling)} &le; {html.escape(limit)}; gain_vs_roll_plane_pct &gt; 0 is better comfort '
             "than the paper's roll-plane layout there. Each layout's problem file is in layouts/; the study of the survivors, with its fronts, "

@@ -279,13 +279,7 @@ class DesignSpace:
         at its static pressures at that temperature and payload
         (:func:`hisopt.coupled.operating_point.charged_static_pressure`)."""
         at = self.spec.temperature if temperature is None else temperature
-        his = HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides, at))
-        payload = self.spec.payload
-        if self.spec.his.charge is not None:
-            return HydraulicSystem(his.network, his.params, static_pressure=charged_static_pressure(self.spec.vehicle, payload, his))
-        if payload is None or not payload.active:
-            return his
-        return HydraulicSystem(his.network, his.params, static_pressure_rise(self.spec.vehicle, payload, his))
+        return at_operating_point(self.spec, HydraulicSystem(self.network(), his_parameter_values(self.spec.his, overrides, at)))
 
     @property
     def vehicle(self) -> VehicleParams:
@@ -315,3 +309,19 @@ class DesignSpace:
         """The physical rule of parameter ``name`` (its ``[his]`` field and every element field
         of the layout that reads it; :func:`hisopt.specification.validation.parameter_rule`)."""
         return parameter_rule(name, layout=self.layout())
+
+
+def at_operating_point(spec: ProblemSpec, his: HydraulicSystem) -> HydraulicSystem:
+    """``his`` (parameter values at the problem's temperature) linearised at the static
+    operating point of ``spec``'s own load case, as :meth:`DesignSpace.hydraulic_system`
+    builds it: a charged HIS (``[his.charge]``) at its static pressures
+    (:func:`hisopt.coupled.operating_point.charged_static_pressure`), else with an active
+    ``[payload]`` at the laden static pressures (:func:`hisopt.coupled.payload.static_pressure_rise`),
+    else unchanged (the accumulators at their precharge). The synthesis's screening solves
+    each circuit alone with it (:func:`hisopt.studies.synthesis.circuit_matrices`)."""
+    payload = spec.payload
+    if spec.his.charge is not None:
+        return HydraulicSystem(his.network, his.params, static_pressure=charged_static_pressure(spec.vehicle, payload, his))
+    if payload is None or not payload.active:
+        return his
+    return HydraulicSystem(his.network, his.params, static_pressure_rise(spec.vehicle, payload, his))

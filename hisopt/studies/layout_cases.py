@@ -34,6 +34,11 @@ if TYPE_CHECKING:
 REFERENCE_LAYOUT = "roll_plane"
 """The paper's layout: the reference of ``gain_vs_roll_plane_pct``, always in a study."""
 
+CONVENTIONAL = "conventional"
+"""The car without circuits, with anti-roll bars (:mod:`hisopt.studies.conventional`): the
+reference of ``gain_vs_conventional_pct``, in a study when ``--layouts`` names it. It is
+sized, not optimised, so it is no :class:`LayoutCase`."""
+
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 
 
@@ -134,20 +139,26 @@ def layout_case(problem: Problem, item: str) -> LayoutCase:
     if path.suffix == ".toml":
         raise ConfigError(f"layout file {item!r} not found; expected a problem file with the custom layout", key="--layouts")
     raise ConfigError(
-        f"unknown layout {item!r}; expected one of {', '.join(CATALOGUE_NAMES)} or a problem file (.toml) with a custom layout",
+        f"unknown layout {item!r}; expected one of {', '.join(CATALOGUE_NAMES)}, {CONVENTIONAL} or a problem file (.toml) with a custom layout",
         key="--layouts",
     )
 
 
+def wants_conventional(layouts: str | Sequence[str] | None) -> bool:
+    """[-] Whether a study's ``--layouts`` name :data:`CONVENTIONAL`."""
+    return layouts is not None and CONVENTIONAL in parse_layout_list(layouts)
+
+
 def layout_cases(problem: Problem, layouts: str | Sequence[str] | None = None) -> list[LayoutCase]:
-    """Every layout of a study, :data:`REFERENCE_LAYOUT` first (added when not asked for).
+    """Every layout of a study, :data:`REFERENCE_LAYOUT` first (added when not asked for);
+    :data:`CONVENTIONAL` is not one (:func:`wants_conventional`).
 
     Raises
     ------
     ConfigError
         As :func:`parse_layout_list` and :func:`layout_case`; two files with the same stem.
     """
-    items = parse_layout_list(layouts)
+    items = [p for p in parse_layout_list(layouts) if p != CONVENTIONAL]
     if REFERENCE_LAYOUT not in items:
         items.insert(0, REFERENCE_LAYOUT)
     else:

@@ -19,7 +19,7 @@ from typing import Any
 from hisopt.errors import RunError
 from hisopt.optim import rundir
 from hisopt.optim.runstate import FAILED, FINISHED, RUNNING, STARTING, read_state
-from hisopt.studies.layout_cases import REFERENCE_LAYOUT, LayoutCase
+from hisopt.studies.layout_cases import CONVENTIONAL, REFERENCE_LAYOUT, LayoutCase
 from hisopt.studies.layout_study import (
     ATTAINMENT_CSV,
     CURVE_CSV,
@@ -197,6 +197,8 @@ def read_layout_study(out: str | Path) -> LayoutStudyResult:
     handling = str(table["handling"].iloc[0])
     cases = []
     for name in table["layout"]:
+        if name == CONVENTIONAL:  # sized, not optimised: no runs (its row is the table's)
+            continue
         seed = int(runs.loc[runs["layout"] == name, "seed"].min())
         run_dir = out / name / f"seed-{seed}"
         problem = rundir.load_run_problem(run_dir, rundir.read_run_json(run_dir)["problem"], check_original=False)

@@ -56,7 +56,7 @@ from hisopt.arguments import problem_argument
 from hisopt.errors import ConfigError, RunError
 from hisopt.optim.rundir import LAYOUT_STUDY_JSON
 from hisopt.plausibility import seed_count_problem
-from hisopt.studies.layout_cases import LayoutCase, layout_cases
+from hisopt.studies.layout_cases import LayoutCase, layout_cases, wants_conventional
 from hisopt.studies.layout_metrics import (
     COMFORT,
     Normalisation,
@@ -80,7 +80,9 @@ TABLE_DOC = """layout, source (catalogue or file), variables; hv_mean, hv_std, h
 (normalised hypervolume of the seeds' fronts), hv_merged (of their merged front),
 vorobev_threshold_pct, vorobev_deviation (comfort-handling plane); handling (the quantity's
 name), handling_limit, sigma_aw_at_limit (best comfort meeting it), handling_at_best,
-refined (the NLP improved the best sampled design), gain_vs_roll_plane_pct; handling_least
+refined (the NLP improved the best sampled design), gain_vs_roll_plane_pct,
+gain_vs_conventional_pct (with conventional in --layouts: against the car without circuits
+whose anti-roll bars are sized at the limit, its own row, docs/model.md §15.6); handling_least
 (the least handling of the layout's feasible designs), at_limit ("met", or why the layout has
 no design at the limit: its sigma_aw_at_limit and gain are then empty); buildable,
 binding_rule, build_margin (docs/model.md §21.3: the verdict of every buildability rule,
@@ -376,6 +378,10 @@ def run_layout_study(
     from hisopt.studies.layout_tables import assemble
 
     frames = assemble(cases, runs, norm, handling, handling_limit, backend, method=refine_method)
+    if wants_conventional(layouts):  # sized at the same limit: a second, no runs
+        from hisopt.studies.conventional import size_conventional, with_conventional
+
+        frames["table"] = with_conventional(frames["table"], size_conventional(problem, handling, handling_limit), handling, handling_limit)
     result = LayoutStudyResult(**frames, cases=cases, normalisation=norm, handling=handling, handling_limit=handling_limit, out=out_dir)
     if out_dir is not None:
         from hisopt.io import write_csv

@@ -11,19 +11,29 @@
    circuit is solved once by the network code and the candidates' tables are sums over
    their circuits, vectorised over candidates. The problem's ``[synthesis] screen`` keeps
    those worth optimising.
-3. **Optimisation** of the survivors, at most ``optimise`` of them (those that stiffen roll
-   most selectively first, :func:`roll_selectivity`, then the fewest elements), with the layout study (:mod:`hisopt.studies.layout_study`)
-   in ``DIR/study``: the same objectives, constraints, load cases and budget, comfort at equal
-   handling refined with CasADi, gain over roll_plane and the spread across seeds; resumable
-   and distributable on Dask as the study is.
+3. **Optimisation** of the survivors with the layout study (:mod:`hisopt.studies.layout_study`):
+   the same objectives, constraints, load cases and budget, comfort at equal handling refined
+   with CasADi, gain over roll_plane and the spread across seeds; resumable and distributable
+   on Dask as the study is. By default **successive halving** over every screened-in
+   candidate (:mod:`hisopt.studies.halving`, :mod:`hisopt.studies.synthesis_halving`): a
+   small budget for all, the best third of each rung to the next at three times the budget,
+   the last rung at the full budget with every seed in ``DIR/study`` (earlier rungs in
+   ``DIR/rung-<r>``). ``optimise=N`` instead keeps the old top-N mode: the first N of the
+   screen's order (those that stiffen roll most selectively first, :func:`roll_selectivity`,
+   then the fewest elements), each at the full budget, in ``DIR/study``.
 
 Directory ``DIR``::
 
-    synthesis.json    what was asked (problem SHA-256, K, chambers, symmetry, optimise)
+    synthesis.json    what was asked (problem SHA-256, K, chambers, symmetry, optimise or rungs)
     candidates.csv    every candidate: description, elements, stiffness table, status
+                      (halving: screen_rank, rung reached, final_rank, gain_rung_<r>, hv_rung_<r>)
     layouts/<c>.toml  each optimised candidate as a problem file with its custom layout
-    study/            the layout study of the survivors and roll_plane
-    layouts.csv       the optimised layouts ranked by gain at equal handling
+    rung-<r>/         halving: the layout study of an early rung
+    study/            the layout study at the full budget (the last rung) and roll_plane
+                      (and conventional, the car with anti-roll bars sized at the limit:
+                      gain_vs_conventional_pct)
+    layouts.csv       the layouts at the full budget ranked by gain at equal handling
+    halving.json      halving: the plan, Spearman of screen and final order, the top ten
     report.html       :mod:`hisopt.report.synthesis_report`
 
 Re-running the same command on ``DIR`` resumes (the enumeration is deterministic and the
@@ -53,9 +63,8 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
     from hisopt.studies.layout_study import LayoutStudyResult
 
-CANDIDATES_CSV, LAYOUTS_CSV, STUDY_DIR, LAYOUT_DIR = "candidates.csv", "layouts.csv", "study", "layouts"
+CANDIDATES_CSV, LAYOUTS_CSV, STUDY_DIR, LAYOUT_DIR, HALVING_JSON = "candidates.csv", "layouts.csv", "study", "layouts", "halving.json"
 SYNTHESIS_FORMAT = "hisopt-synthesis/1"
-DEFAULT_OPTIMISE = 10
 MAX_CANDIDATES = 100_000
 """[-] Default limit of candidates: beyond it a search is refused before it starts."""
 MAX_STRUCTURES = 100_000
@@ -96,22 +105,30 @@ def synthesis_bounds() -> dict[str, dict[str, Any]]:
 # --- screening -----------------------------------------------------------------------------------
 def circuit_matrices(problem: Problem, graphs: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
     """[N/m], [N s/m] Static stroke stiffness and low-frequency damping (4 x 4 each) that each
-    one-circuit node graph adds at the problem's values (its pipes and chamber volumes):
-    shapes ``(n, 4, 4)``."""
+    one-circuit node graph adds at the problem's values (its pipes and chamber volumes) and
+    temperature, linearised at the static operating point of the problem's own load case as
+    its model is (:func:`hisopt.specification.design_space.at_operating_point`: a charged HIS
+    at its static pressures, as ``hisopt layouts`` screens it): shapes ``(n, 4, 4)``.
+
+    Each circuit is solved alone: exact for a charged HIS at its charge temperature without a
+    payload (each circuit sits at its own charge pressure) and for the precharge; under a
+    payload or away from the charge temperature the car's static displacement, which all
+    circuits share, is the one circuit's."""
     from hisopt.hydraulics.catalogue import his_parameter_values, with_chamber_lines
     from hisopt.hydraulics.coupling import HydraulicSystem
     from hisopt.hydraulics.layout import Layout
     from hisopt.hydraulics.network import compile_network
+    from hisopt.specification.design_space import at_operating_point
 
     his = problem.spec.his
-    values = his_parameter_values(his.model_copy(update={"layout": "custom", "parameters": {}}), synthesis_parameters())
+    values = his_parameter_values(his.model_copy(update={"layout": "custom", "parameters": {}}), synthesis_parameters(), problem.spec.temperature)
     values |= damper_valve_resistances(problem)
     pipes, chamber = his.pipes is not None, his.chamber_volume > 0
     k = np.zeros((len(graphs), 4, 4))
     c = np.zeros((len(graphs), 4, 4))
     for i, graph in enumerate(graphs):
         layout = with_chamber_lines(Layout((topology.circuit_of_graph(graph, "A"),)), pipes, chamber)
-        system = HydraulicSystem(compile_network(layout, "lumped"), values)
+        system = at_operating_point(problem.spec, HydraulicSystem(compile_network(layout, "lumped"), values))
         k[i] = np.asarray(system.static_stiffness(), dtype=float).reshape(4, 4)
         c[i] = np.asarray(system.low_frequency_damping(), dtype=float).reshape(4, 4)
     return k, c
@@ -328,6 +345,10 @@ class SynthesisResult:
         candidates per element count: ``elements``, ``candidates``, ``screened_in``
     out : Path | None
         the directory written (None: nothing)
+    halving : dict[str, Any] | None
+        ``halving.json`` (:func:`hisopt.studies.synthesis_halving.halving_summary`: the
+        plan, the Spearman correlations of the screen's order and the measured one, the
+        top ten the old rule would have missed); None in the top-N mode
     """
 
     candidates: pd.DataFrame
@@ -335,6 +356,7 @@ class SynthesisResult:
     study: LayoutStudyResult | None
     counts: pd.DataFrame
     out: Path | None
+    halving: dict[str, Any] | None = None
 
 
 def check_search_arguments(max_elements: int, chambers: str, max_candidates: int) -> None:
@@ -383,7 +405,7 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def _record(problem: Problem, max_elements: int, chambers: str, symmetric: bool, optimise: int) -> dict[str, Any]:
+def _record(problem: Problem, max_elements: int, chambers: str, symmetric: bool, mode: dict[str, Any]) -> dict[str, Any]:
     from hisopt.studies.layout_study import problem_digest
 
     return {
@@ -392,8 +414,7 @@ def _record(problem: Problem, max_elements: int, chambers: str, symmetric: bool,
         "max_elements": max_elements,
         "chambers": chambers,
         "symmetric": symmetric,
-        "optimise": optimise,
-    }
+    } | mode
 
 
 def check_record(out: Path, record: dict[str, Any]) -> None:
@@ -434,7 +455,9 @@ def run_synthesis(
     out: str | Path | None = None,
     pop_size: int | None = None,
     generations: int | None = None,
-    optimise: int = DEFAULT_OPTIMISE,
+    optimise: int | None = None,
+    rungs: int | None = None,
+    first_generations: int | None = None,
     max_candidates: int = MAX_CANDIDATES,
     handling: str | None = None,
     backend: Backend | None = None,
@@ -453,12 +476,21 @@ def run_synthesis(
     symmetric : bool, optional
         only mirror-symmetric layouts (default)
     seeds, pop_size, generations, handling, backend
-        as :func:`hisopt.studies.layout_study.run_layout_study`
+        as :func:`hisopt.studies.layout_study.run_layout_study` (``generations``: the full
+        budget, of the last rung)
     out : str | Path | None, optional
         directory (module docstring); None writes nothing but the optimised layouts'
         problem files, in a temporary folder (``layouts.csv``'s ``file`` column)
-    optimise : int, optional
-        [-] at most this many survivors are optimised (0: screening only)
+    optimise : int | None, optional
+        [-] None (default): successive halving over every screened-in candidate; a number:
+        the old top-N mode, at most this many survivors, the screen's first, each at the
+        full budget (0: screening only)
+    rungs : int | None, optional
+        [-] successive halving's rungs (default :func:`hisopt.studies.halving.default_rungs`:
+        as many as leave at least ten candidates for the last rung)
+    first_generations : int | None, optional
+        [generations] the first rung's budget (default
+        :func:`hisopt.studies.halving.default_first_generations`)
     max_candidates : int, optional
         [-] refuse a search with more candidates
     progress : Callable[[str], None] | None, optional
@@ -467,7 +499,10 @@ def run_synthesis(
     Raises
     ------
     ConfigError
-        A bad K, chamber set, seeds or budget, or a search beyond the limits.
+        A bad K, chamber set, seeds or budget, a search beyond the limits, ``optimise``
+        given with ``rungs`` or ``first_generations``, or a rung plan that leaves no candidate
+        for the last rung or runs a rung below one generation (:func:`hisopt.studies.halving.halving_plan`);
+        all before anything is written.
     RunError
         ``out`` holds another synthesis, a folder of another kind or files hisopt did not
         write (:func:`hisopt.folders.claim`).
@@ -478,48 +513,105 @@ def run_synthesis(
 
     say = progress or (lambda _: None)
     problem_argument(problem)
-    integer(optimise, "--optimise", minimum=0, what="layouts to optimise")
-    parse_seed_list(seeds)
+    seed_list = parse_seed_list(seeds)
     budget = study_budget(problem, pop_size, generations)
+    mode = check_mode(optimise, rungs, first_generations, budget["generations"])
     count = check_search(max_elements, chambers, symmetric, max_candidates)
     out_dir = None if out is None else Path(out)
-    record = _record(problem, max_elements, chambers, symmetric, optimise)
+    record = _record(problem, max_elements, chambers, symmetric, mode)
     if out_dir is not None:
         check_claim(out_dir, SYNTHESIS)  # a folder of another kind, or a user's, is refused
         check_record(out_dir, record)  # so is another synthesis
         read_study_record(out_dir / STUDY_DIR, problem, budget)
+    # no news before the plan is checked: a refused plan is one line (its count needs the screen)
+    enumeration = topology.enumerate_layouts(max_elements, chambers, symmetric)
+    candidates = screening_frame(problem, enumeration)
+    screen_order = pick_survivors(candidates, len(candidates))
+    plan = None
+    if optimise is None and screen_order:  # checked before anything is written
+        from hisopt.studies.halving import default_first_generations, default_rungs, halving_plan
+
+        r = rungs if rungs is not None else default_rungs(len(screen_order))
+        g = first_generations if first_generations is not None else default_first_generations(r, budget["generations"])
+        plan = halving_plan(len(screen_order), r, g, budget["generations"], seed_list)
+    if out_dir is not None:
         claim(out_dir, SYNTHESIS)
         atomic_write_json(out_dir / SYNTHESIS_JSON, record)
-    say(f"enumerating {count:,} candidates of at most {max_elements} elements")
-    enumeration = topology.enumerate_layouts(max_elements, chambers, symmetric)
-    say("screening their mode-stiffness tables")
-    candidates = screening_frame(problem, enumeration)
-    picked = pick_survivors(candidates, optimise)
-    study = None
+    say(f"enumerated and screened {count:,} candidates of at most {max_elements} elements: {len(screen_order):,} screened in")
+    picked = screen_order if plan is not None else screen_order[: int(optimise or 0)]
+    study, halving = None, None
     files: dict[str, Path] = {}
     if picked:
         files = _write_layout_files(problem, enumeration, picked, out_dir)
-        say(f"optimising {len(picked)} of {int((candidates['status'] == STATUS_SCREENED_IN).sum())} screened-in candidates and roll_plane")
-        from hisopt.studies.layout_study import run_layout_study
+        in_count = len(screen_order)
+        from hisopt.studies.layout_cases import CONVENTIONAL
 
-        study = run_layout_study(
-            problem,
-            [str(p) for p in files.values()],
-            seeds,
-            out=None if out_dir is None else out_dir / STUDY_DIR,
-            pop_size=pop_size,
-            generations=generations,
-            handling=handling,
-            backend=backend,
-        )
-    for i in picked:
-        candidates.loc[i, "status"] = STATUS_OPTIMISED
+        if plan is not None:
+            from hisopt.studies import synthesis_halving as sh
+
+            say(f"successive halving over {in_count} screened-in candidates: " + ", ".join(f"{g.candidates} x {g.generations} gen" for g in plan))
+            run = sh.run_halving(problem, files, plan, out=out_dir, pop_size=pop_size, handling=handling, backend=backend, say=say, references=[CONVENTIONAL])
+            study = run.studies[-1]
+            names = [candidate_name(i) for i in screen_order]
+            halving = sh.halving_summary(run, names, names[: sh.TOP])
+            extra = sh.rung_columns(run, list(candidates["candidate"]), names)
+            units = dict(candidates.attrs["units"]) | sh.rung_units(len(plan))
+            candidates = with_units(pd.concat([candidates, extra], axis=1), units)
+            files = {str(n): files[str(n)] for n in run.result.entrants[-1]}
+            for i, reached in enumerate(candidates["rung"]):
+                if reached:
+                    candidates.loc[i, "status"] = STATUS_OPTIMISED if reached == len(plan) else f"stopped at rung {reached} of {len(plan)}"
+        else:
+            say(f"optimising {len(picked)} of {in_count} screened-in candidates and roll_plane")
+            from hisopt.studies.layout_study import run_layout_study
+
+            study = run_layout_study(
+                problem,
+                [*(str(p) for p in files.values()), CONVENTIONAL],  # the car with bars: gains against it too (a second, no runs)
+                seeds,
+                out=None if out_dir is None else out_dir / STUDY_DIR,
+                pop_size=pop_size,
+                generations=generations,
+                handling=handling,
+                backend=backend,
+            )
+            for i in picked:
+                candidates.loc[i, "status"] = STATUS_OPTIMISED
     layouts = _layouts_table(candidates, study, files, out_dir)
     counts = counts_table(candidates)
     if out_dir is not None:
         write_csv(candidates, out_dir / CANDIDATES_CSV)
         write_csv(layouts, out_dir / LAYOUTS_CSV)
-    return SynthesisResult(candidates, layouts, study, counts, out_dir)
+        if halving is not None:
+            atomic_write_json(out_dir / HALVING_JSON, halving)
+    return SynthesisResult(candidates, layouts, study, counts, out_dir, halving)
+
+
+def check_mode(optimise: int | None, rungs: int | None, first_generations: int | None, full_generations: int) -> dict[str, Any]:
+    """The optimisation mode as ``synthesis.json`` records it: ``{"optimise": N}`` (the top-N
+    mode) or ``{"halving": {"rungs", "first_generations"}}`` (as asked: None for a default).
+
+    Raises
+    ------
+    ConfigError
+        ``--optimise`` below 0 or given with ``--rungs``/``--first-gens``; a bad rung or
+        first budget (:func:`hisopt.studies.halving.check_halving_arguments`).
+    """
+    from hisopt.studies.halving import check_halving_arguments, default_first_generations
+
+    if optimise is not None:
+        integer(optimise, "--optimise", minimum=0, what="layouts to optimise")
+        if rungs is not None or first_generations is not None:
+            raise ConfigError(
+                "--optimise N selects the old top-N mode; --rungs and --first-gens belong to successive halving (the default): give one or the other",
+                key="--optimise",
+            )
+        return {"optimise": int(optimise)}
+    if rungs is not None or first_generations is not None:  # the candidates' count is not needed for these
+        checked = 1 if rungs is None else rungs
+        first = default_first_generations(checked, full_generations) if first_generations is None else first_generations
+        check_halving_arguments(checked, first, full_generations)
+    return {"halving": {"rungs": rungs, "first_generations": first_generations}}
 
 
 def _write_layout_files(problem: Problem, enumeration: topology.Enumeration, picked: list[int], out_dir: Path | None) -> dict[str, Path]:
@@ -548,23 +640,31 @@ def _shown_path(path: Path, out_dir: Path | None) -> str:
 def _layouts_table(candidates: pd.DataFrame, study: LayoutStudyResult | None, files: dict[str, Path], out_dir: Path | None) -> pd.DataFrame:
     """``layouts.csv``: the study's table with each candidate's description and problem file
     (relative to ``DIR``), best gain first (roll_plane, the reference, included)."""
+    from hisopt.studies.layout_cases import CONVENTIONAL
+
     if study is None:
         return with_units(pd.DataFrame({"layout": [], "gain_vs_roll_plane_pct": []}), {"layout": NO_UNIT, "gain_vs_roll_plane_pct": "%"})
     table = study.table.copy()
     info = candidates.set_index("candidate")
-    table.insert(1, "elements", [int(info.loc[n, "elements"]) if n in info.index else _catalogue_elements(n) for n in table["layout"]])
+    table.insert(1, "elements", [int(info.loc[n, "elements"]) if n in info.index else _catalogue_elements(n) for n in table["layout"]])  # conventional: 0
     table.insert(2, "catalogue", [info.loc[n, "catalogue"] if n in info.index else n for n in table["layout"]])
     table.insert(3, "file", [_shown_path(files[n], out_dir) if n in files else "" for n in table["layout"]])
     if "source" in table:
         table["source"] = ["synthesis" if n in files else source for n, source in zip(table["layout"], table["source"], strict=True)]
-    table.insert(4, "description", [info.loc[n, "description"] if n in info.index else "catalogue layout (reference)" for n in table["layout"]])
+    references = {CONVENTIONAL: "car without circuits, anti-roll bars sized at the limit (reference)"}
+    described = [info.loc[n, "description"] if n in info.index else references.get(n, "catalogue layout (reference)") for n in table["layout"]]
+    table.insert(4, "description", described)
     table = table.sort_values("gain_vs_roll_plane_pct", ascending=False, na_position="last", kind="stable").reset_index(drop=True)
     units = dict(study.table.attrs["units"]) | {"elements": NO_UNIT, "catalogue": NO_UNIT, "file": NO_UNIT, "description": NO_UNIT}
     return with_units(table, units)
 
 
 def _catalogue_elements(name: str) -> int:
-    """[-] Accumulators plus valves of a catalogue layout."""
+    """[-] Accumulators plus valves of a catalogue layout (0 for the car without circuits)."""
     from hisopt.hydraulics.catalogue import catalogue
+    from hisopt.studies.layout_cases import CONVENTIONAL
+
+    if name == CONVENTIONAL:
+        return 0
 
     return sum(topology.element_count(g) for g in topology.layout_graphs(catalogue()[name].layout(False, False)))

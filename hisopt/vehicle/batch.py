@@ -35,6 +35,8 @@ class VehicleBatch:
     k_sr: np.ndarray
     c_sf: np.ndarray
     c_sr: np.ndarray
+    k_arb_f: np.ndarray
+    k_arb_r: np.ndarray
     k_tf: np.ndarray
     k_tr: np.ndarray
     c_tf: np.ndarray

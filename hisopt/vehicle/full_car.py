@@ -89,10 +89,35 @@ def _springs(vehicle: VehicleParams | VehicleBatch, suspension: np.ndarray, tyre
     return k
 
 
+AXLES = ((0, 1), (2, 3))
+"""The strokes (rows of ``G``) of the front and the rear axle, left first."""
+
+
+def anti_roll_bars(vehicle: VehicleParams | VehicleBatch) -> np.ndarray:
+    """The anti-roll bars' stiffness ``G^T K_b G``, shape ``B + (7, 7)`` (docs/model.md §2.3).
+
+    An axle's bar of rate ``k`` at the wheel stores ``k (delta_L - delta_R)^2 / 2``: its
+    block of ``K_b`` is ``k [[1, -1], [-1, 1]]`` on that axle's strokes, i.e.
+    ``k d d^T`` with ``d = g_L - g_R``, summed in elementwise arithmetic as the springs are.
+    In roll (``delta_L - delta_R = 2 t phi``) it adds ``4 k t^2`` to the roll stiffness.
+    """
+    g = stroke_matrix(vehicle)
+    k_f, k_r = _arrays(vehicle.k_arb_f, vehicle.k_arb_r)
+    k = np.zeros(g.shape[:-2] + (7, 7))
+    for rate, (left, right) in zip((k_f, k_r), AXLES, strict=True):
+        d = g[..., left, :] - g[..., right, :]
+        k += rate[..., None, None] * (d[..., :, None] * d[..., None, :])
+    return k
+
+
 def stiffness_matrix(vehicle: VehicleParams | VehicleBatch) -> np.ndarray:
-    """Conventional springs ``G^T K_s G`` plus tyre springs on the wheel DOFs, shape ``B + (7, 7)``."""
+    """Conventional springs ``G^T K_s G``, the anti-roll bars ``G^T K_b G``
+    (:func:`anti_roll_bars`) and the tyre springs on the wheel DOFs, shape ``B + (7, 7)``.
+
+    Bars of rate 0 (the default) add exact zeros: the matrix is the springs' and tyres' to
+    the last bit."""
     v = vehicle
-    return _springs(v, _per_wheel(v.k_sf, v.k_sr), _per_wheel(v.k_tf, v.k_tr))
+    return _springs(v, _per_wheel(v.k_sf, v.k_sr), _per_wheel(v.k_tf, v.k_tr)) + anti_roll_bars(v)
 
 
 def damping_matrix(vehicle: VehicleParams | VehicleBatch) -> np.ndarray:

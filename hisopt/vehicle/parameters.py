@@ -28,6 +28,12 @@ class VehicleParams(BaseModel):
     k_sr: float = Field(18_000.0, ge=0, description="rear suspension spring", json_schema_extra=si("N/m"))
     c_sf: float = Field(1_500.0, ge=0, description="front damper", json_schema_extra=si("N s/m"))
     c_sr: float = Field(1_500.0, ge=0, description="rear damper", json_schema_extra=si("N s/m"))
+    k_arb_f: float = Field(
+        0.0, ge=0, description="front anti-roll bar rate at the wheel: force per unit difference of the left and right strokes", json_schema_extra=si("N/m")
+    )
+    k_arb_r: float = Field(
+        0.0, ge=0, description="rear anti-roll bar rate at the wheel: force per unit difference of the left and right strokes", json_schema_extra=si("N/m")
+    )
     k_tf: float = Field(200_000.0, gt=0, description="front tyre vertical stiffness", json_schema_extra=si("N/m"))
     k_tr: float = Field(200_000.0, gt=0, description="rear tyre vertical stiffness", json_schema_extra=si("N/m"))
     c_tf: float = Field(0.0, ge=0, description="front tyre damping", json_schema_extra=si("N s/m"))
