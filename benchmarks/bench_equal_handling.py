@@ -31,7 +31,7 @@ from hisopt.optim.gradient.refine import refine_constrained
 from hisopt.studies.layout_cases import catalogue_case
 
 ROOT = Path(__file__).resolve().parents[1]
-METHODS = (("ipopt_vm", {"method": "ipopt"}), ("ipopt_compiled", {"method": "ipopt", "compile": True}), ("slp", {}))
+METHODS = (("ipopt_vm", {"method": "ipopt"}), ("ipopt_compiled", {"method": "ipopt", "compile": True}), ("slp", {"method": "slp"}))
 
 
 def cpu_seconds() -> float:
@@ -54,7 +54,7 @@ def main() -> None:
         limit = float(roll_gradient(case.model(x0[None, :]), case.spec.handling.gravity_moment)[0])
         sigma = {}
         for name, options in METHODS:
-            settings = RefineSettings(rounds=8) if options else None
+            settings = RefineSettings(rounds=8) if options["method"] == "ipopt" else None
             wall, cpu = time.perf_counter(), cpu_seconds()
             point = refine_constrained(case, x0, "sigma_aw", {"roll_gradient": limit}, settings, **options)
             wall, cpu = time.perf_counter() - wall, cpu_seconds() - cpu
