@@ -47,7 +47,8 @@ class VerifySettings:
     settle_s : float
         [s] simulated before the record (the car's and the weighting filters' transients)
     seed : int
-        [-] realisation ``i`` of load case ``c`` uses the generator seeded ``(seed, c, i)``
+        [-] realisation ``i`` of load case ``c`` (from 0) uses the generator seeded
+        ``(seed, 100000 c + i)`` (:func:`hisopt.simulation.agreement.road_realisation`)
     target_se, worst_se : float
         [-] the relative standard error of ``sigma_aw`` to reach, and the largest accepted
     first_realisations, max_realisations : int
@@ -92,7 +93,6 @@ def check_settings(settings: VerifySettings, f_min_hz: float, keys: dict[str, st
         raise ConfigError(f"expected a settling time >= 0 s, got {settings.settle_s!r}", key=keys.get("settle", "settle_s"))
 
 
-# --- the figures of one record -----------------------------------------------------------------
 # --- statistics --------------------------------------------------------------------------------
 def mean_and_error(samples: NDArray[np.float64]) -> tuple[float, float]:
     """The mean of ``samples`` ``(R,)`` and its standard error (spread over ``sqrt(R)``)."""
