@@ -58,25 +58,58 @@ class Backend:
                 if on_result is not None:
                     on_result(i, results[-1])
             return results
+        done: dict[int, R] = {}
+        pending = list(range(len(items)))
+        for _ in range(LOST_INPUT_ATTEMPTS):
+            pending = self._run_pending(fn, items, args, pending, done, on_result)
+            if not pending:
+                return [done[i] for i in range(len(items))]
+        raise RuntimeError(f"Dask lost the inputs of {len(pending)} task(s) {LOST_INPUT_ATTEMPTS} times (workers dying); their results are missing")
+
+    def _run_pending(
+        self,
+        fn: Callable[..., R],
+        items: Sequence[T],
+        args: tuple[Any, ...],
+        pending: list[int],
+        done: dict[int, R],
+        on_result: Callable[[int, R], None] | None,
+    ) -> list[int]:
+        """Submit the ``pending`` items, store each result in ``done`` once (by item index), and
+        return the items whose tasks were cancelled because their scattered inputs were lost
+        with every worker holding them (a retry cannot run: they are submitted again, with the
+        inputs scattered anew)."""
+        from concurrent.futures import CancelledError
+
+        from dask.distributed import as_completed
+
         # Unique keys (hash=False): a repeated scatter of the same object must not share a
         # key whose release by an earlier call would drop it from under the new tasks.
         shared = [self.client.scatter(a, broadcast=True, hash=False) for a in args]
         # Items are scattered too, so the task graph stays small whatever the data size; to
         # every worker, like the shared arguments, so that losing a worker (a missed
         # heartbeat on a loaded machine) loses no input and a retry can run elsewhere.
-        item_futures = self.client.scatter(list(items), hash=False, broadcast=True)
-        futures = self.client.map(fn, item_futures, *[[s] * len(items) for s in shared], pure=False, retries=2)
-        if on_result is None:
-            return self.client.gather(futures)
-        from dask.distributed import as_completed
-
-        position = {f.key: i for i, f in enumerate(futures)}
-        done: dict[int, R] = {}
+        item_futures = self.client.scatter([items[i] for i in pending], hash=False, broadcast=True)
+        futures = self.client.map(fn, item_futures, *[[s] * len(pending) for s in shared], pure=False, retries=2)
+        position = {f.key: i for f, i in zip(futures, pending, strict=True)}
+        lost = []
         for future in as_completed(futures):
             i = position[future.key]
-            done[i] = future.result()
-            on_result(i, done[i])
-        return [done[i] for i in range(len(futures))]
+            try:
+                result = future.result()
+            except CancelledError:
+                lost.append(i)
+                continue
+            if i not in done:  # one result per item, whatever ran twice
+                done[i] = result
+                if on_result is not None:
+                    on_result(i, result)
+        return sorted(lost)
+
+
+LOST_INPUT_ATTEMPTS = 3
+"""[-] Times :meth:`Backend.map` submits tasks whose scattered inputs Dask lost (every worker
+holding them died) before it gives up."""
 
 
 @contextlib.contextmanager
