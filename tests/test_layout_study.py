@@ -12,12 +12,9 @@
 
 from __future__ import annotations
 
-import os
 import shutil
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +26,7 @@ from hisopt.optim import rundir
 from hisopt.studies.layout_study import run_layout_study
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
+from tests.sigkill import kill_at_generation
 
 POP, GENS, SEEDS = 12, 6, "1-2"
 STUDY_FILES = ("layouts.csv", "runs.csv", "fronts.csv", "handling_curve.csv", "attainment.csv")
@@ -204,10 +202,6 @@ def _cli(problem: Path, out: Path) -> list[str]:
     return [sys.executable, "-m", "hisopt", "compare-layouts", str(problem), "--out", str(out), *CLI_ARGS]
 
 
-def _checkpoint(run_dir: Path) -> int:
-    return rundir.checkpoint_generation(run_dir) if (run_dir / rundir.CHECKPOINT).exists() else 0
-
-
 @pytest.mark.slow
 def test_cli_study_resumes_after_sigkill_to_identical_files(tmp_path):
     problem = tmp_path / "problem.toml"
@@ -218,19 +212,7 @@ def test_cli_study_resumes_after_sigkill_to_identical_files(tmp_path):
 
     out = tmp_path / "killed"
     target = out / "axle_roll" / "seed-1"
-    proc = subprocess.Popen(_cli(problem, out), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 300
-        while _checkpoint(target) < 3:
-            assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
-            assert time.monotonic() < deadline, "no checkpoint in time"
-            time.sleep(0.005)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        if proc.poll() is None:
-            proc.kill()  # ours, by its id
-        proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGKILL
+    kill_at_generation(_cli(problem, out), target, 3, timeout=300)
     assert rundir.read_run_json(target)["status"] == "running"  # cut short mid-run
     assert not (out / "layouts.csv").exists()
     again = subprocess.run(_cli(problem, out), cwd=ROOT, capture_output=True, text=True, timeout=600)

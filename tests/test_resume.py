@@ -12,7 +12,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from hisopt.interrupt import TEST_HOOK_ENV
 from hisopt.optim import rundir
 from hisopt.optim.run import CHECKPOINT_INTERVAL_ENV
 from tests.conftest import DEFAULT_PROBLEM, ROOT
+from tests.sigkill import wait_for_generation
 
 HANDLING_PROBLEM = ROOT / "problems" / "roll_plane_his_handling.toml"
 ARGS = ("--pop", "24", "--gens", "30", "--seed", "11")
@@ -54,18 +54,6 @@ def start(*args: str) -> subprocess.Popen:
 
 def run(*args: str, **extra: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "hisopt", *args], cwd=ROOT, capture_output=True, text=True, timeout=300, env=env(**extra))
-
-
-def wait_for_generation(proc: subprocess.Popen, run_dir: Path, generation: int, timeout: float = 120.0) -> int:
-    """Poll the checkpoint until it reports ``generation`` (or more); the process must still run."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        assert proc.poll() is None, f"run ended before generation {generation}: {proc.stderr.read() if proc.stderr else ''}"
-        done = rundir.checkpoint_generation(run_dir) if (run_dir / rundir.CHECKPOINT).exists() else 0
-        if done >= generation:
-            return done
-        time.sleep(0.005)
-    pytest.fail(f"no checkpoint for generation {generation} within {timeout} s")
 
 
 @pytest.fixture(scope="module")

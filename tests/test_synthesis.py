@@ -15,12 +15,9 @@
 from __future__ import annotations
 
 import itertools
-import os
 import shutil
-import signal
 import subprocess
 import sys
-import time
 from collections import defaultdict
 from pathlib import Path
 
@@ -35,6 +32,7 @@ from hisopt.problem import load_problem
 from hisopt.studies import synthesis
 from tests.cli_inprocess import run_cli
 from tests.conftest import DEFAULT_PROBLEM, ROOT
+from tests.sigkill import kill_at_generation
 
 ROBUST_PROBLEM = ROOT / "problems" / "roll_plane_his_robust.toml"
 
@@ -390,19 +388,7 @@ def test_synthesis_resumes_after_sigkill_to_identical_files(tmp_path):
 
     out = tmp_path / "killed"
     target = out / "study" / "c000006" / "seed-1"
-    proc = subprocess.Popen(_cli(problem, out), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 600
-        while not ((target / rundir.CHECKPOINT).exists() and rundir.checkpoint_generation(target) >= 3):
-            assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
-            assert time.monotonic() < deadline, "no checkpoint in time"
-            time.sleep(0.005)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        if proc.poll() is None:
-            proc.kill()  # ours, by its id
-        proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGKILL
+    kill_at_generation(_cli(problem, out), target, 3, timeout=600)
     assert not (out / "layouts.csv").exists()
     again = subprocess.run(_cli(problem, out), cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert again.returncode == 0, again.stderr
@@ -438,19 +424,8 @@ def test_halving_resumes_after_sigkill_in_its_last_rung_to_identical_files(tmp_p
     assert reference.returncode == 0, reference.stderr
     out = tmp_path / "killed"
     target = out / "study" / "roll_plane" / "seed-1"  # the last rung: rung 1 is finished by then
-    proc = subprocess.Popen(command(out), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 600
-        while not ((target / rundir.CHECKPOINT).exists() and rundir.checkpoint_generation(target) >= 3):
-            assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
-            assert time.monotonic() < deadline, "no checkpoint in time"
-            time.sleep(0.005)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        if proc.poll() is None:
-            proc.kill()  # ours, by its id
-        proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGKILL and not (out / "halving.json").exists()
+    kill_at_generation(command(out), target, 3, timeout=600)
+    assert not (out / "halving.json").exists()
     again = subprocess.run(command(out), cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert again.returncode == 0, again.stderr
     for name in ("candidates.csv", "layouts.csv", "halving.json", "synthesis.json", "rung-1/layouts.csv", "study/layouts.csv", "study/runs.csv"):
