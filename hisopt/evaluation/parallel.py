@@ -15,10 +15,7 @@ import contextlib
 import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, TypeVar
-
-if TYPE_CHECKING:
-    pass
+from typing import Any, TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -58,58 +55,44 @@ class Backend:
                 if on_result is not None:
                     on_result(i, results[-1])
             return results
-        done: dict[int, R] = {}
-        pending = list(range(len(items)))
-        for _ in range(LOST_INPUT_ATTEMPTS):
-            pending = self._run_pending(fn, items, args, pending, done, on_result)
-            if not pending:
-                return [done[i] for i in range(len(items))]
-        raise RuntimeError(f"Dask lost the inputs of {len(pending)} task(s) {LOST_INPUT_ATTEMPTS} times (workers dying); their results are missing")
-
-    def _run_pending(
-        self,
-        fn: Callable[..., R],
-        items: Sequence[T],
-        args: tuple[Any, ...],
-        pending: list[int],
-        done: dict[int, R],
-        on_result: Callable[[int, R], None] | None,
-    ) -> list[int]:
-        """Submit the ``pending`` items, store each result in ``done`` once (by item index), and
-        return the items whose tasks were cancelled because their scattered inputs were lost
-        with every worker holding them (a retry cannot run: they are submitted again, with the
-        inputs scattered anew)."""
-        from concurrent.futures import CancelledError
-
+        import dask
         from dask.distributed import as_completed
 
-        # Unique keys (hash=False): a repeated scatter of the same object must not share a
-        # key whose release by an earlier call would drop it from under the new tasks.
-        shared = [self.client.scatter(a, broadcast=True, hash=False) for a in args]
-        # Items are scattered too, so the task graph stays small whatever the data size; to
-        # every worker, like the shared arguments, so that losing a worker (a missed
-        # heartbeat on a loaded machine) loses no input and a retry can run elsewhere.
-        item_futures = self.client.scatter([items[i] for i in pending], hash=False, broadcast=True)
-        futures = self.client.map(fn, item_futures, *[[s] * len(pending) for s in shared], pure=False, retries=2)
-        position = {f.key: i for f, i in zip(futures, pending, strict=True)}
-        lost = []
+        # Inputs travel in the task specs, never by scatter: the scheduler keeps every spec, so
+        # what a lost worker held (an input, a result) is computed again from it (lineage).
+        # A scattered input dies with its holders, and a broadcast scatter never returns when
+        # a worker dies while it replicates (distributed 2026.8, Scheduler.replicate's loop).
+        # The shared arguments are sent once, as tasks that return them; each item in its own
+        # task, boxed so that Dask never reads a tuple item as a task.
+        # Dask's warning on a graph over 10 MB is for data it could load itself; these inputs
+        # belong in the graph (a 10^6-design sweep's is 32 MB, held by the scheduler).
+        n = len(items)
+        with dask.config.set({"distributed.admin.large-graph-warning-threshold": "2 GiB"}):
+            shared = [self.client.submit(_unbox, _Box(a), pure=False) for a in args]
+            futures = self.client.map(_apply, [fn] * n, [_Box(item) for item in items], *[[s] * n for s in shared], pure=False, retries=2)
+        position = {f.key: i for i, f in enumerate(futures)}
+        done: dict[int, R] = {}
         for future in as_completed(futures):
             i = position[future.key]
-            try:
-                result = future.result()
-            except CancelledError:
-                lost.append(i)
-                continue
-            if i not in done:  # one result per item, whatever ran twice
-                done[i] = result
-                if on_result is not None:
-                    on_result(i, result)
-        return sorted(lost)
+            done[i] = future.result()
+            if on_result is not None:
+                on_result(i, done[i])
+        return [done[i] for i in range(n)]
 
 
-LOST_INPUT_ATTEMPTS = 3
-"""[-] Times :meth:`Backend.map` submits tasks whose scattered inputs Dask lost (every worker
-holding them died) before it gives up."""
+@dataclass(frozen=True)
+class _Box:
+    """An opaque holder: Dask pickles it whole and never looks inside for tasks or futures."""
+
+    value: Any
+
+
+def _unbox(box: _Box) -> Any:
+    return box.value
+
+
+def _apply(fn: Callable[..., R], item: _Box, *args: Any) -> R:
+    return fn(item.value, *args)
 
 
 @contextlib.contextmanager
