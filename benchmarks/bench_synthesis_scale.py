@@ -62,7 +62,7 @@ def main() -> None:
     screened = frame.index[frame["status"] == STATUS_SCREENED_IN].tolist()
     budget = study_budget(problem, None, None)
     seeds = (1, 2, 3)
-    rungs = default_rungs(len(screened))
+    rungs = default_rungs(len(screened), budget["generations"])
     plan = halving_plan(len(screened), rungs, default_first_generations(rungs, budget["generations"]), budget["generations"], seeds)
     print(f"K = {args.max_elements}: {len(enumeration.candidates)} candidates, {len(screened)} screened in; enumerate and screen {screening_s:.1f} s")
     print(f"population {budget['pop_size']}, full budget {budget['generations']} generations, seeds {seeds}; {rungs} rungs")
@@ -73,7 +73,8 @@ def main() -> None:
         files = _candidate_files(problem, enumeration, picks, Path(tmp))
         for rung in plan:
             start = time.perf_counter()
-            run_layout_study(problem, files, rung.seeds, pop_size=budget["pop_size"], generations=rung.generations)
+            last = rung.number == len(plan)  # early rungs rank the sampled designs, as hisopt synthesize does
+            run_layout_study(problem, files, rung.seeds, pop_size=budget["pop_size"], generations=rung.generations, refine_method="ipopt" if last else "none")
             cost[rung.number] = (time.perf_counter() - start) / (len(files) + 1)  # roll_plane is one more candidate
             runs = f"{rung.candidates:>5} candidates x {len(rung.seeds)} seed(s) at {rung.generations:>3} generations"
             print(f"  rung {rung.number}: {runs}: {cost[rung.number]:6.1f} s per candidate")

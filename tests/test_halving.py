@@ -2,7 +2,8 @@
 
 - the rung arithmetic equals the closed form, computed here with exact fractions: rung r
   takes ceil(n / 3^(r-1)) candidates at G 3^(r-1) generations with one seed, the last rung
-  the full budget with every seed; the K = 10 full-car robust search's plan by hand;
+  at least the best ten (all of the rung before if fewer) at the full budget with every
+  seed; the K = 10 full-car robust search's plan by hand;
 - applied to candidates with known scores measured with noise that shrinks with the budget
   (the standard deviation ~ 1 / generations), the true best is the winner for every noise
   draw; with noise that does not shrink it is not (so the test can fail);
@@ -38,7 +39,10 @@ def test_rung_sizes_and_budgets_equal_the_closed_form(n):
         first, full = 2, 2 * 3 ** max(rungs - 2, 0) + 1
         plan = halving_plan(n, rungs, first, full, [4, 5, 6])
         assert [g.number for g in plan] == list(range(1, rungs + 1))
-        assert [g.candidates for g in plan] == [math.ceil(Fraction(n, 3 ** (r - 1))) for r in range(1, rungs + 1)]
+        thirds = [math.ceil(Fraction(n, 3 ** (r - 1))) for r in range(1, rungs + 1)]
+        if rungs > 1:  # the last rung keeps the best ten, or all of the rung before if fewer
+            thirds[-1] = max(thirds[-1], min(10, thirds[-2]))
+        assert [g.candidates for g in plan] == thirds
         assert [g.generations for g in plan] == [first * 3 ** (r - 1) for r in range(1, rungs)] + [full]
         assert [g.seeds for g in plan] == [(4,)] * (rungs - 1) + [(4, 5, 6)]
         assert plan[-1].candidates >= 1 and (rungs == 1 or plan[-2].candidates >= 2)
@@ -48,14 +52,18 @@ def test_rung_sizes_and_budgets_equal_the_closed_form(n):
 
 
 def test_the_full_car_k10_plan_by_hand():
-    # 2,039 screened in (docs/model.md §20.4): default 5 rungs, 2 generations first, 200 full
-    assert default_rungs(2039) == 5 and default_first_generations(5, 200) == 2
-    plan = halving_plan(2039, 5, 2, 200, [1, 2, 3])
-    assert [(g.candidates, g.generations, len(g.seeds)) for g in plan] == [(2039, 2, 1), (680, 6, 1), (227, 18, 1), (76, 54, 1), (26, 200, 3)]
-    # one rung (every candidate at the full budget) up to 27 candidates, the last rung then >= 10
-    assert [default_rungs(n) for n in (1, 10, 27, 28, 81, 82)] == [1, 1, 1, 2, 2, 3]
-    # a first budget that would bring a rung before the last to the full budget is lowered
-    assert default_first_generations(5, 20) == 1 and default_first_generations(3, 7) == 2
+    # 2,039 screened in (docs/model.md §20.4): default 6 rungs, 1 generation first, 200 full
+    assert default_rungs(2039, 200) == 6 and default_first_generations(6, 200) == 1
+    plan = halving_plan(2039, 6, 1, 200, [1, 2, 3])
+    assert [(g.candidates, g.generations, len(g.seeds)) for g in plan] == [(2039, 1, 1), (680, 3, 1), (227, 9, 1), (76, 27, 1), (26, 81, 1), (10, 200, 3)]
+    # one rung (every candidate at the full budget) up to 10 candidates; then until the rung
+    # before the last holds at most 30 (its best ten go on): 11 -> 10, 30 -> 10, 31 -> 11 -> 10
+    assert [default_rungs(n) for n in (1, 10, 11, 30, 31, 90, 91)] == [1, 1, 2, 2, 3, 3, 4]
+    assert [g.candidates for g in halving_plan(31, 3, 1, 100, [1])] == [31, 11, 10]
+    # fewer rungs where one before the last would reach the full budget of 10: with G = 1,
+    # rung 4 of 5 would run 27; with G = 2, rung 3 of 4 would run 18
+    assert default_rungs(2039, 10) == 4 and default_rungs(2039, 10, first_generations=2) == 3
+    assert halving_plan(2039, 4, 1, 10, [1])[-2].generations == 9
 
 
 def _noisy_scores(true: np.ndarray, shrinking: bool, rng: np.random.Generator, calls: list):
@@ -90,13 +98,23 @@ def test_the_true_best_is_kept_when_the_noise_shrinks_with_the_budget():
 
 
 def test_ties_keep_the_given_order_and_each_rung_keeps_the_best_third():
-    plan = halving_plan(7, 2, 1, 2, [1])
-    found = successive_halving(list("abcdefg"), plan, lambda names, rung: [1.0 if c in "bdf" else 0.0 for c in names])
-    assert found.entrants == [list("abcdefg"), list("bdf")]  # ceil(7/3) = 3
-    found = successive_halving(list("abcdefg"), plan, lambda names, rung: [0.0] * len(names))
-    assert found.entrants[1] == list("abc") and found.ranking == list("abcdefg")
-    with pytest.raises(ValueError, match="a plan for 7"):
-        successive_halving(list("abc"), plan, lambda names, rung: [0.0] * len(names))
+    plan = halving_plan(40, 2, 1, 2, [1])
+    names = [f"c{i:02d}" for i in range(40)]
+    good = names[::3]  # 14 = ceil(40 / 3), above the floor of ten
+    found = successive_halving(names, plan, lambda current, rung: [1.0 if c in good else 0.0 for c in current])
+    assert found.entrants == [names, good]
+    found = successive_halving(names, plan, lambda current, rung: [0.0] * len(current))
+    assert found.entrants[1] == names[:14] and found.ranking == names
+    # the floor: 7 candidates keep all seven (fewer than ten), 13 keep ten, not ceil(13 / 3) = 5
+    assert [g.candidates for g in halving_plan(7, 2, 1, 2, [1])] == [7, 7]
+    found = successive_halving(names[:13], halving_plan(13, 2, 1, 2, [1]), lambda current, rung: [-int(c[1:]) for c in current])
+    assert found.entrants[1] == names[:10]
+    # another finalist count: 13 -> 5 with one, 13 -> 13 with twenty
+    assert [g.candidates for g in halving_plan(13, 2, 1, 2, [1], finalists=1)] == [13, 5]
+    assert [g.candidates for g in halving_plan(13, 2, 1, 2, [1], finalists=20)] == [13, 13]
+    assert default_rungs(2039, 200, finalists=30) == 5 and default_rungs(2039, 10**6, finalists=1) == 8  # 2,039 / 3^7 <= 1
+    with pytest.raises(ValueError, match="a plan for 40"):
+        successive_halving(list("abc"), plan, lambda current, rung: [0.0] * len(current))
 
 
 @pytest.mark.parametrize(

@@ -313,7 +313,8 @@ def screened_problem(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def halving_run(screened_problem, tmp_path_factory):
     out = tmp_path_factory.mktemp("halving") / "syn"
-    outcome = run_cli("synthesize", str(screened_problem), "--out", str(out), *HALVING_ARGS, "--rungs", "2", "--first-gens", "1")
+    # one finalist at least (the default ten would keep all four): the best third of rung 1 goes on
+    outcome = run_cli("synthesize", str(screened_problem), "--out", str(out), *HALVING_ARGS, "--rungs", "2", "--first-gens", "1", "--finalists", "1")
     return outcome, out
 
 
@@ -360,6 +361,8 @@ def test_halving_runs_every_screened_in_candidate_and_the_best_half_at_full_budg
         (("--rungs", "2", "--first-gens", "0"), "--first-gens: expected at least 1 generation"),
         (("--rungs", "2", "--first-gens", "2"), "rung 1 would run 2 generations"),  # the full budget is 2
         (("--optimise", "2", "--rungs", "2"), "--optimise"),
+        (("--optimise", "2", "--finalists", "3"), "--optimise"),
+        (("--finalists", "0"), "--finalists: expected at least 1 finalist"),
     ],
 )
 def test_bad_halving_input_is_one_line_exit_2_and_writes_nothing(screened_problem, tmp_path, args, needle):
@@ -415,7 +418,24 @@ def test_synthesis_resumes_after_sigkill_to_identical_files(tmp_path):
 def test_halving_resumes_after_sigkill_in_its_last_rung_to_identical_files(tmp_path):
     problem = tmp_path / "problem.toml"
     problem.write_text(DEFAULT_PROBLEM.read_text() + '\n[synthesis]\nscreen = { k_roll = { min = "50 kN/m" }, k_bounce = { max = "23.6 kN/m" } }\n')
-    args = ("--max-elements", "4", "--chambers", "front", "--seeds", "1-2", "--pop", "12", "--gens", "12", "--rungs", "2", "--first-gens", "4")
+    args = (
+        "--max-elements",
+        "4",
+        "--chambers",
+        "front",
+        "--seeds",
+        "1-2",
+        "--pop",
+        "12",
+        "--gens",
+        "12",
+        "--rungs",
+        "2",
+        "--first-gens",
+        "4",
+        "--finalists",
+        "1",
+    )
 
     def command(out: Path) -> list[str]:
         return [sys.executable, "-m", "hisopt", "synthesize", str(problem), "--out", str(out), *args]

@@ -35,7 +35,7 @@ def synthesize_cmd(
             "--rungs",
             parser=integer,
             metavar="R",
-            help="successive halving's rungs (default: as many as leave at least ten candidates for the last; not with --optimise)",
+            help="successive halving's rungs (default: until the last rung holds the best ten; fewer if a rung would reach --gens; not with --optimise)",
         ),
     ] = None,
     first_gens: Annotated[
@@ -44,7 +44,16 @@ def synthesize_cmd(
             "--first-gens",
             parser=integer,
             metavar="G",
-            help="generations of the first rung, tripled each rung; the last runs --gens (default 2, less if that reaches --gens)",
+            help="generations of the first rung (default 1: the population sampled over the box), tripled each rung; the last runs --gens",
+        ),
+    ] = None,
+    finalists: Annotated[
+        int | None,
+        typer.Option(
+            "--finalists",
+            parser=integer,
+            metavar="N",
+            help="the least the last rung keeps, at the full budget with every seed (default 10; not with --optimise)",
         ),
     ] = None,
     max_candidates: Annotated[int, typer.Option("--max-candidates", parser=integer, metavar="N", help="refuse a search with more candidates")] = 100_000,
@@ -59,12 +68,12 @@ def synthesize_cmd(
     their mode-stiffness tables, optimises the survivors as compare-layouts does and ranks
     them by comfort gain over roll_plane at equal handling (docs/model.md §20). By default
     successive halving: every screened-in candidate runs a small budget (--first-gens, one
-    seed), each rung keeps the best third and triples the budget, the last rung runs the full
-    budget (--gens) with every seed; --optimise N instead optimises the screen's first N at
+    seed), each rung keeps the best third (by sampled designs, unrefined) and triples the
+    budget, the last rung runs the best ten or more at the full budget (--gens) with every seed; --optimise N instead optimises the screen's first N at
     the full budget. The same command resumes an interrupted synthesis.
     """
     code = synthesize_command(
-        problem, max_elements, out, chambers, asymmetric, seeds, pop, gens, optimise, rungs, first_gens, max_candidates, handling, workers, scheduler
+        problem, max_elements, out, chambers, asymmetric, seeds, pop, gens, optimise, rungs, first_gens, finalists, max_candidates, handling, workers, scheduler
     )
     if code:
         raise SystemExit(code)
@@ -82,6 +91,7 @@ def synthesize_command(
     optimise: int | None,
     rungs: int | None,
     first_gens: int | None,
+    finalists: int | None,
     max_candidates: int,
     handling: str | None,
     workers: int | None,
@@ -99,7 +109,7 @@ def synthesize_command(
 
     problem = load_problem(problem_path)
     check_search_arguments(max_elements, chambers, max_candidates)  # the library's own checks, before the backend starts
-    check_mode(optimise, rungs, first_gens, study_budget(problem, pop, gens)["generations"])
+    check_mode(optimise, rungs, first_gens, study_budget(problem, pop, gens)["generations"], finalists)
     try:
         with interrupt.signals_as_interrupts(), open_backend(workers, scheduler) as backend:
             result = run_synthesis(
@@ -114,6 +124,7 @@ def synthesize_command(
                 optimise=optimise,
                 rungs=rungs,
                 first_generations=first_gens,
+                finalists=finalists,
                 max_candidates=max_candidates,
                 handling=handling,
                 backend=backend,

@@ -161,6 +161,7 @@ def optimize(
     until: str | None = None,
     progress: ProgressFn | None = None,
     epsilon: EpsilonInput | None = None,
+    reference_log: np.ndarray | None = None,
 ) -> OptimizationResult:
     """Pareto-optimise a problem with NSGA-II/III (settings from its ``[optimizer]`` table).
 
@@ -190,6 +191,10 @@ def optimize(
         [-] tolerances of the thinned front, each overriding the file's ``[optimizer]
         epsilon``: ``{"sigma_aw": "1 %", "max_roll_psd": "2e-6 rad^2/Hz"}`` or
         ``"sigma_aw=1%,max_roll_psd=2 %"`` (:mod:`hisopt.optim.thinning`); default the file's
+    reference_log : np.ndarray | None, optional
+        [decades] the hypervolume reference point in ``log10`` objective space, ``(n_obj,)``;
+        default the problem's own (:func:`hisopt.optim.decision.reference_point`, a grid over
+        the box: a few hundred evaluations). A study gives its runs one (docs/model.md §15.1)
 
     Returns
     -------
@@ -226,7 +231,12 @@ def optimize(
         check_claim(out, RUN)  # a folder of another kind, or a user's, is refused
         runstate.refuse_occupied(out)
     started = time.perf_counter()
-    reference = reference_point(problem)  # a box with no evaluable design is refused before anything is written
+    # the problem's own: a box with no evaluable design is refused before anything is written
+    reference = reference_point(problem) if reference_log is None else np.array(reference_log, dtype=float)
+    if reference.shape != (len(problem.objective_names),) or not np.all(np.isfinite(reference)):
+        raise ConfigError(
+            f"expected a finite hypervolume reference of {len(problem.objective_names)} values [decades], got {reference_log!r}", key="reference_log"
+        )
     if out is not None:
         claim(out, RUN)  # marked as a run before its run.json
     run_dir = None if out is None else rundir.prepare_run_directory(Path(out), fresh=True)
@@ -366,9 +376,12 @@ def resume(run_dir: str | Path, *, progress: ProgressFn | None = None) -> Optimi
     return prepare_resume(run_dir).run(progress)
 
 
-def optimize_or_continue(problem: Problem, out: Path, seed: int, pop_size: int | None, generations: int | None) -> OptimizationResult:
+def optimize_or_continue(
+    problem: Problem, out: Path, seed: int, pop_size: int | None, generations: int | None, reference_log: np.ndarray | None = None
+) -> OptimizationResult:
     """A study's run: a new run in ``out``, or the run already there continued (or only read,
-    when it has finished), so that the same study command resumes a study.
+    when it has finished), so that the same study command resumes a study. ``reference_log``
+    as :func:`optimize` (a continued run keeps its own).
 
     Raises
     ------
@@ -376,7 +389,7 @@ def optimize_or_continue(problem: Problem, out: Path, seed: int, pop_size: int |
         ``out`` holds a run of another problem or budget, or one that cannot be resumed.
     """
     if not (Path(out) / rundir.RUN_JSON).is_file():
-        return optimize(problem, out=out, seed=seed, pop_size=pop_size, generations=generations)
+        return optimize(problem, out=out, seed=seed, pop_size=pop_size, generations=generations, reference_log=reference_log)
     plan = prepare_resume(out)
     wanted = resolve_settings(problem, pop_size=pop_size, generations=generations, seed=seed)
     if plan.engine.problem.spec != problem.spec or plan.engine.settings != wanted:

@@ -8,7 +8,9 @@ generations and a full budget of ``F`` generations, rung ``r = 1 .. R`` (1-based
 
 - takes ``n_r = ceil(n / 3**(r - 1))`` candidates: rung 1 every candidate, each later rung
   the best third of the one before, rounded up (so never fewer than one; iterated rounding
-  up of a division by 3 equals this closed form);
+  up of a division by 3 equals this closed form), except that the last rung keeps at least
+  the best ``min(N, n_(R-1))`` of the rung before (``N`` finalists, default
+  :data:`DEFAULT_FINALISTS`: a top ten at the full budget);
 - runs each for ``G * 3**(r - 1)`` generations with one seed (the study's first), except
   the last rung, which runs the full budget ``F`` with every seed of the study.
 
@@ -33,13 +35,16 @@ from hisopt.errors import ConfigError
 
 REDUCTION = 3
 """[-] Each rung keeps ``ceil(1 / REDUCTION)`` of the candidates and multiplies the budget by it."""
-DEFAULT_LAST_CANDIDATES = 10
-"""[-] Rungs when none are asked for: as many as leave at least this many candidates for the
-last rung (the old rule's ten at the full budget; one rung, all at the full budget, for up to
-27 candidates)."""
-DEFAULT_FIRST_GENERATIONS = 2
-"""[generations] The first rung's budget when none is asked for (a third of it when the full
-budget is too small for it: at least one)."""
+DEFAULT_FINALISTS = 10
+"""[-] The last rung keeps at least this many candidates (all of the rung before, if fewer)
+when no other count is asked for (``--finalists``): the old rule's ten, ranked at the full
+budget with their seed spread. Rungs when none are asked for: as many as leave the rung
+before the last more finalists than this to choose from (one rung, all at the full budget,
+for up to ten candidates)."""
+DEFAULT_FIRST_GENERATIONS = 1
+"""[generations] The first rung's budget when none is asked for: the first generation, the
+population sampled over the box (the same sample for every candidate of one box and seed,
+so the first rung compares them on common designs)."""
 
 
 @dataclass(frozen=True)
@@ -99,7 +104,9 @@ def check_halving_arguments(rungs: int, first_generations: int, full_generations
             )
 
 
-def halving_plan(n_candidates: int, rungs: int, first_generations: int, full_generations: int, seeds: Sequence[int]) -> list[Rung]:
+def halving_plan(
+    n_candidates: int, rungs: int, first_generations: int, full_generations: int, seeds: Sequence[int], finalists: int = DEFAULT_FINALISTS
+) -> list[Rung]:
     """The rungs of successive halving over ``n_candidates`` (module docstring).
 
     Parameters
@@ -114,14 +121,18 @@ def halving_plan(n_candidates: int, rungs: int, first_generations: int, full_gen
         [generations] F, the last rung's
     seeds : Sequence[int]
         [-] the last rung's seeds; the earlier rungs run the first of them
+    finalists : int, optional
+        [-] the least the last rung keeps (all of the rung before, if fewer)
 
     Raises
     ------
     ConfigError
         ``--rungs`` leaving no candidate for the last rung to choose among, a first budget
-        below one generation or a rung before the last at the full budget.
+        below one generation, a rung before the last at the full budget, or fewer than one
+        finalist.
     """
     integer(n_candidates, "candidates", minimum=1, what="candidate")
+    integer(finalists, "--finalists", minimum=1, what="finalist")
     check_halving_arguments(rungs, first_generations, full_generations)
     if rungs > max_rungs(n_candidates):
         raise ConfigError(
@@ -132,13 +143,16 @@ def halving_plan(n_candidates: int, rungs: int, first_generations: int, full_gen
     seed_list = tuple(int(s) for s in seeds)
     if not seed_list:
         raise ConfigError("expected at least one seed", key="--seeds")
-    plan = []
+    plan: list[Rung] = []
     for r in range(1, rungs + 1):
         last = r == rungs
+        candidates = ceil_div(n_candidates, REDUCTION ** (r - 1))
+        if last and r > 1:
+            candidates = max(candidates, min(finalists, plan[-1].candidates))
         plan.append(
             Rung(
                 number=r,
-                candidates=ceil_div(n_candidates, REDUCTION ** (r - 1)),
+                candidates=candidates,
                 generations=full_generations if last else first_generations * REDUCTION ** (r - 1),
                 seeds=seed_list if last else seed_list[:1],
             )
@@ -146,12 +160,18 @@ def halving_plan(n_candidates: int, rungs: int, first_generations: int, full_gen
     return plan
 
 
-def default_rungs(n_candidates: int) -> int:
-    """[-] The most rungs that leave at least :data:`DEFAULT_LAST_CANDIDATES` candidates for
-    the last rung (at least one rung): 5 for 2,039 candidates (2,039, 680, 227, 76, 26)."""
+def default_rungs(
+    n_candidates: int, full_generations: int | None = None, first_generations: int = DEFAULT_FIRST_GENERATIONS, finalists: int = DEFAULT_FINALISTS
+) -> int:
+    """[-] The most rungs that leave the rung before the last more than ``finalists``
+    candidates (one rung for up to that many): 6 for 2,039 candidates and ten finalists
+    (2,039, 680, 227, 76, 26, then the best ten); fewer where a rung before the last would
+    reach ``full_generations`` from ``first_generations``."""
     rungs = 1
-    while ceil_div(n_candidates, REDUCTION**rungs) >= DEFAULT_LAST_CANDIDATES:
+    while ceil_div(n_candidates, REDUCTION ** (rungs - 1)) > finalists:
         rungs += 1
+    while full_generations is not None and rungs >= 2 and first_generations * REDUCTION ** (rungs - 2) >= full_generations:
+        rungs -= 1
     return rungs
 
 

@@ -65,6 +65,7 @@ from hisopt.studies.layout_metrics import (
     evaluate_quantities,
     shared_normalisation,
 )
+from hisopt.studies.layout_tables import NO_REFINEMENT
 
 if TYPE_CHECKING:
     from hisopt.evaluation.parallel import Backend
@@ -110,19 +111,21 @@ def parse_seed_list(text: str | Sequence[int]) -> list[int]:
 
 
 # --- one (layout, seed) run, in whichever process runs it ---------------------------------------
-def _run(problem: Problem, run_dir: Path | None, seed: int, pop: int | None, gens: int | None) -> Any:
+def _run(problem: Problem, run_dir: Path | None, seed: int, pop: int | None, gens: int | None, reference: np.ndarray | None) -> Any:
     """A new run, or the run already in ``run_dir`` continued (or just read when finished)."""
     from hisopt.optim.run import optimize, optimize_or_continue
 
     if run_dir is None:
-        return optimize(problem, seed=seed, pop_size=pop, generations=gens)
-    return optimize_or_continue(problem, run_dir, seed, pop, gens)
+        return optimize(problem, seed=seed, pop_size=pop, generations=gens, reference_log=reference)
+    return optimize_or_continue(problem, run_dir, seed, pop, gens, reference)
 
 
-def _run_task(task: tuple[str, int], cases: dict[str, Problem], out: str | None, pop: int | None, gens: int | None, handling: str) -> dict[str, Any]:
+def _run_task(
+    task: tuple[str, int], cases: dict[str, Problem], out: str | None, pop: int | None, gens: int | None, handling: str, reference: np.ndarray | None
+) -> dict[str, Any]:
     name, seed = task
     problem = cases[name]
-    result = _run(problem, None if out is None else Path(out) / name / f"seed-{seed}", seed, pop, gens)
+    result = _run(problem, None if out is None else Path(out) / name / f"seed-{seed}", seed, pop, gens, reference)
     names = list(problem.variable_names)
     history = result.history[result.history["feasible"]].reset_index(drop=True)
     designs = history[["evaluation", *names]].copy()
@@ -294,6 +297,20 @@ def check_arguments(
     return seed_list, cases, name
 
 
+def _shared_reference(cases: list[LayoutCase], pop_size: int | None, generations: int | None) -> np.ndarray | None:
+    """[decades] The hypervolume reference point every run of the study records its progress
+    against: roll_plane's (the first case), so that runs' figures compare across layouts and a
+    candidate's run costs no grid of its own (a few hundred evaluations, more than a short
+    rung's run). None (each run its own) where a run stops on its progress (``until =
+    "converged"``), which must not hinge on another layout's reference."""
+    from hisopt.optim.decision import reference_point
+    from hisopt.optim.settings import resolve_settings
+
+    if any(resolve_settings(c.problem, pop_size=pop_size, generations=generations).until != "generations" for c in cases):
+        return None
+    return reference_point(cases[0].problem)
+
+
 def run_layout_study(
     problem: Problem,
     layouts: str | Sequence[str] | None = None,
@@ -335,7 +352,8 @@ def run_layout_study(
     refine_method : str, optional
         [-] the solver of the equal-handling NLP: ``"ipopt"`` (IPOPT on the CasADi model, on
         CasADi's virtual machine) or ``"slp"`` (the batched SLP on the evaluator; the
-        trade-off curve's points always; docs/model.md §15.4)
+        trade-off curve's points always; docs/model.md §15.4); ``"none"``: nothing refined,
+        each layout's best sampled design at the limit (successive halving's early rungs)
 
     Raises
     ------
@@ -351,7 +369,8 @@ def run_layout_study(
     from hisopt.optim.gradient.refine import method_settings
 
     seed_list, cases, handling = check_arguments(problem, layouts, seeds, handling, handling_limit)
-    method_settings(refine_method, None)  # an unknown method fails before any work
+    if refine_method != NO_REFINEMENT:
+        method_settings(refine_method, None)  # an unknown method fails before any work
     budget = study_budget(problem, pop_size, generations)  # bad budgets fail before any work
     out_dir = None if out is None else Path(out)
     if out_dir is not None:
@@ -374,7 +393,8 @@ def run_layout_study(
         if progress is not None:
             progress({"layout": r["layout"], "seed": r["seed"], "evaluations": r["evaluations"], "feasible_designs": len(r["designs"])})
 
-    runs = backend.map(_run_task, tasks, problems, None if out_dir is None else str(out_dir), pop_size, generations, handling, on_result=report)
+    reference = _shared_reference(cases, pop_size, generations)
+    runs = backend.map(_run_task, tasks, problems, None if out_dir is None else str(out_dir), pop_size, generations, handling, reference, on_result=report)
     from hisopt.studies.layout_tables import assemble
 
     frames = assemble(cases, runs, norm, handling, handling_limit, backend, method=refine_method)

@@ -22,6 +22,11 @@ if TYPE_CHECKING:
     from hisopt.problem import Problem
 
 
+NO_REFINEMENT = "none"
+"""[-] The refinement method that refines nothing: each layout's equal-handling comfort is its
+best sampled design at the limit, and its curve the sampled staircase."""
+
+
 def _refine_task(task: tuple[str, np.ndarray, float, str], problems: dict[str, Problem], handling: str) -> dict[str, Any]:
     """Best comfort under ``handling <= limit`` from a start design, by the NLP (its method:
     IPOPT on CasADi's virtual machine, at most 8 trust-region rounds, or the batched SLP)."""
@@ -79,7 +84,8 @@ def assemble(
     method : str, optional
         [-] the solver of the equal-handling refinements, ``"ipopt"`` (on CasADi's virtual
         machine) or ``"slp"`` (:func:`hisopt.optim.gradient.refine.refine_constrained`); the
-        trade-off curve's points are refined by the SLP (docs/model.md §15.4)
+        trade-off curve's points are refined by the SLP (docs/model.md §15.4);
+        :data:`NO_REFINEMENT` refines nothing
     """
     problems = {c.name: c.problem for c in cases}
     objectives = list(norm.objectives)
@@ -91,7 +97,7 @@ def assemble(
     best_row: dict[str, int | None] = {}
     # the NLP's CasADi model holds each valve at one resistance: damper valves whose RMS flows
     # are solved per design (docs/model.md §3.3) keep their layout's sampled designs unrefined
-    refinable = {c.name: not c.problem.network().solved_valves() for c in cases}
+    refinable = {c.name: method != NO_REFINEMENT and not c.problem.network().solved_valves() for c in cases}
     for c in cases:
         pool, names = pools[c.name], list(c.problem.variable_names)
         best_row[c.name] = best_at_limit(pool[COMFORT].to_numpy(), pool[handling].to_numpy(), limit) if len(pool) else None

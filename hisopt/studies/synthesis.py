@@ -458,6 +458,7 @@ def run_synthesis(
     optimise: int | None = None,
     rungs: int | None = None,
     first_generations: int | None = None,
+    finalists: int | None = None,
     max_candidates: int = MAX_CANDIDATES,
     handling: str | None = None,
     backend: Backend | None = None,
@@ -487,10 +488,13 @@ def run_synthesis(
         full budget (0: screening only)
     rungs : int | None, optional
         [-] successive halving's rungs (default :func:`hisopt.studies.halving.default_rungs`:
-        as many as leave at least ten candidates for the last rung)
+        as many as leave more than ten candidates for the last rung to choose its ten from)
     first_generations : int | None, optional
         [generations] the first rung's budget (default
         :func:`hisopt.studies.halving.default_first_generations`)
+    finalists : int | None, optional
+        [-] the least the last rung keeps, at the full budget with every seed (default
+        :data:`hisopt.studies.halving.DEFAULT_FINALISTS`, ten)
     max_candidates : int, optional
         [-] refuse a search with more candidates
     progress : Callable[[str], None] | None, optional
@@ -515,7 +519,7 @@ def run_synthesis(
     problem_argument(problem)
     seed_list = parse_seed_list(seeds)
     budget = study_budget(problem, pop_size, generations)
-    mode = check_mode(optimise, rungs, first_generations, budget["generations"])
+    mode = check_mode(optimise, rungs, first_generations, budget["generations"], finalists)
     count = check_search(max_elements, chambers, symmetric, max_candidates)
     out_dir = None if out is None else Path(out)
     record = _record(problem, max_elements, chambers, symmetric, mode)
@@ -529,11 +533,12 @@ def run_synthesis(
     screen_order = pick_survivors(candidates, len(candidates))
     plan = None
     if optimise is None and screen_order:  # checked before anything is written
-        from hisopt.studies.halving import default_first_generations, default_rungs, halving_plan
+        from hisopt.studies.halving import DEFAULT_FINALISTS, DEFAULT_FIRST_GENERATIONS, default_first_generations, default_rungs, halving_plan
 
-        r = rungs if rungs is not None else default_rungs(len(screen_order))
-        g = first_generations if first_generations is not None else default_first_generations(r, budget["generations"])
-        plan = halving_plan(len(screen_order), r, g, budget["generations"], seed_list)
+        full, top = budget["generations"], finalists or DEFAULT_FINALISTS
+        r = rungs if rungs is not None else default_rungs(len(screen_order), full, first_generations or DEFAULT_FIRST_GENERATIONS, top)
+        g = first_generations if first_generations is not None else default_first_generations(r, full)
+        plan = halving_plan(len(screen_order), r, g, full, seed_list, top)
     if out_dir is not None:
         claim(out_dir, SYNTHESIS)
         atomic_write_json(out_dir / SYNTHESIS_JSON, record)
@@ -587,23 +592,26 @@ def run_synthesis(
     return SynthesisResult(candidates, layouts, study, counts, out_dir, halving)
 
 
-def check_mode(optimise: int | None, rungs: int | None, first_generations: int | None, full_generations: int) -> dict[str, Any]:
+def check_mode(optimise: int | None, rungs: int | None, first_generations: int | None, full_generations: int, finalists: int | None = None) -> dict[str, Any]:
     """The optimisation mode as ``synthesis.json`` records it: ``{"optimise": N}`` (the top-N
-    mode) or ``{"halving": {"rungs", "first_generations"}}`` (as asked: None for a default).
+    mode) or ``{"halving": {"rungs", "first_generations", "finalists"}}`` (as asked: None for
+    a default).
 
     Raises
     ------
     ConfigError
-        ``--optimise`` below 0 or given with ``--rungs``/``--first-gens``; a bad rung or
-        first budget (:func:`hisopt.studies.halving.check_halving_arguments`).
+        ``--optimise`` below 0 or given with ``--rungs``/``--first-gens``/``--finalists``; a
+        bad rung, first budget (:func:`hisopt.studies.halving.check_halving_arguments`) or
+        finalist count.
     """
     from hisopt.studies.halving import check_halving_arguments, default_first_generations
 
     if optimise is not None:
         integer(optimise, "--optimise", minimum=0, what="layouts to optimise")
-        if rungs is not None or first_generations is not None:
+        if rungs is not None or first_generations is not None or finalists is not None:
             raise ConfigError(
-                "--optimise N selects the old top-N mode; --rungs and --first-gens belong to successive halving (the default): give one or the other",
+                "--optimise N selects the old top-N mode; --rungs, --first-gens and --finalists belong to successive halving (the default): "
+                "give one or the other",
                 key="--optimise",
             )
         return {"optimise": int(optimise)}
@@ -611,7 +619,9 @@ def check_mode(optimise: int | None, rungs: int | None, first_generations: int |
         checked = 1 if rungs is None else rungs
         first = default_first_generations(checked, full_generations) if first_generations is None else first_generations
         check_halving_arguments(checked, first, full_generations)
-    return {"halving": {"rungs": rungs, "first_generations": first_generations}}
+    if finalists is not None:
+        integer(finalists, "--finalists", minimum=1, what="finalist")
+    return {"halving": {"rungs": rungs, "first_generations": first_generations, "finalists": finalists}}
 
 
 def _write_layout_files(problem: Problem, enumeration: topology.Enumeration, picked: list[int], out_dir: Path | None) -> dict[str, Path]:

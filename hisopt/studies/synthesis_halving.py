@@ -5,7 +5,8 @@ Each rung is a layout study (:func:`hisopt.studies.layout_study.run_layout_study
 per candidate and seed on the backend, roll_plane at the same budget as the reference) of the
 rung's candidates at the rung's budget, in ``DIR/rung-<r>`` (``DIR/study`` for the last rung),
 resumable as any study. The measure, higher is better: the study's comfort gain over roll_plane
-at equal handling (``gain_vs_roll_plane_pct``); a candidate without a design at the limit
+at equal handling (``gain_vs_roll_plane_pct``; in the early rungs from the sampled designs,
+unrefined, in the last refined as in any study); a candidate without a design at the limit
 ranks below every candidate with one, by its normalised hypervolume (``hv_mean``); where no
 layout has a gain (roll_plane itself misses the limit), all rank by the hypervolume.
 """
@@ -22,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from hisopt.studies.halving import HalvingResult, Rung, successive_halving
+from hisopt.studies.layout_tables import NO_REFINEMENT
 
 if TYPE_CHECKING:
     from hisopt.evaluation.parallel import Backend
@@ -100,6 +102,9 @@ def run_halving(
             generations=rung.generations,
             handling=handling,
             backend=backend,
+            # early rungs rank by the sampled designs: an NLP per candidate would cost more
+            # than its short run; the last rung refines, as any study
+            refine_method="ipopt" if last else NO_REFINEMENT,
         )
         studies.append(study)
         table = study.table.set_index("layout")
