@@ -434,3 +434,53 @@ def test_quantities_of_a_problem_with_constraint_only_quantities():
     for name in (*parts.objective_names, *parts.constraint_names):
         assert got[name][0] == pytest.approx(own[name][0], rel=1e-12), name
     assert np.isfinite(got["roll_gradient"][0]) and got["valid"][0]
+
+
+# --- successive halving's early rungs: nothing refined, one hypervolume reference -----------------
+def test_unrefined_study_takes_each_layouts_best_sampled_design_at_the_limit(problem, serial, tmp_path):
+    """``refine_method="none"`` (successive halving's early rungs): the same runs as a refined
+    study, each layout's comfort at the limit the best of its sampled feasible designs that
+    meet the limit (read back from the runs' evaluations), nothing marked refined, the curve
+    the sampled staircase only; a refined value is never worse than the sampled one."""
+    from hisopt.studies.layout_metrics import COMFORT, evaluate_quantities
+
+    plain = run_layout_study(problem, "axle_roll", SEEDS, out=tmp_path / "plain", pop_size=POP, generations=GENS, refine_method="none")
+    for name in STUDY_FILES[1:3]:  # runs.csv, fronts.csv: the runs are the refined study's
+        assert (tmp_path / "plain" / name).read_bytes() == (serial.out / name).read_bytes(), name
+    table = plain.table.set_index("layout")
+    assert not table["refined"].any() and set(plain.curve["source"]) == {"sampled"}
+    limit, handling = plain.handling_limit, plain.handling
+    for case in plain.cases:
+        layout, names = case.name, list(case.problem.variable_names)
+        pool = pd.concat([pd.read_parquet(tmp_path / "plain" / layout / f"seed-{seed}" / rundir.EVALUATIONS) for seed in (1, 2)])
+        x = pool.loc[pool["feasible"].astype(bool), names].to_numpy(float)
+        q = evaluate_quantities(case.problem, x, (COMFORT, handling))
+        best = q[COMFORT][q[handling] <= limit].min()
+        assert table.loc[layout, "sigma_aw_at_limit"] == best, layout
+        assert serial.table.set_index("layout").loc[layout, "sigma_aw_at_limit"] <= best
+    assert table.loc["roll_plane", "gain_vs_roll_plane_pct"] == 0.0
+
+
+def test_a_studys_runs_share_roll_planes_reference_and_it_changes_no_design(problem, serial, tmp_path):
+    """Every run of a study records progress against roll_plane's hypervolume reference (no
+    grid of its own per candidate), and a run's designs do not depend on the reference: the
+    study's axle_roll run equals, design for design, a standalone run with its own reference."""
+    import json
+
+    from hisopt.errors import ConfigError
+    from hisopt.optim.decision import reference_point
+    from hisopt.optim.run import optimize
+
+    expected = reference_point(serial.cases[0].problem).tolist()
+    for layout in ("roll_plane", "axle_roll"):
+        info = json.loads((serial.out / layout / "seed-1" / rundir.RUN_JSON).read_text())
+        assert info["settings"]["hypervolume_reference_log10"] == expected, layout
+    axle = serial.cases[1].problem
+    assert reference_point(axle).tolist() != expected  # its own would differ: the test can fail
+    alone = optimize(axle, seed=1, pop_size=POP, generations=GENS)
+    names = list(axle.variable_names)
+    in_study = read_csv(serial.out / "axle_roll" / "seed-1" / rundir.FRONT_CSV)[names].to_numpy(float)
+    mine = alone.front[names].to_numpy(float)
+    np.testing.assert_array_equal(mine[np.lexsort(mine.T)], in_study[np.lexsort(in_study.T)])  # the same designs, row by row
+    with pytest.raises(ConfigError, match="hypervolume reference of"):
+        optimize(axle, seed=1, pop_size=POP, generations=1, reference_log=[0.0])

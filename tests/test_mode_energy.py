@@ -211,3 +211,29 @@ def test_without_pipes_the_names_are_the_cars_energy_and_the_optimal_assignment(
             slot = modes.slots[d, c]
             assert slot >= 0 and groups[slot] == g, (d, c)
         assert (modes.slots[d][~np.isin(np.arange(modes.slots.shape[1]), list(group_of))] < 0).all()
+
+
+def test_a_mode_without_kinetic_energy_has_no_mechanical_share_and_no_warning(tmp_path):
+    """Two equal accumulators behind equal valves on one node (a K = 4 synthesis candidate):
+    the gas exchanged between them through the valves is a real mode in pressures alone, with
+    no kinetic energy (valve flows carry no inertance), so its mechanical share is undefined:
+    NaN, without the RuntimeWarning a 0/0 raised (here an error: pytest's filterwarnings)."""
+    import tomllib
+
+    import tomli_w
+
+    from hisopt.coupled.mode_energy import mode_set
+
+    data = tomllib.loads((ROOT / "problems" / "roll_plane_his_robust.toml").read_text())
+    accumulators = [{"type": "accumulator", "node": f"A.acc{i}", "volume": "V0", "precharge": "p0", "gamma": "gamma"} for i in (1, 2)]
+    valves = [{"type": "valve", "from": "A.3b4b", "to": f"A.acc{i}", "resistance": "Rv_acc"} for i in (1, 2)]
+    circuit = {"name": "A", "nodes": ["A.3b4b", "A.acc1", "A.acc2"], "chambers": {"3b": "A.3b4b", "4b": "A.3b4b"}, "elements": accumulators + valves}
+    data["his"] |= {"layout": "custom", "parameters": {"Rv_acc": 1e8}, "circuits": [circuit]}
+    del data["variables"]["Rv"]  # no damper valve in this circuit
+    path = tmp_path / "two_accumulators.toml"
+    path.write_bytes(tomli_w.dumps(data).encode())
+    problem = hisopt.load_problem(path)
+    modes = mode_set(problem.model(problem.baseline[None, :]))
+    silent = modes.total[0] == 0.0
+    assert silent.sum() == 1 and not modes.oscillating[0, silent].any()  # the one exchange mode, a real root
+    assert np.isnan(modes.mechanical[0, silent]).all() and np.isfinite(modes.mechanical[0, ~silent]).all()

@@ -324,7 +324,9 @@ def mode_set(model: CoupledModel, tol: float = 1e-8) -> ModeSet:
         wheel_energy=wheel_energy,
         budget=budget,
         total=total,
-        mechanical=np.einsum("bi,bim->bm", mass, np.abs(v) ** 2) / total,
+        # NaN for a mode without kinetic energy (a real root in pressures and strokes alone,
+        # e.g. an accumulator relaxing through its valve): no share to state, and no warning
+        mechanical=np.divide(np.einsum("bi,bim->bm", mass, np.abs(v) ** 2), total, out=np.full(total.shape, np.nan), where=total > 0),
         pipe_energy=inertance[:, :, None] * np.abs(q) ** 2,
         pipe_axle=axle,
         slots=name_slots(u, budget, oscillating),

@@ -554,7 +554,7 @@ def run_synthesis(
         if plan is not None:
             from hisopt.studies import synthesis_halving as sh
 
-            say(f"successive halving over {in_count} screened-in candidates: " + ", ".join(f"{g.candidates} x {g.generations} gen" for g in plan))
+            say(f"successive halving over {in_count:,} screened-in candidates: " + ", ".join(f"{g.candidates:,} x {g.generations} gen" for g in plan))
             run = sh.run_halving(problem, files, plan, out=out_dir, pop_size=pop_size, handling=handling, backend=backend, say=say, references=[CONVENTIONAL])
             study = run.studies[-1]
             names = [candidate_name(i) for i in screen_order]

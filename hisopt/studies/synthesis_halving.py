@@ -89,7 +89,8 @@ def run_halving(
 
     def score(names: list[Hashable], rung: Rung) -> list[tuple[int, float]]:
         say(
-            f"rung {rung.number} of {len(plan)}: {len(names)} candidates and roll_plane, {rung.generations} generations, "
+            f"rung {rung.number} of {len(plan)}: {len(names):,} candidates and roll_plane, "
+            f"{rung.generations} generation{'s' if rung.generations != 1 else ''}, "
             f"seed{'s' if len(rung.seeds) > 1 else ''} {', '.join(str(s) for s in rung.seeds)}"
         )
         last = rung.number == len(plan)
