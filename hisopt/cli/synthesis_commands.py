@@ -153,7 +153,8 @@ def halving_lines(halving: dict[str, Any]) -> str:
     """The terminal's account of successive halving: the rungs, the Spearman correlations of
     the screen's order and the measured one, the top ten the old rule would have missed."""
     rungs = ", ".join(
-        f"rung {g['rung']}: {g['candidates']} x {g['generations']} generations x {len(g['seeds'])} seed{'s' if len(g['seeds']) > 1 else ''}"
+        f"rung {g['rung']}: {g['candidates']:,} x {g['generations']} generation{'s' if g['generations'] != 1 else ''} x "
+        f"{len(g['seeds'])} seed{'s' if len(g['seeds']) > 1 else ''}"
         for g in halving["plan"]
     )
 

@@ -76,7 +76,11 @@ def _ranking_html(result: SynthesisResult) -> str:
 def halving_html(halving: dict[str, Any]) -> str:
     """The successive-halving paragraph: the rungs, the Spearman correlations of the screen's
     order and the measured one, and the top ten the old rule would have missed."""
-    rungs = "; ".join(f"rung {g['rung']}: {g['candidates']} candidates x {g['generations']} generations x {len(g['seeds'])} seed(s)" for g in halving["plan"])
+    rungs = "; ".join(
+        f"rung {g['rung']}: {g['candidates']:,} candidates x {g['generations']} generation{'s' if g['generations'] != 1 else ''} x "
+        f"{len(g['seeds'])} seed{'s' if len(g['seeds']) != 1 else ''}"
+        for g in halving["plan"]
+    )
 
     def rho(found: dict[str, Any]) -> str:
         return f"{found['rho']:+.2f}" if found["rho"] is not None else "undefined"
