@@ -4,10 +4,13 @@ Enumerates and screens every mirror-symmetric layout of the eight chambers with 
 parts on the robust problem (``problems/roll_plane_his_robust.toml``), builds the default
 successive-halving plan over the screened-in candidates (:mod:`hisopt.studies.halving`), then
 times, for each rung, a layout study of a few sampled candidates at that rung's budget and
-seeds (serial, this process: the per-candidate cost of a rung's tasks, roll_plane's included
-as one more candidate). The projected time of the whole search is the sum over rungs of its
-candidates times that cost, on one core and on N workers (ideal division: the tasks are
-independent; the driver's enumeration and screening are added once). The straightforward
+seeds and one of roll_plane alone (serial, this process): the study's own cost, and per
+candidate the difference the sample makes. The projected time of the whole search is the
+sum over rungs of its candidates times that cost, on one core and on N workers: a rung's
+runs divided among the workers (they are independent tasks), an early rung's tables (each
+candidate's stiffness table and buildability verdict) in the driver, the last rung's (mostly
+its refinements, tasks too) divided, each study's own cost and the enumeration and screening
+once. The straightforward
 baseline, in the same run: the old rule's cost, every screened-in candidate at the full budget
 with every seed (what ranking them all without halving would take). ``--run`` also runs the
 whole search with ``hisopt synthesize`` and reports its wall time::
@@ -22,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from hisopt.hydraulics import topology
@@ -67,24 +71,60 @@ def main() -> None:
     print(f"K = {args.max_elements}: {len(enumeration.candidates)} candidates, {len(screened)} screened in; enumerate and screen {screening_s:.1f} s")
     print(f"population {budget['pop_size']}, full budget {budget['generations']} generations, seeds {seeds}; {rungs} rungs")
 
-    cost = {}
+    def timed(files: list[str], rung) -> tuple[float, float]:
+        """[s] A layout study of ``files`` and roll_plane at ``rung``'s budget: its runs, then its
+        tables (the driver's stiffness tables and verdicts, the last rung's refinements)."""
+        ended: list[float] = []
+        start = time.perf_counter()
+        run_layout_study(
+            problem,
+            files,
+            rung.seeds,
+            pop_size=budget["pop_size"],
+            generations=rung.generations,
+            refine_method="ipopt" if rung.number == len(plan) else "none",  # as hisopt synthesize does
+            progress=lambda _: ended.append(time.perf_counter()),
+        )
+        return ended[-1] - start, time.perf_counter() - ended[-1]
+
+    # per rung [s]: the study's own cost (roll_plane, the normalisation) once, and per candidate
+    # the difference a study of the sample makes, split into its runs (parallel) and tables (serial)
+    fixed, runs_cost, tables_cost = {}, {}, {}
     with tempfile.TemporaryDirectory() as tmp:
         picks = [int(i) for i in screened[: args.sample]]
         files = _candidate_files(problem, enumeration, picks, Path(tmp))
+        timed(["roll_plane"], plan[0])  # warm: imports, roll_plane's reference point and normalisation (cached)
         for rung in plan:
-            start = time.perf_counter()
-            last = rung.number == len(plan)  # early rungs rank the sampled designs, as hisopt synthesize does
-            run_layout_study(problem, files, rung.seeds, pop_size=budget["pop_size"], generations=rung.generations, refine_method="ipopt" if last else "none")
-            cost[rung.number] = (time.perf_counter() - start) / (len(files) + 1)  # roll_plane is one more candidate
-            runs = f"{rung.candidates:>5} candidates x {len(rung.seeds)} seed(s) at {rung.generations:>3} generations"
-            print(f"  rung {rung.number}: {runs}: {cost[rung.number]:6.1f} s per candidate")
-    halving_s = sum((rung.candidates + 1) * cost[rung.number] for rung in plan)
+            alone, sample = timed(["roll_plane"], rung), timed(files, rung)
+            fixed[rung.number] = alone
+            runs_cost[rung.number] = max(sample[0] - alone[0], 0.0) / len(files)
+            tables_cost[rung.number] = max(sample[1] - alone[1], 0.0) / len(files)
+            runs = f"{rung.candidates:>5,} candidates x {len(rung.seeds)} seed{'s' if len(rung.seeds) > 1 else ' '} at {rung.generations:>3} generations"
+            print(
+                f"  rung {rung.number}: {runs}: {runs_cost[rung.number]:6.2f} s of runs + {tables_cost[rung.number]:5.2f} s of tables per candidate "
+                f"(the study itself {sum(alone):5.1f} s)"
+            )
+
+    def projected(workers: int, rungs: list) -> float:
+        """[s] The rungs on ``workers``: each study's own cost once, the candidates' runs divided
+        among the workers, their tables in the driver; the last rung's tables are mostly its
+        refinements, tasks on the workers too."""
+
+        def per_candidate(g) -> float:
+            if g.number == len(plan):
+                return (runs_cost[g.number] + tables_cost[g.number]) / workers
+            return runs_cost[g.number] / workers + tables_cost[g.number]
+
+        return sum(sum(fixed[g.number]) + g.candidates * per_candidate(g) for g in rungs)
+
     last = plan[-1]
-    everyone_s = (len(screened) + 1) * cost[last.number]
+    baseline = [replace(last, candidates=len(screened))]  # every candidate at the full budget, every seed
+    halving_s, everyone_s = projected(1, plan), projected(1, baseline)
     print(f"projected, halving: {halving_s / 60:.1f} min of CPU;")
     print(f"  every candidate at the full budget (the baseline): {everyone_s / 3600:.1f} h ({everyone_s / halving_s:.0f}x)")
     for n in WORKERS:
-        print(f"  on {n:>2} worker(s): halving {(screening_s + halving_s / n) / 60:7.1f} min, baseline {(screening_s + everyone_s / n) / 3600:6.2f} h")
+        halving_n, everyone_n = screening_s + projected(n, plan), screening_s + projected(n, baseline)
+        print(f"  on {n:>2} worker(s): halving {halving_n / 60:7.1f} min, baseline {everyone_n / 3600:6.2f} h")
 
     if args.run is not None:
         command = [sys.executable, "-m", "hisopt", "synthesize", str(PROBLEM), "--max-elements", str(args.max_elements), "--out", str(args.run)]
