@@ -69,8 +69,9 @@ def synthesize_cmd(
     them by comfort gain over roll_plane at equal handling (docs/model.md §20). By default
     successive halving: every screened-in candidate runs a small budget (--first-gens, one
     seed), each rung keeps the best third (by sampled designs, unrefined) and triples the
-    budget, the last rung runs the best ten or more at the full budget (--gens) with every seed; --optimise N instead optimises the screen's first N at
-    the full budget. The same command resumes an interrupted synthesis.
+    budget, the last rung runs the best ten or more (--finalists) at the full budget (--gens)
+    with every seed; --optimise N instead optimises the screen's first N at the full budget.
+    The same command resumes an interrupted synthesis.
     """
     code = synthesize_command(
         problem, max_elements, out, chambers, asymmetric, seeds, pop, gens, optimise, rungs, first_gens, finalists, max_candidates, handling, workers, scheduler
