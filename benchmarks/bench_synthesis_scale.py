@@ -99,7 +99,8 @@ def main() -> None:
             fixed[rung.number] = alone
             runs_cost[rung.number] = max(sample[0] - alone[0], 0.0) / len(files)
             tables_cost[rung.number] = max(sample[1] - alone[1], 0.0) / len(files)
-            runs = f"{rung.candidates:>5,} candidates x {len(rung.seeds)} seed{'s' if len(rung.seeds) > 1 else ' '} at {rung.generations:>3} generations"
+            seeds = f"{len(rung.seeds)} seed{'s' if len(rung.seeds) > 1 else ' '}"
+            runs = f"{rung.candidates:>5,} candidates x {seeds} at {rung.generations:>3} generation{'s' if rung.generations != 1 else ' '}"
             print(
                 f"  rung {rung.number}: {runs}: {runs_cost[rung.number]:6.2f} s of runs + {tables_cost[rung.number]:5.2f} s of tables per candidate "
                 f"(the study itself {sum(alone):5.1f} s)"
