@@ -27,15 +27,22 @@ def wait_for_generation(proc: subprocess.Popen, run_dir: Path, generation: int, 
     pytest.fail(f"no checkpoint for generation {generation} within {timeout} s")
 
 
-def kill_at_generation(command: list[str], run_dir: Path, generation: int, timeout: float) -> None:
-    """Run ``command`` (from the repository's root) and SIGKILL it once the run in ``run_dir``
-    has checkpointed ``generation``; asserts it died of the kill."""
-    proc = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+def kill_process_at_generation(proc: subprocess.Popen, run_dir: Path, generation: int, timeout: float = 120.0) -> int:
+    """SIGKILL the running ``proc`` once the run in ``run_dir`` has checkpointed ``generation``;
+    asserts it died of the kill and returns the generation it had checkpointed."""
     try:
-        wait_for_generation(proc, run_dir, generation, timeout)
+        killed_at = wait_for_generation(proc, run_dir, generation, timeout)
         os.kill(proc.pid, signal.SIGKILL)
     finally:
         if proc.poll() is None:
             proc.kill()  # ours, by its id: after the SIGKILL above or a failed wait
         proc.communicate(timeout=60)
     assert proc.returncode == -signal.SIGKILL
+    return killed_at
+
+
+def kill_at_generation(command: list[str], run_dir: Path, generation: int, timeout: float) -> None:
+    """Run ``command`` (from the repository's root) and SIGKILL it once the run in ``run_dir``
+    has checkpointed ``generation``; asserts it died of the kill."""
+    proc = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    kill_process_at_generation(proc, run_dir, generation, timeout)

@@ -22,7 +22,7 @@ from hisopt.interrupt import TEST_HOOK_ENV
 from hisopt.optim import rundir
 from hisopt.optim.run import CHECKPOINT_INTERVAL_ENV
 from tests.conftest import DEFAULT_PROBLEM, ROOT
-from tests.sigkill import wait_for_generation
+from tests.sigkill import kill_process_at_generation, wait_for_generation
 
 HANDLING_PROBLEM = ROOT / "problems" / "roll_plane_his_handling.toml"
 ARGS = ("--pop", "24", "--gens", "30", "--seed", "11")
@@ -79,15 +79,7 @@ def assert_same_run(resumed: Path, reference: Path) -> None:
 def test_sigkill_then_resume_gives_identical_front(tmp_path, reference_runs, name):
     path = DEFAULT_PROBLEM if name == "default" else HANDLING_PROBLEM
     run_dir = tmp_path / "run"
-    proc = start("optimize", str(path), "--out", str(run_dir), *ARGS)
-    try:
-        killed_at = wait_for_generation(proc, run_dir, 8)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        if proc.poll() is None:
-            proc.kill()  # ours, by its id: after the SIGKILL above or a failed wait
-        proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGKILL
+    killed_at = kill_process_at_generation(start("optimize", str(path), "--out", str(run_dir), *ARGS), run_dir, 8)
     assert killed_at < GENERATIONS and not (run_dir / "front.csv").exists()
     resumed = run("resume", str(run_dir))
     assert resumed.returncode == 0, resumed.stderr
